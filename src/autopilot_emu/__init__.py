@@ -1,0 +1,1 @@
+"""autopilot_emu package."""
