@@ -1,0 +1,382 @@
+"""Commander and navigator of one vehicle: arming, modes, land detection, and setpoints.
+
+PX4 splits this between commander (arming, mode switching, failsafes), navigator (AUTO modes)
+and land_detector; here one small state machine per vehicle holds all three, because all of it
+runs at the 50 Hz navigation rate on a handful of numbers. It is pure logic: it reads the estimate
+and parameters, and writes position setpoints for the batched controllers.
+
+Results are MAV_RESULT values: 0 accepted, 1 temporarily rejected, 2 denied.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from autopilot_emu.modes import AutoSubMode, LandedState, MainMode
+from autopilot_emu.params import ParamStore
+
+ACCEPTED, TEMPORARILY_REJECTED, DENIED = 0, 1, 2
+SEVERITY_CRITICAL, SEVERITY_WARNING, SEVERITY_NOTICE, SEVERITY_INFO = 2, 4, 5, 6
+FORCE_MAGIC = 21196
+"""MAV_CMD_COMPONENT_ARM_DISARM param2 that forces (kills) regardless of state."""
+
+
+class RtlPhase(Enum):
+    """Phases of Return-To-Launch."""
+
+    CLIMB = "climb"
+    RETURN = "return"
+    LAND = "land"
+
+
+@dataclass
+class NavInput:
+    """What the navigator reads at each tick (one vehicle, NED, SI)."""
+
+    time_s: float
+    position_ned_m: np.ndarray
+    velocity_ned_m_s: np.ndarray
+    yaw_rad: float
+    position_ok: bool
+    thrust: float
+    """Last collective thrust command, 0..1."""
+    origin_alt_amsl_m: float
+
+
+@dataclass
+class NavOutput:
+    """Setpoint for the position controller (NaN components = velocity control)."""
+
+    position_ned_m: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    velocity_ff_m_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    yaw_rad: float = 0.0
+    max_speed_xy_m_s: float = 5.0
+    max_speed_up_m_s: float = 3.0
+    max_speed_down_m_s: float = 1.5
+    active: bool = False
+    """False while on the ground: motors idle, controllers reset."""
+
+
+@dataclass
+class Home:
+    """Home in the vehicle's NED frame and as AMSL altitude."""
+
+    position_ned_m: np.ndarray
+    alt_amsl_m: float
+
+
+class Commander:
+    """Arming, PX4 modes, navigator and land detector for one vehicle."""
+
+    def __init__(self, params: ParamStore) -> None:
+        self.params = params
+        self.armed = False
+        self.main_mode = MainMode.AUTO
+        self.sub_mode = AutoSubMode.LOITER
+        self.landed_state = LandedState.ON_GROUND
+        self.home: Home | None = None
+        self.status_texts: list[tuple[int, str]] = []
+        self._target = np.full(3, np.nan)
+        self._yaw_sp = 0.0
+        self._speed_override_m_s = math.nan
+        self._rtl_phase = RtlPhase.CLIMB
+        self._rtl_alt_ned_z = 0.0
+        self._arm_time_s = 0.0
+        self._ground_since_s: float | None = None
+        self._landed_candidate_s: float | None = None
+        self._last: NavInput | None = None
+        self.killed = False
+
+    # -- helpers ------------------------------------------------------------------------------
+    def _say(self, severity: int, text: str) -> None:
+        self.status_texts.append((severity, text))
+
+    @property
+    def in_air(self) -> bool:
+        """True from takeoff detection until landing is detected."""
+        return self.landed_state != LandedState.ON_GROUND
+
+    def _now(self) -> float:
+        return self._last.time_s if self._last else 0.0
+
+    def _position(self) -> np.ndarray:
+        return self._last.position_ned_m.copy() if self._last else np.zeros(3)
+
+    def _set_mode(self, main: MainMode, sub: AutoSubMode = AutoSubMode.NONE) -> None:
+        self.main_mode, self.sub_mode = main, sub
+
+    def _hold_here(self) -> None:
+        self._target = self._position()
+        self._yaw_sp = self._last.yaw_rad if self._last else 0.0
+        self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
+
+    # -- commands ------------------------------------------------------------------------------
+    def set_home_here(self) -> None:
+        """Home := current estimate (PX4 sets home on arming and at the first good fix)."""
+        if self._last is None or not self._last.position_ok:
+            return
+        pos = self._last.position_ned_m.copy()
+        self.home = Home(pos, self._last.origin_alt_amsl_m - pos[2])
+
+    def arm(self, force: bool) -> int:
+        """Arm if armable (good position, on the ground), or unconditionally when forced."""
+        if self.armed:
+            return ACCEPTED
+        ready = self._last is not None and self._last.position_ok
+        if not ready and not force:
+            self._say(SEVERITY_CRITICAL, "Arming denied: no valid position estimate")
+            return DENIED
+        if self.main_mode != MainMode.AUTO or self.sub_mode not in (
+            AutoSubMode.LOITER,
+            AutoSubMode.TAKEOFF,
+            AutoSubMode.LAND,
+        ):
+            self._hold_here()
+        self.armed = True
+        self.killed = False
+        self._arm_time_s = self._now()
+        if not self.in_air:
+            self.set_home_here()
+            self._target = self._position()
+        self._say(SEVERITY_INFO, "Armed by external command")
+        return ACCEPTED
+
+    def disarm(self, force: bool) -> int:
+        """Disarm on the ground; in the air only when forced (kill)."""
+        if not self.armed:
+            return ACCEPTED
+        if self.in_air and not force:
+            self._say(SEVERITY_CRITICAL, "Disarming denied: not landed")
+            return DENIED
+        self._disarm("Disarmed by external command" if not force else "Kill switch engaged")
+        if force:
+            self.killed = True
+        return ACCEPTED
+
+    def _disarm(self, text: str) -> None:
+        self.armed = False
+        self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
+        self._say(SEVERITY_INFO, text)
+
+    def takeoff(self, alt_amsl_m: float | None) -> int:
+        """Climb to alt_amsl_m, or to home + MIS_TAKEOFF_ALT when None."""
+        if not self.armed:
+            self._say(SEVERITY_CRITICAL, "Takeoff denied: disarmed")
+            return DENIED
+        if self._last is None or not self._last.position_ok or self.home is None:
+            return TEMPORARILY_REJECTED
+        if alt_amsl_m is None or not math.isfinite(alt_amsl_m):
+            alt_amsl_m = self.home.alt_amsl_m + float(self.params.get("MIS_TAKEOFF_ALT"))
+        target = self._position()
+        target[2] = self._last.origin_alt_amsl_m - alt_amsl_m
+        self._target = target
+        self._yaw_sp = self._last.yaw_rad
+        self._set_mode(MainMode.AUTO, AutoSubMode.TAKEOFF)
+        if not self.in_air:
+            self.landed_state = LandedState.TAKEOFF
+        self._say(SEVERITY_INFO, "Takeoff to {:.1f} m above home".format(
+            alt_amsl_m - self.home.alt_amsl_m))  # fmt: skip
+        return ACCEPTED
+
+    def land(self) -> int:
+        """Descend and land at the current position."""
+        if not self.armed:
+            return DENIED
+        self._target = self._position()
+        self._target[2] = np.nan
+        self._yaw_sp = self._last.yaw_rad if self._last else 0.0
+        self._set_mode(MainMode.AUTO, AutoSubMode.LAND)
+        self._say(SEVERITY_INFO, "Landing at current position")
+        return ACCEPTED
+
+    def return_to_launch(self) -> int:
+        """Climb to RTL_RETURN_ALT, fly home, land (PX4 RTL)."""
+        if self.home is None or self._last is None or not self._last.position_ok:
+            self._say(SEVERITY_CRITICAL, "RTL denied: no home position")
+            return DENIED
+        rtl_alt = self.home.alt_amsl_m + float(self.params.get("RTL_RETURN_ALT"))
+        self._rtl_alt_ned_z = min(
+            self._last.position_ned_m[2], self._last.origin_alt_amsl_m - rtl_alt
+        )
+        self._rtl_phase = RtlPhase.CLIMB
+        self._target = self._position()
+        self._target[2] = self._rtl_alt_ned_z
+        self._yaw_sp = self._last.yaw_rad
+        self._set_mode(MainMode.AUTO, AutoSubMode.RTL)
+        self._say(SEVERITY_INFO, "RTL: climbing to {:.1f} m above home".format(
+            self._last.origin_alt_amsl_m - self._rtl_alt_ned_z - self.home.alt_amsl_m))  # fmt: skip
+        return ACCEPTED
+
+    def set_mode(self, main: int, sub: int) -> int:
+        """MAV_CMD_DO_SET_MODE with PX4 custom main/sub modes."""
+        if main == MainMode.AUTO:
+            if sub == AutoSubMode.LOITER:
+                if self.in_air:
+                    self._hold_here()
+                else:
+                    self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
+                return ACCEPTED
+            if sub == AutoSubMode.TAKEOFF:
+                return self.takeoff(None)
+            if sub == AutoSubMode.LAND:
+                return self.land() if self.in_air else self._accept_on_ground(sub)
+            if sub == AutoSubMode.RTL:
+                if not self.in_air:
+                    return self._accept_on_ground(sub)
+                return self.return_to_launch()
+            if sub == AutoSubMode.MISSION:
+                self._say(SEVERITY_CRITICAL, "Mission mode denied: no valid mission")
+                return DENIED
+            return DENIED
+        if main == MainMode.OFFBOARD:
+            self._say(SEVERITY_CRITICAL, "Offboard mode denied: no setpoint stream")
+            return DENIED
+        if main in (MainMode.POSCTL, MainMode.ALTCTL, MainMode.MANUAL, MainMode.STABILIZED,
+                    MainMode.ACRO, MainMode.RATTITUDE):  # fmt: skip
+            self._say(SEVERITY_CRITICAL, "Manual modes denied: no RC or manual control input")
+            return DENIED
+        return DENIED
+
+    def _accept_on_ground(self, sub: AutoSubMode) -> int:
+        # On the ground RTL/LAND are already done: stay landed (auto-disarm follows).
+        self._set_mode(MainMode.AUTO, sub)
+        return ACCEPTED
+
+    def reposition(self, target_ned_m: np.ndarray, yaw_rad: float, speed_m_s: float) -> int:
+        """Go to a point in the local NED frame (NaN components keep the current target)."""
+        if not self.armed or not self.in_air:
+            self._say(SEVERITY_WARNING, "Reposition denied: not flying")
+            return DENIED
+        base = self._target if np.isfinite(self._target).all() else self._position()
+        self._target = np.where(np.isfinite(target_ned_m), target_ned_m, base)
+        if math.isfinite(yaw_rad):
+            self._yaw_sp = yaw_rad
+        if math.isfinite(speed_m_s) and speed_m_s > 0:
+            self._speed_override_m_s = speed_m_s
+        self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
+        return ACCEPTED
+
+    def change_speed(self, speed_m_s: float) -> int:
+        """Ground speed for AUTO modes; -1 or NaN restores MPC_XY_CRUISE."""
+        self._speed_override_m_s = speed_m_s if math.isfinite(speed_m_s) and speed_m_s > 0 else math.nan
+        return ACCEPTED
+
+    def terminate(self) -> int:
+        """Flight termination: motors off now."""
+        if self.armed:
+            self._disarm("Flight termination active")
+            self.killed = True
+        return ACCEPTED
+
+    # -- the 50 Hz tick --------------------------------------------------------------------------
+    def update(self, nav: NavInput) -> NavOutput:
+        """Advance land detection and the active mode; return the controller setpoint."""
+        self._last = nav
+        p = self.params
+        if self.home is None and nav.position_ok:
+            self.set_home_here()
+        self._detect_landing(nav)
+        out = NavOutput(yaw_rad=self._yaw_sp)
+        cruise = self._speed_override_m_s
+        if not math.isfinite(cruise):
+            cruise = float(p.get("MPC_XY_CRUISE"))
+        out.max_speed_xy_m_s = min(cruise, float(p.get("MPC_XY_VEL_MAX")))
+        out.max_speed_up_m_s = float(p.get("MPC_Z_VEL_MAX_UP"))
+        out.max_speed_down_m_s = float(p.get("MPC_Z_VEL_MAX_DN"))
+        if not self.armed:
+            return out
+        grounded = self.landed_state == LandedState.ON_GROUND
+        if grounded and self.sub_mode != AutoSubMode.TAKEOFF:
+            self._check_preflight_disarm(nav)
+            return out
+        out.active = True
+        out.position_ned_m = self._target.copy()
+        sub = self.sub_mode
+        if sub == AutoSubMode.TAKEOFF:
+            out.max_speed_up_m_s = float(p.get("MPC_TKO_SPEED"))
+            if abs(nav.position_ned_m[2] - self._target[2]) < 0.3 and self.in_air:
+                self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
+                self._say(SEVERITY_INFO, "Takeoff complete, holding")
+        elif sub == AutoSubMode.LAND:
+            self._land_setpoint(nav, out)
+        elif sub == AutoSubMode.RTL:
+            self._rtl_setpoint(nav, out)
+        return out
+
+    def _land_setpoint(self, nav: NavInput, out: NavOutput) -> None:
+        out.position_ned_m[2] = np.nan
+        rel_alt = self._relative_alt(nav)
+        speed = float(self.params.get("MPC_LAND_SPEED"))
+        if rel_alt > 10.0:
+            speed = float(self.params.get("MPC_Z_VEL_MAX_DN"))
+        out.velocity_ff_m_s = np.array([0.0, 0.0, speed])
+        if self.landed_state == LandedState.IN_AIR:
+            self.landed_state = LandedState.LANDING
+
+    def _rtl_setpoint(self, nav: NavInput, out: NavOutput) -> None:
+        home = self.home
+        assert home is not None
+        if self._rtl_phase == RtlPhase.CLIMB:
+            out.position_ned_m = self._target.copy()
+            if nav.position_ned_m[2] - self._rtl_alt_ned_z < 0.5:
+                self._rtl_phase = RtlPhase.RETURN
+                self._target = np.array(
+                    [home.position_ned_m[0], home.position_ned_m[1], self._rtl_alt_ned_z]
+                )
+                self._say(SEVERITY_INFO, "RTL: returning home")
+        elif self._rtl_phase == RtlPhase.RETURN:
+            out.position_ned_m = self._target.copy()
+            dist = float(np.hypot(*(nav.position_ned_m[:2] - home.position_ned_m[:2])))
+            if dist < float(self.params.get("NAV_ACC_RAD")) * 0.5 and np.hypot(
+                nav.velocity_ned_m_s[0], nav.velocity_ned_m_s[1]
+            ) < 0.5:
+                self._rtl_phase = RtlPhase.LAND
+                self._target = np.array([home.position_ned_m[0], home.position_ned_m[1], np.nan])
+                self._say(SEVERITY_INFO, "RTL: landing at home")
+        else:
+            out.position_ned_m = self._target.copy()
+            self._land_setpoint(nav, out)
+
+    def _relative_alt(self, nav: NavInput) -> float:
+        if self.home is None:
+            return 0.0
+        return float(self.home.position_ned_m[2] - nav.position_ned_m[2])
+
+    def _detect_landing(self, nav: NavInput) -> None:
+        """PX4-like land detector: low thrust, no vertical motion, for a while."""
+        vz = abs(float(nav.velocity_ned_m_s[2]))
+        vxy = float(np.hypot(nav.velocity_ned_m_s[0], nav.velocity_ned_m_s[1]))
+        if not self.in_air or self.landed_state == LandedState.TAKEOFF:
+            if self.armed and self.landed_state == LandedState.TAKEOFF and (
+                self._relative_alt(nav) > 0.5 or nav.velocity_ned_m_s[2] < -0.5
+            ):
+                self.landed_state = LandedState.IN_AIR
+            return
+        hover = float(self.params.get("MPC_THR_HOVER"))
+        descending = self.sub_mode == AutoSubMode.LAND or (
+            self.sub_mode == AutoSubMode.RTL and self._rtl_phase == RtlPhase.LAND
+        )
+        low_thrust = (not self.armed) or nav.thrust < 0.6 * hover
+        still = vz < 0.3 and vxy < 0.5
+        if still and (low_thrust or (descending and vz < 0.1)):
+            if self._landed_candidate_s is None:
+                self._landed_candidate_s = nav.time_s
+            if nav.time_s - self._landed_candidate_s >= 1.0:
+                self.landed_state = LandedState.ON_GROUND
+                self._ground_since_s = nav.time_s
+                self._landed_candidate_s = None
+                self._say(SEVERITY_INFO, "Landing detected")
+        else:
+            self._landed_candidate_s = None
+
+    def _check_preflight_disarm(self, nav: NavInput) -> None:
+        since = self._ground_since_s if self._ground_since_s is not None else self._arm_time_s
+        since = max(since, self._arm_time_s)
+        landed_after_flight = self._ground_since_s is not None and self._ground_since_s >= self._arm_time_s
+        limit = float(self.params.get("COM_DISARM_LAND" if landed_after_flight else "COM_DISARM_PRFLT"))
+        if limit > 0 and nav.time_s - since >= limit:
+            self._disarm("Disarmed by landing" if landed_after_flight else "Disarmed: no takeoff")

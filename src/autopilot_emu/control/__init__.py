@@ -1,0 +1,1 @@
+"""Flight controllers: position, attitude, rate, and the mixer."""

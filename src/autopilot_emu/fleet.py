@@ -1,0 +1,426 @@
+"""The flight stacks of N vehicles, advanced together from HIL sensor messages.
+
+Inputs and outputs are the PX4 simulator messages (pymavlink objects): HIL_SENSOR at the IMU
+rate and HIL_GPS at the GPS rate in, HIL_ACTUATOR_CONTROLS out, one per vehicle. Whether they come
+from PyBullet in memory or from a socket makes no difference here. Each IMU sample runs estimator
+prediction, attitude and rate control and the mixer for the whole fleet in numpy; navigation
+(commander + position control) runs at ``nav_hz``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pymap3d
+from pymavlink.dialects.v20 import common as mavlink2
+
+from autopilot_emu import quaternion as quat
+from autopilot_emu.battery import BatteryModel, FleetBattery
+from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
+from autopilot_emu.control.attitude import attitude_rate_setpoint
+from autopilot_emu.control.mixer import Mixer
+from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
+from autopilot_emu.control.rate import RateController
+from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
+from autopilot_emu.mavlink.vehicle_port import HomeSnapshot, TelemetrySnapshot
+from autopilot_emu.params import ParamStore
+
+_ACC_BITS, _GYRO_BITS, _MAG_BITS = 0x7, 0x38, 0x1C0
+_PRESSURE_ALT_BIT = 0x800
+_ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
+_CUSTOM_FLAG = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+_SENSORS = (
+    mavlink2.MAV_SYS_STATUS_SENSOR_3D_GYRO
+    | mavlink2.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+    | mavlink2.MAV_SYS_STATUS_SENSOR_3D_MAG
+    | mavlink2.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+    | mavlink2.MAV_SYS_STATUS_SENSOR_GPS
+    | mavlink2.MAV_SYS_STATUS_AHRS
+    | mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+    | mavlink2.MAV_SYS_STATUS_SENSOR_BATTERY
+    | mavlink2.MAV_SYS_STATUS_PREARM_CHECK
+)
+
+
+@dataclass(frozen=True)
+class FleetConfig:
+    """Structure of the fleet's flight stacks."""
+
+    n_vehicles: int
+    nav_hz: float = 50.0
+    """Commander, navigator and position control rate, Hz."""
+    imu_hz: float = 250.0
+    """Expected IMU rate, used for the very first sample only, Hz."""
+    estimator: EstimatorConfig = field(default_factory=EstimatorConfig)
+    battery: BatteryModel = field(default_factory=BatteryModel)
+
+    def __post_init__(self) -> None:
+        if self.n_vehicles < 1:
+            raise ValueError(f"n_vehicles must be >= 1, got {self.n_vehicles}")
+        if not (self.nav_hz > 0 and self.imu_hz > 0):
+            raise ValueError("nav_hz and imu_hz must be positive")
+
+
+class AutopilotFleet:
+    """N PX4-flavoured flight stacks sharing vectorised estimation and control."""
+
+    def __init__(self, config: FleetConfig, params: list[ParamStore] | None = None) -> None:
+        n = config.n_vehicles
+        self.config = config
+        self.n = n
+        self.params = params if params is not None else [ParamStore() for _ in range(n)]
+        if len(self.params) != n:
+            raise ValueError(f"expected {n} parameter stores, got {len(self.params)}")
+        self.estimator = FleetEstimator(n, config.estimator)
+        self.commanders = [Commander(p) for p in self.params]
+        self.position_control = PositionController(n)
+        self.rate_control = RateController(n)
+        self.mixer = Mixer()
+        self.battery = FleetBattery(n, config.battery)
+        self.time_usec = 0
+        self.thrust = np.zeros(n)
+        self.outputs = np.zeros((n, 6))
+        self.active = np.zeros(n, dtype=bool)
+        self.armed = np.zeros(n, dtype=bool)
+        self.q_sp = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+        self.last_gps: list[mavlink2.MAVLink_hil_gps_message | None] = [None] * n
+        self._sp = PositionSetpoint.hold(n)
+        self._nav_period_s = 1.0 / config.nav_hz
+        self._nav_accum_s = self._nav_period_s  # run navigation on the first sample
+        self._param_versions: tuple[int, ...] = ()
+        self._gains: _Gains | None = None
+        self._controls = [0.0] * 16
+        self._pressure_alt_m = np.zeros(n)
+
+    # -- simulator side ------------------------------------------------------------------------
+    def handle_sensors(
+        self, msgs: list[mavlink2.MAVLink_hil_sensor_message]
+    ) -> list[mavlink2.MAVLink_hil_actuator_controls_message]:
+        """Consume one HIL_SENSOR per vehicle; return one HIL_ACTUATOR_CONTROLS per vehicle."""
+        est = self.estimator
+        raw = np.array(
+            [
+                (m.xacc, m.yacc, m.zacc, m.xgyro, m.ygyro, m.zgyro, m.xmag, m.ymag, m.zmag,
+                 m.pressure_alt, m.fields_updated)
+                for m in msgs
+            ]  # fmt: skip
+        )
+        raw = np.nan_to_num(raw)
+        t_usec = int(msgs[0].time_usec)
+        if self.time_usec == 0 or t_usec <= self.time_usec:
+            dt = 1.0 / self.config.imu_hz
+        else:
+            dt = min((t_usec - self.time_usec) * 1e-6, 0.05)
+        self.time_usec = t_usec
+        flags = raw[:, 10].astype(np.int64)
+        acc, gyro, mag = raw[:, 0:3], raw[:, 3:6], raw[:, 6:9]
+        has_mag = (flags & _MAG_BITS) != 0
+        if not est.attitude_ok.all():
+            est.align_heading(acc, mag, has_mag & ~est.attitude_ok)
+        est.update_mag(mag, has_mag)
+        est.update_imu(acc, gyro, dt)
+        has_baro = (flags & _PRESSURE_ALT_BIT) != 0
+        self._pressure_alt_m = np.where(has_baro, raw[:, 9], self._pressure_alt_m)
+        est.update_baro(raw[:, 9], has_baro)
+
+        gains = self._refresh_gains()
+        self._nav_accum_s += dt
+        if self._nav_accum_s >= self._nav_period_s - 1e-9:
+            self._navigate(self._nav_accum_s, gains)
+            self._nav_accum_s = 0.0
+        self._control(dt, gains)
+        self.battery.update(self.thrust, gains.hover_thrust, self.armed, dt)
+        return self._actuator_messages(t_usec)
+
+    def handle_gps(self, msgs: list[mavlink2.MAVLink_hil_gps_message]) -> None:
+        """Consume one HIL_GPS per vehicle."""
+        est = self.estimator
+        self.last_gps = list(msgs)
+        g = np.array(
+            [(m.lat, m.lon, m.alt, m.vn, m.ve, m.vd, m.fix_type) for m in msgs], dtype=float
+        )
+        lla = np.stack((g[:, 0] * 1e-7, g[:, 1] * 1e-7, g[:, 2] * 1e-3), axis=1)
+        vel = g[:, 3:6] * 0.01
+        o = est.origin_lla
+        n, e, d = pymap3d.geodetic2ned(lla[:, 0], lla[:, 1], lla[:, 2], o[:, 0], o[:, 1], o[:, 2])
+        ned = np.stack((n, e, d), axis=1)
+        est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m)
+
+    # -- loops ------------------------------------------------------------------------------------
+    def _navigate(self, dt: float, gains: _Gains) -> None:
+        est = self.estimator
+        pos, vel = est.position_ned_m, est.velocity_ned_m_s
+        yaw = quat.to_euler(est.q)[:, 2]
+        ok = est.position_ok
+        sp = self._sp
+        for i, cmd in enumerate(self.commanders):
+            out: NavOutput = cmd.update(
+                NavInput(est.time_s, pos[i], vel[i], float(yaw[i]), bool(ok[i]),
+                         float(self.thrust[i]), float(est.origin_lla[i, 2]))  # fmt: skip
+            )
+            sp.position_ned_m[i] = out.position_ned_m
+            sp.velocity_ff_m_s[i] = out.velocity_ff_m_s
+            sp.yaw_rad[i] = out.yaw_rad
+            sp.max_speed_xy_m_s[i] = out.max_speed_xy_m_s
+            sp.max_speed_up_m_s[i] = out.max_speed_up_m_s
+            sp.max_speed_down_m_s[i] = out.max_speed_down_m_s
+            self.active[i] = out.active
+            self.armed[i] = cmd.armed
+        idle = ~self.active
+        if idle.any():
+            self.position_control.reset(idle)
+            self.rate_control.reset(idle)
+        self.q_sp, thrust = self.position_control.update(
+            sp, gains.position, pos, vel, dt, self.active
+        )
+        self.thrust = np.where(self.active, thrust, 0.0)
+
+    def _control(self, dt: float, gains: _Gains) -> None:
+        est = self.estimator
+        rate_sp = attitude_rate_setpoint(est.q, self.q_sp, gains.att_p, gains.rate_max)
+        torque = self.rate_control.update(
+            est.rates_rad_s, rate_sp, gains.rate_p, gains.rate_i, gains.rate_d, dt, self.active
+        )
+        out = self.mixer.mix(torque, self.thrust)
+        idle = np.full_like(out, self.mixer.idle_output)
+        out = np.where(self.active[:, None], out, idle)
+        self.outputs = np.where(self.armed[:, None], out, 0.0)
+
+    def _actuator_messages(
+        self, t_usec: int
+    ) -> list[mavlink2.MAVLink_hil_actuator_controls_message]:
+        msgs = []
+        outputs = self.outputs.tolist()
+        for i in range(self.n):
+            controls = outputs[i] + self._controls[6:]
+            mode = _CUSTOM_FLAG | (_ARMED_FLAG if self.armed[i] else 0)
+            msgs.append(mavlink2.MAVLink_hil_actuator_controls_message(t_usec, controls, mode, 0))
+        return msgs
+
+    def _refresh_gains(self) -> _Gains:
+        versions = tuple(p.version for p in self.params)
+        if versions != self._param_versions or self._gains is None:
+            self._gains = _Gains.from_params(self.params)
+            self._param_versions = versions
+            self.estimator.set_declination(float(self.params[0].get("EKF2_MAG_DECL")))
+        return self._gains
+
+    # -- per-vehicle views ---------------------------------------------------------------------
+    def vehicle(self, i: int) -> FleetVehicle:
+        """The VehiclePort of vehicle i (what its MAVLink endpoint talks to)."""
+        return FleetVehicle(self, i)
+
+    def sync_commands(self, i: int) -> None:
+        """Reflect a command's effect on the arrays at once (not at the next nav tick)."""
+        cmd = self.commanders[i]
+        self.armed[i] = cmd.armed
+        if not cmd.armed:
+            self.active[i] = False
+            self.outputs[i] = 0.0
+            self.thrust[i] = 0.0
+
+
+@dataclass
+class _Gains:
+    position: PositionGains
+    att_p: np.ndarray
+    rate_p: np.ndarray
+    rate_i: np.ndarray
+    rate_d: np.ndarray
+    rate_max: np.ndarray
+    hover_thrust: np.ndarray
+
+    @classmethod
+    def from_params(cls, params: list[ParamStore]) -> _Gains:
+        def col(name: str) -> np.ndarray:
+            return np.array([float(p.get(name)) for p in params])
+
+        def rpy(fmt: str) -> np.ndarray:
+            return np.stack([col(fmt.format(a)) for a in ("ROLL", "PITCH", "YAW")], axis=1)
+
+        hover = col("MPC_THR_HOVER")
+        position = PositionGains(
+            xy_p=col("MPC_XY_P"),
+            z_p=col("MPC_Z_P"),
+            xy_vel_p=col("MPC_XY_VEL_P_ACC"),
+            xy_vel_i=col("MPC_XY_VEL_I_ACC"),
+            xy_vel_d=col("MPC_XY_VEL_D_ACC"),
+            z_vel_p=col("MPC_Z_VEL_P_ACC"),
+            z_vel_i=col("MPC_Z_VEL_I_ACC"),
+            z_vel_d=col("MPC_Z_VEL_D_ACC"),
+            hover_thrust=hover,
+            tilt_max_rad=np.radians(col("MPC_TILTMAX_AIR")),
+            acc_hor_max_m_s2=col("MPC_ACC_HOR"),
+        )
+        return cls(
+            position=position,
+            att_p=rpy("MC_{}_P"),
+            rate_p=rpy("MC_{}RATE_P"),
+            rate_i=rpy("MC_{}RATE_I"),
+            rate_d=rpy("MC_{}RATE_D"),
+            rate_max=np.radians(rpy("MC_{}RATE_MAX")),
+            hover_thrust=hover,
+        )
+
+
+class FleetVehicle:
+    """One vehicle of an AutopilotFleet seen through the VehiclePort interface."""
+
+    def __init__(self, fleet: AutopilotFleet, index: int) -> None:
+        self.fleet = fleet
+        self.index = index
+        self.commander = fleet.commanders[index]
+        self.params = fleet.params[index]
+
+    def _sync(self, result: int) -> int:
+        self.fleet.sync_commands(self.index)
+        return result
+
+    def _geodetic(self, ned: np.ndarray) -> tuple[float, float, float]:
+        o = self.fleet.estimator.origin_lla[self.index]
+        lat, lon, alt = pymap3d.ned2geodetic(ned[0], ned[1], ned[2], o[0], o[1], o[2])
+        return float(lat), float(lon), float(alt)
+
+    def _to_ned(self, lat: float, lon: float, alt: float) -> np.ndarray:
+        o = self.fleet.estimator.origin_lla[self.index]
+        n, e, d = pymap3d.geodetic2ned(lat, lon, alt, o[0], o[1], o[2])
+        return np.array([n, e, d], dtype=float)
+
+    # -- commands ----------------------------------------------------------------------------
+    def arm(self, force: bool) -> int:
+        """Arm (see Commander.arm)."""
+        return self._sync(self.commander.arm(force))
+
+    def disarm(self, force: bool) -> int:
+        """Disarm or, forced, kill."""
+        return self._sync(self.commander.disarm(force))
+
+    def takeoff(self, alt_amsl_m: float | None) -> int:
+        """Take off to an AMSL altitude or MIS_TAKEOFF_ALT."""
+        return self._sync(self.commander.takeoff(alt_amsl_m))
+
+    def land(self) -> int:
+        """Land here."""
+        return self._sync(self.commander.land())
+
+    def set_mode(self, main_mode: int, sub_mode: int) -> int:
+        """PX4 mode switch."""
+        return self._sync(self.commander.set_mode(main_mode, sub_mode))
+
+    def reposition(
+        self, lat_deg: float, lon_deg: float, alt_amsl_m: float, yaw_rad: float, speed_m_s: float
+    ) -> int:
+        """Fly to a geodetic point and hold there (NaN keeps)."""
+        if not self.fleet.estimator.origin_set[self.index]:
+            return 1
+        cur = self.fleet.estimator.position_ned_m[self.index]
+        clat, clon, calt = self._geodetic(cur)
+        lat = lat_deg if math.isfinite(lat_deg) else math.nan
+        lon = lon_deg if math.isfinite(lon_deg) else math.nan
+        target = self._to_ned(
+            lat if math.isfinite(lat) else clat,
+            lon if math.isfinite(lon) else clon,
+            alt_amsl_m if math.isfinite(alt_amsl_m) else calt,
+        )
+        if not math.isfinite(lat) or not math.isfinite(lon):
+            target[:2] = np.nan
+        if not math.isfinite(alt_amsl_m):
+            target[2] = np.nan
+        return self._sync(self.commander.reposition(target, yaw_rad, speed_m_s))
+
+    def change_speed(self, speed_m_s: float) -> int:
+        """Cruise speed override."""
+        return self.commander.change_speed(speed_m_s)
+
+    def set_home(self, use_current: bool, lat_deg: float, lon_deg: float, alt_amsl_m: float) -> int:
+        """Move home to here or to a geodetic point."""
+        cmd = self.commander
+        if use_current:
+            cmd.set_home_here()
+            return 0 if cmd.home is not None else 1
+        if not all(math.isfinite(v) for v in (lat_deg, lon_deg, alt_amsl_m)):
+            return 2
+        if not self.fleet.estimator.origin_set[self.index]:
+            return 1
+        cmd.home = Home(self._to_ned(lat_deg, lon_deg, alt_amsl_m), alt_amsl_m)
+        return 0
+
+    def terminate(self) -> int:
+        """Motors off now."""
+        return self._sync(self.commander.terminate())
+
+    def pop_status_texts(self) -> list[tuple[int, str]]:
+        """Events since the last call."""
+        texts, self.commander.status_texts = self.commander.status_texts, []
+        return texts
+
+    # -- telemetry ------------------------------------------------------------------------------
+    def telemetry(self) -> TelemetrySnapshot:
+        """Snapshot of this vehicle's estimate and state."""
+        f, i = self.fleet, self.index
+        est, cmd = f.estimator, self.commander
+        pos = est.position_ned_m[i]
+        vel = est.velocity_ned_m_s[i]
+        q = est.q[i : i + 1]
+        euler = quat.to_euler(q)[0]
+        origin_ok = bool(est.origin_set[i])
+        lat, lon, alt = self._geodetic(pos) if origin_ok else (math.nan, math.nan, math.nan)
+        home = None
+        rel_alt = 0.0
+        if cmd.home is not None and origin_ok:
+            hlat, hlon, halt = self._geodetic(cmd.home.position_ned_m)
+            home = HomeSnapshot(hlat, hlon, cmd.home.alt_amsl_m, tuple(cmd.home.position_ned_m))
+            rel_alt = float(cmd.home.position_ned_m[2] - pos[2])
+        pos_ok = bool(est.position_ok[i])
+        health = _SENSORS
+        if not pos_ok:
+            health &= ~(mavlink2.MAV_SYS_STATUS_SENSOR_GPS | mavlink2.MAV_SYS_STATUS_PREARM_CHECK)
+        if not est.attitude_ok[i]:
+            health &= ~mavlink2.MAV_SYS_STATUS_AHRS
+        gps = f.last_gps[i]
+        if gps is not None:
+            gps_fields = dict(
+                gps_fix_type=int(gps.fix_type),
+                gps_lat_deg=gps.lat * 1e-7,
+                gps_lon_deg=gps.lon * 1e-7,
+                gps_alt_amsl_m=gps.alt * 1e-3,
+                gps_eph_m=gps.eph * 0.01,
+                gps_epv_m=gps.epv * 0.01,
+                gps_satellites=int(gps.satellites_visible),
+                gps_velocity_ned_m_s=(gps.vn * 0.01, gps.ve * 0.01, gps.vd * 0.01),
+            )
+        else:
+            gps_fields = dict(
+                gps_fix_type=0, gps_lat_deg=math.nan, gps_lon_deg=math.nan,
+                gps_alt_amsl_m=math.nan, gps_eph_m=math.nan, gps_epv_m=math.nan,
+                gps_satellites=0, gps_velocity_ned_m_s=(0.0, 0.0, 0.0),
+            )  # fmt: skip
+        bat = f.battery
+        return TelemetrySnapshot(
+            time_usec=f.time_usec,
+            armed=cmd.armed,
+            main_mode=int(cmd.main_mode),
+            sub_mode=int(cmd.sub_mode),
+            landed_state=int(cmd.landed_state),
+            system_status=4 if cmd.armed else 3,
+            sensors_present=_SENSORS,
+            sensors_health=health,
+            lat_deg=lat,
+            lon_deg=lon,
+            alt_amsl_m=alt,
+            relative_alt_m=rel_alt,
+            position_ned_m=(float(pos[0]), float(pos[1]), float(pos[2])),
+            velocity_ned_m_s=(float(vel[0]), float(vel[1]), float(vel[2])),
+            quaternion_wxyz=tuple(float(v) for v in q[0]),
+            euler_rad=(float(euler[0]), float(euler[1]), float(euler[2])),
+            body_rates_rad_s=tuple(float(v) for v in est.rates_rad_s[i]),
+            throttle=float(f.thrust[i]),
+            battery_voltage_v=float(bat.voltage_v[i]),
+            battery_current_a=float(bat.current_a[i]),
+            battery_remaining_pct=round(100 * float(bat.remaining[i])),
+            battery_consumed_mah=float(bat.consumed_mah[i]),
+            home=home,
+            **gps_fields,
+        )

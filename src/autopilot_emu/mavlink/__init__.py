@@ -1,0 +1,1 @@
+"""MAVLink endpoint of the emulated autopilot."""

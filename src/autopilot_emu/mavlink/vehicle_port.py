@@ -1,0 +1,140 @@
+"""What the MAVLink endpoint needs from one emulated vehicle.
+
+The endpoint (``autopilot_emu.mavlink.endpoint``) speaks the wire protocol; the commander and
+estimator behind this interface decide what happens. Keeping the two apart lets the endpoint be
+tested against a fake vehicle and lets the flight stack run without sockets (lockstep benchmarks).
+
+Units: SI, angles in radians unless the name says ``_deg``; NED frame; altitudes AMSL unless the
+name says ``relative``. Results are ``MAV_RESULT`` integers (0 accepted, 1 temporarily rejected,
+2 denied, 3 unsupported, 4 failed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from autopilot_emu.params import ParamStore
+
+
+@dataclass(frozen=True)
+class HomeSnapshot:
+    """Home position as HOME_POSITION reports it."""
+
+    lat_deg: float
+    """Latitude, degrees."""
+    lon_deg: float
+    """Longitude, degrees."""
+    alt_amsl_m: float
+    """Altitude above mean sea level, m."""
+    local_ned_m: tuple[float, float, float]
+    """Home in the local NED frame of LOCAL_POSITION_NED, m."""
+
+
+@dataclass(frozen=True)
+class TelemetrySnapshot:
+    """Everything the telemetry streams report, read at one instant of simulation time."""
+
+    time_usec: int
+    """Simulation time since boot, microseconds (source of time_boot_ms / time_usec fields)."""
+    armed: bool
+    main_mode: int
+    """PX4 main mode (1 MANUAL ... 4 AUTO, 6 OFFBOARD)."""
+    sub_mode: int
+    """PX4 AUTO sub mode (1 READY, 2 TAKEOFF, 3 LOITER, 4 MISSION, 5 RTL, 6 LAND), else 0."""
+    landed_state: int
+    """MAV_LANDED_STATE: 1 on ground, 2 in air, 3 taking off, 4 landing."""
+    system_status: int
+    """MAV_STATE: 3 standby, 4 active, 5 critical."""
+    sensors_present: int
+    """MAV_SYS_STATUS_SENSOR bitmask of fitted sensors (also used as 'enabled')."""
+    sensors_health: int
+    """MAV_SYS_STATUS_SENSOR bitmask of healthy sensors, incl. PREARM_CHECK when armable."""
+    lat_deg: float
+    lon_deg: float
+    alt_amsl_m: float
+    relative_alt_m: float
+    """Altitude above home, m."""
+    position_ned_m: tuple[float, float, float]
+    """Estimated position in the local NED frame (origin = EKF origin), m."""
+    velocity_ned_m_s: tuple[float, float, float]
+    quaternion_wxyz: tuple[float, float, float, float]
+    """Estimated attitude, body FRD to NED."""
+    euler_rad: tuple[float, float, float]
+    """Roll, pitch, yaw (ZYX), rad."""
+    body_rates_rad_s: tuple[float, float, float]
+    throttle: float
+    """Collective thrust command, 0..1."""
+    gps_fix_type: int
+    """GPS_FIX_TYPE (0 none, 3 3D fix)."""
+    gps_lat_deg: float
+    gps_lon_deg: float
+    gps_alt_amsl_m: float
+    gps_eph_m: float
+    gps_epv_m: float
+    gps_satellites: int
+    gps_velocity_ned_m_s: tuple[float, float, float]
+    battery_voltage_v: float
+    battery_current_a: float
+    """Negative or NaN when unknown."""
+    battery_remaining_pct: int
+    """0..100, -1 unknown."""
+    battery_consumed_mah: float
+    home: HomeSnapshot | None
+    """None until the vehicle has a home (before the first good position estimate)."""
+    takeoff_alt_amsl_m: float = float("nan")
+    extra: dict[str, float] = field(default_factory=dict)
+    """Free-form extras for optional streams."""
+
+
+class VehiclePort(Protocol):
+    """The commander-side API the MAVLink endpoint calls. Every call is made from the sim loop."""
+
+    params: ParamStore
+    """This vehicle's PX4 parameters."""
+
+    def telemetry(self) -> TelemetrySnapshot:
+        """Current state for the telemetry streams."""
+        ...
+
+    def arm(self, force: bool) -> int:
+        """MAV_CMD_COMPONENT_ARM_DISARM param1=1. Denied while not armable unless forced."""
+        ...
+
+    def disarm(self, force: bool) -> int:
+        """param1=0. Denied in the air unless forced (param2=21196: kill, motors stop at once)."""
+        ...
+
+    def takeoff(self, alt_amsl_m: float | None) -> int:
+        """MAV_CMD_NAV_TAKEOFF; None (param7 NaN) climbs to home + MIS_TAKEOFF_ALT."""
+        ...
+
+    def land(self) -> int:
+        """MAV_CMD_NAV_LAND at the current position."""
+        ...
+
+    def set_mode(self, main_mode: int, sub_mode: int) -> int:
+        """MAV_CMD_DO_SET_MODE with PX4 custom main/sub mode (the armed bit of param1 is ignored)."""
+        ...
+
+    def reposition(
+        self, lat_deg: float, lon_deg: float, alt_amsl_m: float, yaw_rad: float, speed_m_s: float
+    ) -> int:
+        """MAV_CMD_DO_REPOSITION; NaN for any argument keeps the current value."""
+        ...
+
+    def change_speed(self, speed_m_s: float) -> int:
+        """MAV_CMD_DO_CHANGE_SPEED (ground speed, m/s; -1 or NaN = default)."""
+        ...
+
+    def set_home(self, use_current: bool, lat_deg: float, lon_deg: float, alt_amsl_m: float) -> int:
+        """MAV_CMD_DO_SET_HOME."""
+        ...
+
+    def terminate(self) -> int:
+        """MAV_CMD_DO_FLIGHTTERMINATION: motors off at once."""
+        ...
+
+    def pop_status_texts(self) -> list[tuple[int, str]]:
+        """(MAV_SEVERITY, text) events raised since the last call, for STATUSTEXT."""
+        ...

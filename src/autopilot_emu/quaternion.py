@@ -1,0 +1,149 @@
+"""Quaternion and rotation helpers, vectorised over a fleet: arrays of shape (N, 4) or (N, 3, 3).
+
+Convention (PX4's): quaternions are [w, x, y, z] and rotate vectors from the body FRD frame into
+the NED frame; Euler angles are ZYX (yaw, pitch, roll).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _hamilton_table() -> np.ndarray:
+    """(16, 4) matrix T with (p ⊗ q) = outer(p, q).ravel() @ T (Hamilton product)."""
+    t = np.zeros((4, 4, 4))
+    # (j, k) -> (i, sign): component i of p ⊗ q gains sign * p_j * q_k.
+    rules = {
+        (0, 0): (0, 1), (0, 1): (1, 1), (0, 2): (2, 1), (0, 3): (3, 1),
+        (1, 0): (1, 1), (1, 1): (0, -1), (1, 2): (3, 1), (1, 3): (2, -1),
+        (2, 0): (2, 1), (2, 1): (3, -1), (2, 2): (0, -1), (2, 3): (1, 1),
+        (3, 0): (3, 1), (3, 1): (2, 1), (3, 2): (1, -1), (3, 3): (0, -1),
+    }  # fmt: skip
+    for (j, k), (i, sign) in rules.items():
+        t[j, k, i] = sign
+    return t.reshape(16, 4)
+
+
+def _rotation_table() -> np.ndarray:
+    """(16, 9) matrix T with R(q).ravel() = outer(q, q).ravel() @ T for unit q."""
+    t = np.zeros((4, 4, 9))
+    w, x, y, z = range(4)
+
+    def add(entry: int, terms: list[tuple[float, int, int]]) -> None:
+        for coef, a, b in terms:
+            t[a, b, entry] += coef
+
+    add(0, [(1, w, w), (1, x, x), (-1, y, y), (-1, z, z)])
+    add(1, [(2, x, y), (-2, w, z)])
+    add(2, [(2, x, z), (2, w, y)])
+    add(3, [(2, x, y), (2, w, z)])
+    add(4, [(1, w, w), (-1, x, x), (1, y, y), (-1, z, z)])
+    add(5, [(2, y, z), (-2, w, x)])
+    add(6, [(2, x, z), (-2, w, y)])
+    add(7, [(2, y, z), (2, w, x)])
+    add(8, [(1, w, w), (-1, x, x), (-1, y, y), (1, z, z)])
+    return t.reshape(16, 9)
+
+
+_HAMILTON = _hamilton_table()
+_ROTATION = _rotation_table()
+
+
+def _outer(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    return (p[:, :, None] * q[:, None, :]).reshape(p.shape[0], 16)
+
+
+def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product p ⊗ q for (N, 4) arrays (one outer product and one matmul)."""
+    return _outer(p, q) @ _HAMILTON
+
+
+def conjugate(q: np.ndarray) -> np.ndarray:
+    """Inverse rotation of unit quaternions."""
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def normalize(q: np.ndarray) -> np.ndarray:
+    """Unit-normalise rows."""
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def to_rotation_matrix(q: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) matrices R with v_ned = R @ v_body, for unit quaternions."""
+    return (_outer(q, q) @ _ROTATION).reshape(q.shape[0], 3, 3)
+
+
+def from_rotation_matrix(r: np.ndarray) -> np.ndarray:
+    """Quaternions (w >= 0) from (N, 3, 3) rotation matrices (Shepperd's method)."""
+    n = r.shape[0]
+    q = np.empty((n, 4))
+    tr = r[:, 0, 0] + r[:, 1, 1] + r[:, 2, 2]
+    # Candidate denominators for the four branches; pick the largest for stability.
+    cand = np.stack((tr, r[:, 0, 0], r[:, 1, 1], r[:, 2, 2]), axis=1)
+    branch = np.argmax(cand, axis=1)
+    for b in range(4):
+        idx = np.nonzero(branch == b)[0]
+        if idx.size == 0:
+            continue
+        m = r[idx]
+        if b == 0:
+            s = np.sqrt(1.0 + tr[idx]) * 2
+            q[idx] = np.stack(
+                (0.25 * s, (m[:, 2, 1] - m[:, 1, 2]) / s, (m[:, 0, 2] - m[:, 2, 0]) / s,
+                 (m[:, 1, 0] - m[:, 0, 1]) / s), axis=1)  # fmt: skip
+        elif b == 1:
+            s = np.sqrt(1.0 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2]) * 2
+            q[idx] = np.stack(
+                ((m[:, 2, 1] - m[:, 1, 2]) / s, 0.25 * s, (m[:, 0, 1] + m[:, 1, 0]) / s,
+                 (m[:, 0, 2] + m[:, 2, 0]) / s), axis=1)  # fmt: skip
+        elif b == 2:
+            s = np.sqrt(1.0 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2]) * 2
+            q[idx] = np.stack(
+                ((m[:, 0, 2] - m[:, 2, 0]) / s, (m[:, 0, 1] + m[:, 1, 0]) / s, 0.25 * s,
+                 (m[:, 1, 2] + m[:, 2, 1]) / s), axis=1)  # fmt: skip
+        else:
+            s = np.sqrt(1.0 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1]) * 2
+            q[idx] = np.stack(
+                ((m[:, 1, 0] - m[:, 0, 1]) / s, (m[:, 0, 2] + m[:, 2, 0]) / s,
+                 (m[:, 1, 2] + m[:, 2, 1]) / s, 0.25 * s), axis=1)  # fmt: skip
+    q[q[:, 0] < 0] *= -1.0
+    return q
+
+
+def to_euler(q: np.ndarray) -> np.ndarray:
+    """(N, 3) roll, pitch, yaw in radians (ZYX)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.stack((roll, pitch, yaw), axis=1)
+
+
+def from_euler(rpy: np.ndarray) -> np.ndarray:
+    """Quaternions from (N, 3) roll, pitch, yaw (ZYX)."""
+    hr, hp, hy = rpy[:, 0] / 2, rpy[:, 1] / 2, rpy[:, 2] / 2
+    cr, sr, cp, sp, cy, sy = np.cos(hr), np.sin(hr), np.cos(hp), np.sin(hp), np.cos(hy), np.sin(hy)
+    return np.stack(
+        (
+            cr * cp * cy + sr * sp * sy,
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+        ),
+        axis=1,
+    )
+
+
+def integrate(q: np.ndarray, omega_body: np.ndarray, dt_s: float) -> np.ndarray:
+    """Advance q by body rates omega (rad/s) over dt with the exact exponential map."""
+    angle = np.linalg.norm(omega_body, axis=1) * dt_s
+    half = 0.5 * angle
+    # sin(half)/|omega| written to stay finite at zero rate.
+    k = np.where(angle > 1e-12, np.sin(half) / np.maximum(angle, 1e-12), 0.5) * dt_s
+    dq = np.concatenate((np.cos(half)[:, None], omega_body * k[:, None]), axis=1)
+    return normalize(multiply(q, dq))
+
+
+def wrap_pi(angle: np.ndarray) -> np.ndarray:
+    """Wrap angles to [-pi, pi)."""
+    return (angle + np.pi) % (2 * np.pi) - np.pi

@@ -1,0 +1,31 @@
+"""The companion's view of time: wall time scaled by the simulation speed factor.
+
+On a real vehicle the factor is 1. Under swarmsitl the harness exports ``SWARMSITL_SPEED`` to the
+companion processes it starts, so that "hover for 5 s" means 5 s of *simulated* time whether the
+simulation runs paced at 1x or 10x.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import time
+
+
+def speed_factor() -> float:
+    """Simulation seconds per wall second (1.0 on real hardware)."""
+    try:
+        value = float(os.environ.get("SWARMSITL_SPEED", "1.0"))
+    except ValueError:
+        return 1.0
+    return value if value > 0 else 1.0
+
+
+def now_s() -> float:
+    """Monotonic time in simulated seconds."""
+    return time.monotonic() * speed_factor()
+
+
+async def sleep(duration_s: float) -> None:
+    """Sleep for ``duration_s`` simulated seconds."""
+    await asyncio.sleep(duration_s / speed_factor())

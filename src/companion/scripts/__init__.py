@@ -1,0 +1,1 @@
+"""Runnable companion programs (MAVSDK / pymavlink clients)."""

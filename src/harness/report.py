@@ -1,0 +1,111 @@
+"""Metrics of a demo flight, computed from the recorded ground truth and the client's event log.
+
+Every number here comes from what happened in the simulation: the true trajectory recorded by
+:class:`~harness.recorder.FlightRecorder`, with the phases delimited by the companion's own event
+log (wall-clock stamps mapped onto simulation time through the recorder's wall-clock column).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pymap3d
+
+
+def _sim_time_of(wall_s: float, wall: np.ndarray, sim: np.ndarray) -> float:
+    return float(np.interp(wall_s, wall, sim))
+
+
+def demo_metrics(
+    track: dict[str, np.ndarray],
+    events: list[dict[str, Any]],
+    settings: dict[str, Any],
+    origin_lla: tuple[float, float, float],
+) -> dict[str, Any]:
+    """Climb time, hover and arrival errors, tilt and energy of one demo flight (SI units)."""
+    t = track["time_s"]
+    enu = np.stack((track["east_m"], track["north_m"], track["up_m"]), axis=1)
+    ev = {e["event"]: e for e in events}
+    wall, sim = track["wall_s"], t
+
+    def at(name: str) -> float | None:
+        return _sim_time_of(ev[name]["wall_s"], wall, sim) if name in ev else None
+
+    out: dict[str, Any] = {"completed": "disarmed" in ev and "error" not in ev}
+    if "error" in ev:
+        out["error"] = ev["error"].get("message")
+    start = enu[0]
+    alt = float(settings.get("takeoff_alt", 5.0))
+    t_to = at("takeoff_commanded")
+    if t_to is not None:
+        after = (t >= t_to) & (enu[:, 2] - start[2] >= 0.95 * alt)
+        if after.any():
+            out["climb_time_s"] = float(t[np.argmax(after)] - t_to)
+    t_hover = at("hover_done")
+    if t_hover is not None:
+        hover_s = float(settings.get("hover_s", 5.0))
+        win = (t >= t_hover - 0.6 * hover_s) & (t <= t_hover)
+        goal = start + np.array([0.0, 0.0, alt])
+        err = np.linalg.norm(enu[win] - goal, axis=1)
+        out["hover_error_rms_m"] = float(np.sqrt(np.mean(err**2))) if err.size else None
+        out["hover_error_max_m"] = float(err.max()) if err.size else None
+    t_goal = at("goto_settled")
+    goto = ev.get("goto_commanded")
+    if t_goal is not None and goto is not None:
+        goal = np.array(
+            pymap3d.geodetic2enu(goto["lat"], goto["lon"], goto["alt_amsl_m"], *origin_lla)
+        )
+        i = int(np.searchsorted(t, t_goal))
+        i = min(i, len(t) - 1)
+        out["arrival_error_m"] = float(np.linalg.norm(enu[i] - goal))
+        out["arrival_error_horizontal_m"] = float(np.linalg.norm(enu[i, :2] - goal[:2]))
+        out["reported_arrival_error_m"] = ev["goto_settled"].get("reported_error_m")
+    flying = track["landed_state"] != 1
+    out["max_tilt_deg"] = float(track["tilt_deg"][flying].max()) if flying.any() else 0.0
+    out["landing_offset_m"] = float(np.linalg.norm(enu[-1, :2] - start[:2]))
+    armed = track["armed"] > 0.5
+    if armed.any():
+        ta = t[armed]
+        out["armed_time_s"] = float(ta[-1] - ta[0])
+    power = track["rotor_power_w"]
+    energy = float(np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(t)))
+    out["rotor_shaft_energy_j"] = energy
+    out["rotor_shaft_energy_wh"] = energy / 3600.0
+    return out
+
+
+def write_report(path: Path, metrics: dict[str, Any], extra: dict[str, Any]) -> None:
+    """report.json with metrics (units in the key names) and run information."""
+    path.write_text(json.dumps({"metrics": metrics, **extra}, indent=2, default=str))
+
+
+def plot_trajectory(track: dict[str, np.ndarray], path: Path, title: str) -> None:
+    """PNG: top view (north vs east) and altitude over time of the true trajectory."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (top, side) = plt.subplots(1, 2, figsize=(11, 4.5))
+    e, n, u = track["east_m"], track["north_m"], track["up_m"]
+    top.plot(e, n, lw=1.5)
+    top.plot(e[:1], n[:1], "go", label="start")
+    top.plot(e[-1:], n[-1:], "rx", label="end")
+    top.set_xlabel("east [m]")
+    top.set_ylabel("north [m]")
+    top.set_aspect("equal", adjustable="datalim")
+    top.grid(True, alpha=0.3)
+    top.legend()
+    top.set_title("ground track (truth)")
+    side.plot(track["time_s"], u, lw=1.5)
+    side.set_xlabel("simulation time [s]")
+    side.set_ylabel("height above ground datum [m]")
+    side.grid(True, alpha=0.3)
+    side.set_title("altitude (truth)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

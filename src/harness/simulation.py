@@ -1,0 +1,217 @@
+"""The simulation loop: PyBullet world + emulated autopilots + MAVLink endpoints, in lockstep.
+
+One physics step at a time: the world advances with the last HIL_ACTUATOR_CONTROLS, then any
+HIL_SENSOR / HIL_GPS messages that became due go to the autopilots, whose replies drive the next
+step. The MAVLink endpoints are polled on the simulation clock. Two ways to run it:
+
+* lockstep (``speed=None``): as fast as the CPU allows, deterministic for a given seed;
+* paced (``speed=k``): simulation time = wall time x k, for companion processes.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from autopilot_emu.fleet import AutopilotFleet, FleetConfig
+from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
+from harness.recorder import FlightRecorder
+from sitl.world import World, WorldConfig
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class PortPlan:
+    """PX4 SITL's UDP convention for vehicle i: listen on listen_base+i, send to sdk_base+i."""
+
+    bind_addr: str = "127.0.0.1"
+    """Address the vehicles listen on (127.0.0.1 keeps them off the network)."""
+    sdk_base: int = 14540
+    """Offboard/MAVSDK port of vehicle 0 (the vehicle sends here)."""
+    listen_base: int = 14580
+    """Port vehicle 0 listens on."""
+    gcs_port: int = 14550
+    """Ground-station port every vehicle also sends to (0 disables)."""
+    peer_addr: str = "127.0.0.1"
+    """Where the companion / ground station run."""
+
+    def listen_port(self, i: int) -> int:
+        """UDP port vehicle i listens on."""
+        return self.listen_base + i
+
+    def sdk_port(self, i: int) -> int:
+        """UDP port vehicle i sends its offboard stream to."""
+        return self.sdk_base + i
+
+    def peers(self, i: int) -> tuple[tuple[str, int], ...]:
+        """Destinations of vehicle i's stream."""
+        out = [(self.peer_addr, self.sdk_port(i))]
+        if self.gcs_port:
+            out.append((self.peer_addr, self.gcs_port))
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class SimulationConfig:
+    """What to simulate and how to connect it."""
+
+    n_vehicles: int = 1
+    seed: int = 0
+    physics_hz: float = 500.0
+    spacing_m: float = 5.0
+    """Distance between neighbouring vehicles at spawn, m."""
+    mavlink: bool = True
+    """Open a MAVLink UDP endpoint per vehicle."""
+    ports: PortPlan = field(default_factory=PortPlan)
+    mavlink_poll_hz: float = 250.0
+    """How often endpoints read their sockets and emit streams, Hz of simulation time."""
+    out_dir: Path | None = None
+    """Run directory for tlogs and recordings; None writes nothing."""
+    record_hz: float = 20.0
+    """Rate of the ground-truth recording, Hz (0 disables)."""
+    world_overrides: dict = field(default_factory=dict)
+    """Extra WorldConfig fields (e.g. spawn_altitude_m)."""
+
+    def __post_init__(self) -> None:
+        if self.n_vehicles < 1:
+            raise ValueError(f"n_vehicles must be >= 1, got {self.n_vehicles}")
+        ratio = self.physics_hz / self.mavlink_poll_hz
+        if abs(ratio - round(ratio)) > 1e-9 or ratio < 1:
+            raise ValueError(
+                f"mavlink_poll_hz ({self.mavlink_poll_hz}) must divide physics_hz "
+                f"({self.physics_hz})"
+            )
+
+
+class Simulation:
+    """World, autopilots and endpoints of one run."""
+
+    def __init__(self, config: SimulationConfig) -> None:
+        self.config = config
+        n = config.n_vehicles
+        self.world = World(
+            WorldConfig(
+                n_vehicles=n,
+                spacing_m=config.spacing_m,
+                physics_hz=config.physics_hz,
+                seed=config.seed,
+                **config.world_overrides,
+            )
+        )
+        self.fleet = AutopilotFleet(FleetConfig(n_vehicles=n))
+        for i, p in enumerate(self.fleet.params):
+            p.set("MAV_SYS_ID", i + 1)
+        self.epoch_start_s = time.time()
+        self.endpoints: list[MavlinkEndpoint] = []
+        if config.out_dir is not None:
+            config.out_dir.mkdir(parents=True, exist_ok=True)
+        try:
+            if config.mavlink:
+                for i in range(n):
+                    self.endpoints.append(self._endpoint(i))
+        except BaseException:
+            self.close()
+            raise
+        self._poll_every = round(config.physics_hz / config.mavlink_poll_hz)
+        self._step_count = 0
+        self._actuators: list = [None] * n
+        self._keep: list = [None] * n
+        self.recorder = (
+            FlightRecorder(self, config.record_hz) if config.record_hz > 0 else None
+        )
+        self._closed = False
+
+    def _endpoint(self, i: int) -> MavlinkEndpoint:
+        ports = self.config.ports
+        out = self.config.out_dir
+        return MavlinkEndpoint(
+            self.fleet.vehicle(i),
+            EndpointConfig(
+                sysid=i + 1,
+                compid=1,
+                bind_addr=ports.bind_addr,
+                listen_port=ports.listen_port(i),
+                peers=ports.peers(i),
+                tlog_path=(out / f"vehicle{i + 1}.tlog") if out is not None else None,
+                epoch_start_s=self.epoch_start_s,
+            ),
+        )
+
+    @property
+    def time_s(self) -> float:
+        """Simulation time, s."""
+        return self.world.time_s
+
+    def step(self) -> None:
+        """Advance one physics step and run everything that became due."""
+        self.world.step(self._actuators)
+        self._actuators = self._keep
+        sensors, gps = self.world.poll_sensors()
+        if gps is not None:
+            self.fleet.handle_gps(gps)
+        if sensors is not None:
+            self._actuators = self.fleet.handle_sensors(sensors)
+        self._step_count += 1
+        if self.endpoints and self._step_count % self._poll_every == 0:
+            now = self.world.time_s
+            for ep in self.endpoints:
+                ep.poll(now)
+        if self.recorder is not None:
+            self.recorder.maybe_record()
+
+    def run_lockstep(
+        self, duration_s: float, until: Callable[[Simulation], bool] | None = None
+    ) -> None:
+        """Run as fast as possible for duration_s of simulation time (or until ``until``)."""
+        end = self.world.time_s + duration_s
+        check_every = max(1, round(self.config.physics_hz / 50))
+        while self.world.time_s < end - 1e-9:
+            self.step()
+            if until is not None and self._step_count % check_every == 0 and until(self):
+                return
+
+    def run_paced(
+        self,
+        speed: float,
+        should_stop: Callable[[], bool],
+        max_duration_s: float = float("inf"),
+    ) -> None:
+        """Run with simulation time = wall time x speed until should_stop() or max duration."""
+        if not speed > 0:
+            raise ValueError(f"speed must be > 0, got {speed}")
+        t0_sim = self.world.time_s
+        t0_wall = time.perf_counter()
+        end = t0_sim + max_duration_s
+        steps_per_check = max(1, round(self.config.physics_hz / 100))
+        while self.world.time_s < end:
+            for _ in range(steps_per_check):
+                self.step()
+            if should_stop():
+                return
+            ahead = (self.world.time_s - t0_sim) / speed - (time.perf_counter() - t0_wall)
+            if ahead > 0.0005:
+                time.sleep(ahead)
+
+    def close(self) -> None:
+        """Close endpoints (flushing tlogs), write recordings, release PyBullet."""
+        if getattr(self, "_closed", False):
+            return
+        self._closed = True
+        for ep in self.endpoints:
+            try:
+                ep.close()
+            except OSError as exc:
+                log.warning("closing endpoint failed: %s", exc)
+        if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
+            self.recorder.write_csv(self.config.out_dir / "truth.csv")
+        self.world.close()
+
+    def __enter__(self) -> Simulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
