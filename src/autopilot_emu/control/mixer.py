@@ -34,18 +34,21 @@ class Mixer:
     """Output of a spinning motor when armed with no thrust demand (PWM_MIN-like)."""
     matrix: np.ndarray = field(init=False)
     """(6, 3) torque -> thrust-fraction columns, each scaled to a peak of 1."""
+    thrust_column: np.ndarray = field(init=False)
+    """(6,) collective thrust -> thrust fractions, mean 1 (uneven when the CoM is off-centre)."""
 
     def __post_init__(self) -> None:
         r = np.asarray(self.rotors, dtype=float)
         eff = np.stack((-r[:, 1], r[:, 0], r[:, 2] * YAW_MOMENT_RATIO, np.ones(len(r))))
-        mix = np.linalg.pinv(eff)[:, :3]
-        self.matrix = mix / np.abs(mix).max(axis=0)
+        mix = np.linalg.pinv(eff)
+        self.matrix = mix[:, :3] / np.abs(mix[:, :3]).max(axis=0)
+        self.thrust_column = mix[:, 3] / mix[:, 3].mean()
 
     def mix(self, torque: np.ndarray, thrust: np.ndarray) -> np.ndarray:
         """Motor outputs (N, 6) for torque (N, 3) in -1..1 and collective thrust (N,) in 0..1."""
         t_rp = torque[:, :2] @ self.matrix[:, :2].T
         t_y = torque[:, 2:3] * self.matrix[:, 2][None, :]
-        thr = thrust[:, None]
+        thr = thrust[:, None] * self.thrust_column[None, :]
         # Shift collective thrust so roll/pitch fit in [0, 1] (PX4 airmode-like desaturation).
         hi = (thr + t_rp).max(axis=1, keepdims=True)
         lo = (thr + t_rp).min(axis=1, keepdims=True)

@@ -91,9 +91,13 @@ class PositionController:
         vel_cmd = sp.velocity_ff_m_s.copy()
         p = np.stack((gains.xy_p, gains.xy_p, gains.z_p), axis=1)
         vel_cmd += np.where(has_pos, p * np.nan_to_num(err), 0.0)
-        # Per-axis limits: horizontal norm, vertical up/down.
+        # Per-axis limits: horizontal norm, vertical up/down. Horizontally also the speed from
+        # which the vehicle can still stop at the target with half of MPC_ACC_HOR (what PX4's
+        # jerk-limited trajectory achieves), so goto arrives without overshoot.
         hnorm = np.hypot(vel_cmd[:, 0], vel_cmd[:, 1])
-        scale = np.minimum(1.0, sp.max_speed_xy_m_s / np.maximum(hnorm, 1e-9))
+        dist = np.where(has_pos[:, 0], np.hypot(*np.nan_to_num(err[:, :2]).T), np.inf)
+        v_stop = np.sqrt(gains.acc_hor_max_m_s2 * dist)
+        scale = np.minimum(1.0, np.minimum(sp.max_speed_xy_m_s, v_stop) / np.maximum(hnorm, 1e-9))
         vel_cmd[:, :2] *= scale[:, None]
         vel_cmd[:, 2] = np.clip(vel_cmd[:, 2], -sp.max_speed_up_m_s, sp.max_speed_down_m_s)
         # Horizontal slew limit (acceleration) on the velocity setpoint.
@@ -127,7 +131,7 @@ class PositionController:
         int_step = ki * verr * dt_s
         int_step[sat_z, 2] = 0.0
         self.vel_int += np.where(active[:, None], int_step, 0.0)
-        self.vel_int[:, :2] = np.clip(self.vel_int[:, :2], -3.0, 3.0)
+        self.vel_int[:, :2] = np.clip(self.vel_int[:, :2], -1.0, 1.0)
         self.vel_int[:, 2] = np.clip(self.vel_int[:, 2], -4.0, 4.0)
         return attitude_from_body_z(body_z, sp.yaw_rad), thrust_sat
 

@@ -1,0 +1,144 @@
+"""Real-time factor of the full stack (physics + sensors + autopilots + MAVLink endpoints).
+
+Runs, in lockstep (no pacing, no clients), a takeoff + hover + goto scenario for N = 1, 3, 10
+vehicles and measures simulated seconds per wall second; then runs PyFlyt (its own venv, as a
+subprocess) with the same vehicle counts and simulated time for comparison.
+
+    python benchmarks/realtime_factor.py --vehicles 1,3,10
+    python benchmarks/realtime_factor.py --vehicles 1 --profile      # where the time goes
+
+The last line is ``RESULT rtf_1=... rtf_3=... rtf_10=... pyflyt_rtf_10=...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import io
+import math
+import os
+import platform
+import pstats
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pybullet
+import pymap3d
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from harness.simulation import PortPlan, Simulation, SimulationConfig  # noqa: E402
+
+TAKEOFF_AT_S = 3.0
+GOTO_AT_S = 12.0
+GOTO_NORTH_M = 20.0
+
+
+def machine() -> str:
+    """One line describing this machine and the library versions."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return (
+        f"{cpu}; {os.cpu_count()} cores; Python {platform.python_version()}; "
+        f"numpy {np.__version__}; pybullet API {pybullet.getAPIVersion()}"
+    )
+
+
+def fly_scenario(n: int, sim_seconds: float, port_base: int) -> tuple[float, dict]:
+    """Run the scenario for n vehicles; return wall seconds and a flight summary."""
+    ports = PortPlan(sdk_base=port_base, listen_base=port_base + 40, gcs_port=0)
+    cfg = SimulationConfig(n_vehicles=n, ports=ports, record_hz=0.0)
+    with Simulation(cfg) as sim:
+        vehicles = [sim.fleet.vehicle(i) for i in range(n)]
+        start = sim.world.truth.position_enu_m.copy()
+        t0 = time.perf_counter()
+        sim.run_lockstep(TAKEOFF_AT_S)
+        for v in vehicles:
+            v.arm(False)
+            v.takeoff(None)
+        sim.run_lockstep(GOTO_AT_S - TAKEOFF_AT_S)
+        for v in vehicles:
+            tel = v.telemetry()
+            home = tel.home
+            if home is None:
+                continue
+            lat, lon, _ = pymap3d.ned2geodetic(
+                GOTO_NORTH_M, 0.0, 0.0, home.lat_deg, home.lon_deg, home.alt_amsl_m
+            )
+            v.reposition(float(lat), float(lon), tel.alt_amsl_m, 0.0, math.nan)
+        sim.run_lockstep(sim_seconds - sim.time_s)
+        wall = time.perf_counter() - t0
+        truth = sim.world.truth
+        moved = truth.position_enu_m - start
+        summary = {
+            "north_m_mean": float(moved[:, 1].mean()),
+            "up_m_mean": float(moved[:, 2].mean()),
+            "armed": int(sum(c.armed for c in sim.fleet.commanders)),
+        }
+    return wall, summary
+
+
+def main() -> int:
+    """Run the benchmark and print the RESULT line."""
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--vehicles", default="1,3,10", help="comma-separated vehicle counts")
+    ap.add_argument("--sim-seconds", type=float, default=30.0)
+    ap.add_argument("--no-pyflyt", action="store_true", help="skip the PyFlyt comparison")
+    ap.add_argument("--profile", action="store_true", help="print the top functions by time")
+    ap.add_argument("--port-base", type=int, default=24540, help="UDP ports to use")
+    args = ap.parse_args()
+    counts = [int(c) for c in args.vehicles.split(",") if c.strip()]
+    print(f"machine: {machine()}")
+    print(f"scenario: boot {TAKEOFF_AT_S:g} s, takeoff to MIS_TAKEOFF_ALT, hover, goto "
+          f"{GOTO_NORTH_M:g} m north at {GOTO_AT_S:g} s, until {args.sim_seconds:g} s; "
+          f"500 Hz physics, lockstep, MAVLink endpoints open, no clients")  # fmt: skip
+    results: dict[str, str] = {}
+    for n in counts:
+        prof = cProfile.Profile() if args.profile else None
+        if prof:
+            prof.enable()
+        wall, summary = fly_scenario(n, args.sim_seconds, args.port_base)
+        if prof:
+            prof.disable()
+        rtf = args.sim_seconds / wall
+        steps = args.sim_seconds * 500
+        print(f"swarmsitl N={n:3d}: {wall:7.2f} s wall for {args.sim_seconds:g} s sim -> "
+              f"rtf {rtf:7.2f}  ({1e6 * wall / steps:7.1f} us per physics step)  "
+              f"flight: {summary}")  # fmt: skip
+        results[f"rtf_{n}"] = f"{rtf:.2f}"
+        if prof:
+            buf = io.StringIO()
+            pstats.Stats(prof, stream=buf).sort_stats("tottime").print_stats(20)
+            print(buf.getvalue())
+    if not args.no_pyflyt:
+        from pyflyt_runner import PeerUnavailable, run_pyflyt
+
+        for n in counts:
+            key = f"pyflyt_rtf_{n}"
+            try:
+                peer = run_pyflyt(n, args.sim_seconds)
+                results[key] = f"{peer['rtf']:.2f}"
+                print(f"PyFlyt    N={n:3d}: {peer['wall_seconds']:7.2f} s wall -> rtf "
+                      f"{peer['rtf']:7.2f} (PyFlyt {peer.get('pyflyt_version')}, physics "
+                      f"{peer.get('physics_hz')} Hz, control {peer.get('control_hz')} Hz)")  # fmt: skip
+            except PeerUnavailable as exc:
+                results[key] = "nan"
+                print(f"PyFlyt    N={n:3d}: unavailable: {exc}")
+    for n in counts:
+        if f"pyflyt_rtf_{n}" in results and results[f"pyflyt_rtf_{n}"] != "nan":
+            ratio = float(results[f"rtf_{n}"]) / float(results[f"pyflyt_rtf_{n}"])
+            print(f"ratio swarmsitl/PyFlyt at N={n}: {ratio:.2f}")
+    print("RESULT " + " ".join(f"{k}={v}" for k, v in results.items()))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,495 @@
+"""One vehicle's MAVLink endpoint: a UDP socket that speaks MAVLink 2 as PX4 SITL does.
+
+The endpoint owns the wire: it receives and parses datagrams, answers commands and the parameter
+protocol, and streams telemetry read from the vehicle (:mod:`autopilot_emu.mavlink.vehicle_port`)
+at PX4-like rates. It never blocks and never reads the wall clock for scheduling: the simulation
+loop calls :meth:`MavlinkEndpoint.poll` with the simulation time, and everything due by then is
+sent. A poll with no traffic and nothing due costs one failing ``recvfrom`` and one comparison.
+
+Every frame goes to the configured peers (PX4 SITL: 14540 for the offboard API, 14550 for a
+ground station) and to every address MAVLink has been received from, as PX4 does. Malformed input
+is counted in :attr:`MavlinkEndpoint.stats` and logged, never raised; errors while sending are
+counted and otherwise ignored.
+"""
+
+from __future__ import annotations
+
+import errno
+import logging
+import math
+import socket
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from autopilot_emu.mavlink import messages
+from autopilot_emu.mavlink.commands import (
+    ACCEPTED,
+    DENIED,
+    CommandDispatcher,
+    CommandRequest,
+)
+from autopilot_emu.mavlink.param_protocol import ParamProtocol
+from autopilot_emu.mavlink.streams import DEFAULT_STREAMS, StreamScheduler
+from autopilot_emu.mavlink.tlog import TlogWriter
+from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
+from autopilot_emu.params import ParamError
+
+logger = logging.getLogger(__name__)
+
+MAX_DATAGRAMS_PER_POLL = 64
+"""Datagrams drained per poll; the rest wait for the next poll."""
+MAX_DATAGRAM_BYTES = 65535
+MAX_LEARNED_PEERS = 16
+"""Remote addresses remembered from received traffic, beyond the configured peers."""
+STATUSTEXT_POLL_INTERVAL_US = 20_000
+"""How often the vehicle's status-text queue is read, simulation microseconds."""
+TLOG_FLUSH_INTERVAL_US = 1_000_000
+"""How often the .tlog buffer is flushed, simulation microseconds."""
+_NEVER = math.inf
+
+
+class PortInUseError(OSError):
+    """The UDP port the endpoint should listen on is taken (another vehicle or PX4 SITL)."""
+
+    def __init__(self, host: str, port: int) -> None:
+        super().__init__(
+            errno.EADDRINUSE,
+            f"UDP {host}:{port} is already in use (another vehicle or a PX4 SITL running?)",
+        )
+        self.host = host
+        self.port = port
+
+
+@dataclass(frozen=True)
+class EndpointConfig:
+    """Addresses, identity and rates of one vehicle's MAVLink endpoint."""
+
+    sysid: int = 1
+    """Our MAVLink system id (MAVSDK expects 1 for the first vehicle)."""
+    compid: int = 1
+    """Our component id: MAV_COMP_ID_AUTOPILOT1."""
+    bind_addr: str = "127.0.0.1"
+    """IPv4 address to listen on."""
+    listen_port: int = 14580
+    """UDP port to listen on (PX4 SITL: 14580 + instance); 0 lets the OS pick one."""
+    peers: tuple[tuple[str, int], ...] = (("127.0.0.1", 14540), ("127.0.0.1", 14550))
+    """Addresses every frame is sent to, besides addresses learned from received traffic."""
+    tlog_path: Path | None = None
+    """Where to append a .tlog of every frame sent and received; None: no log."""
+    epoch_start_s: float = field(default_factory=time.time)
+    """Unix time at simulation t = 0, s (tlog timestamps, SYSTEM_TIME)."""
+    stream_rates_hz: Mapping[str, float] = field(default_factory=dict)
+    """Per-message overrides of the default stream rates, e.g. {"ATTITUDE": 50.0}; 0 = off."""
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.sysid <= 255 or not 1 <= self.compid <= 255:
+            raise ValueError(f"sysid/compid must be 1..255, got {self.sysid}/{self.compid}")
+        if not 0 <= self.listen_port <= 65535:
+            raise ValueError(f"listen_port must be 0..65535, got {self.listen_port}")
+
+
+@dataclass
+class EndpointStats:
+    """Counters of what the endpoint saw and did."""
+
+    datagrams_received: int = 0
+    frames_received: int = 0
+    """Well-formed MAVLink frames received (including unknown message ids)."""
+    frames_sent: int = 0
+    """Frames sent (each to every peer)."""
+    parse_errors: int = 0
+    """Garbage bytes, bad CRCs, truncated frames."""
+    unknown_messages: int = 0
+    """Frames whose message id is not in the common dialect."""
+    recv_errors: int = 0
+    send_errors: int = 0
+    """Failed sendto calls (peer not listening, buffer full)."""
+    commands_handled: int = 0
+    """COMMAND_LONG/INT executed and ACKed."""
+    commands_duplicate: int = 0
+    """Retransmissions re-ACKed from the cache without executing."""
+    commands_ignored: int = 0
+    """Commands addressed to another system or component (no ACK)."""
+    handler_errors: int = 0
+    """Exceptions raised while handling a received message."""
+    encode_errors: int = 0
+    """Exceptions raised while building or packing an outgoing message."""
+
+
+def _resolve(host: str, port: int) -> tuple[str, int]:
+    """(host, port) -> (IPv4 address, port) as recvfrom reports addresses."""
+    info = socket.getaddrinfo(host, port, socket.AF_INET, socket.SOCK_DGRAM)
+    address = info[0][4]
+    return (address[0], address[1])
+
+
+class MavlinkEndpoint:
+    """PX4-flavoured MAVLink 2 endpoint for one vehicle.
+
+    Args:
+        vehicle: the flight stack behind the endpoint.
+        config: addresses, ids, tlog and stream rates.
+
+    Raises:
+        PortInUseError: ``config.listen_port`` is already bound.
+        ValueError: a stream rate names an unknown message.
+    """
+
+    def __init__(self, vehicle: VehiclePort, config: EndpointConfig) -> None:
+        self._vehicle = vehicle
+        self._config = config
+        self.stats = EndpointStats()
+        self._streams = StreamScheduler(DEFAULT_STREAMS, config.stream_rates_hz)
+        self._mav = mavlink2.MAVLink(None, srcSystem=config.sysid, srcComponent=config.compid)
+        self._mav.robust_parsing = True
+        self._context = messages.MessageContext(
+            sysid=config.sysid,
+            params=vehicle.params,
+            epoch_start_us=round(config.epoch_start_s * 1e6),
+        )
+        self._params = ParamProtocol(vehicle.params, self._send)
+        self._commands = CommandDispatcher(vehicle, self)
+        self._handlers: dict[int, Callable[[mavlink2.MAVLink_message], None]] = {
+            mavlink2.MAVLINK_MSG_ID_COMMAND_LONG: self._on_command,
+            mavlink2.MAVLINK_MSG_ID_COMMAND_INT: self._on_command,
+            mavlink2.MAVLINK_MSG_ID_PARAM_REQUEST_LIST: self._on_param_request_list,
+            mavlink2.MAVLINK_MSG_ID_PARAM_REQUEST_READ: self._on_param_request_read,
+            mavlink2.MAVLINK_MSG_ID_PARAM_SET: self._on_param_set,
+            mavlink2.MAVLINK_MSG_ID_PING: self._on_ping,
+        }
+        self._peers = list(dict.fromkeys(_resolve(host, port) for host, port in config.peers))
+        self._learned_peers = 0
+        self._tlog = (
+            TlogWriter(config.tlog_path, config.epoch_start_s) if config.tlog_path else None
+        )
+        self._now_s = 0.0
+        self._last_poll_s = -_NEVER
+        self._next_work_s = -_NEVER
+        self._next_statustext_us = 0
+        self._next_flush_us = TLOG_FLUSH_INTERVAL_US
+        self._snapshot: TelemetrySnapshot | None = None
+        self._replies: list[mavlink2.MAVLink_message] = []
+        self._statustext_id = 0
+        self._check_sysid_param()
+        self._sock: socket.socket | None = self._bind(config.bind_addr, config.listen_port)
+
+    # --- lifecycle ---------------------------------------------------------------------------
+
+    @staticmethod
+    def _bind(host: str, port: int) -> socket.socket:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            sock.bind((host, port))
+        except OSError as exc:
+            sock.close()
+            if exc.errno == errno.EADDRINUSE:
+                raise PortInUseError(host, port) from exc
+            raise
+        sock.setblocking(False)
+        return sock
+
+    def _check_sysid_param(self) -> None:
+        try:
+            param_sysid = self._vehicle.params.get("MAV_SYS_ID")
+        except ParamError:
+            return
+        if param_sysid != self._config.sysid:
+            logger.warning(
+                "MAV_SYS_ID is %s but the endpoint speaks as system %d",
+                param_sysid,
+                self._config.sysid,
+            )
+
+    @property
+    def local_address(self) -> tuple[str, int]:
+        """(address, port) the socket is bound to."""
+        if self._sock is None:
+            raise RuntimeError("endpoint is closed")
+        host, port = self._sock.getsockname()[:2]
+        return (host, port)
+
+    @property
+    def peers(self) -> tuple[tuple[str, int], ...]:
+        """Addresses frames are sent to: configured peers, then learned ones."""
+        return tuple(self._peers)
+
+    def close(self) -> None:
+        """Flush and close the tlog, close the socket. Safe to call twice."""
+        if self._tlog is not None:
+            self._tlog.close()
+        if self._sock is not None:
+            self._sock.close()
+            self._sock = None
+
+    def __enter__(self) -> MavlinkEndpoint:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # --- the loop ----------------------------------------------------------------------------
+
+    def poll(self, now_s: float) -> None:
+        """Handle received datagrams, then send whatever is due at simulation time ``now_s``."""
+        sock = self._sock
+        if sock is None:
+            raise RuntimeError("endpoint is closed")
+        self._now_s = now_s
+        self._snapshot = None
+        for _ in range(MAX_DATAGRAMS_PER_POLL):
+            try:
+                data, address = sock.recvfrom(MAX_DATAGRAM_BYTES)
+            except BlockingIOError:
+                break
+            except OSError as exc:
+                self.stats.recv_errors += 1
+                logger.debug("recvfrom failed: %s", exc)
+                break
+            self._on_datagram(data, address)
+        if now_s >= self._next_work_s or now_s < self._last_poll_s:
+            self._work(now_s)
+        self._last_poll_s = now_s
+
+    def _work(self, now_s: float) -> None:
+        """Periodic part of poll: streams, status texts, parameter list, tlog flush."""
+        now_us = round(now_s * 1e6)
+        if now_s < self._last_poll_s:
+            logger.info("simulation time went back to %.6f s: restarting streams", now_s)
+            self._streams.restart(now_us)
+            self._next_statustext_us = now_us
+            self._next_flush_us = now_us
+        for spec in self._streams.pop_due(now_us):
+            self._emit(spec.msg_id)
+        if now_us >= self._next_statustext_us:
+            self._next_statustext_us = now_us + STATUSTEXT_POLL_INTERVAL_US
+            for severity, text in self._vehicle.pop_status_texts():
+                self.announce(severity, text)
+        if self._params.list_pending:
+            self._params.send_list_batch()
+        if self._tlog is not None and now_us >= self._next_flush_us:
+            self._next_flush_us = now_us + TLOG_FLUSH_INTERVAL_US
+            self._tlog.flush()
+        self._reschedule()
+
+    def _reschedule(self) -> None:
+        """Compute the earliest simulation time at which :meth:`_work` has something to do."""
+        if self._params.list_pending:
+            self._next_work_s = -_NEVER
+            return
+        next_us = min(self._streams.next_due_us, self._next_statustext_us)
+        if self._tlog is not None:
+            next_us = min(next_us, self._next_flush_us)
+        # Half a microsecond early so that float rounding never delays a due message a poll.
+        self._next_work_s = (next_us - 0.5) / 1e6
+
+    def _telemetry(self) -> TelemetrySnapshot:
+        """The vehicle's snapshot for this poll (read at most once per poll)."""
+        if self._snapshot is None:
+            self._snapshot = self._vehicle.telemetry()
+        return self._snapshot
+
+    # --- sending -----------------------------------------------------------------------------
+
+    def _send(self, message: mavlink2.MAVLink_message) -> None:
+        """Pack ``message`` with our ids and the next sequence number; send it to every peer."""
+        try:
+            frame = message.pack(self._mav)
+        except Exception:
+            self.stats.encode_errors += 1
+            logger.exception("cannot pack %s", message.get_type())
+            return
+        self._mav.seq = (self._mav.seq + 1) & 0xFF
+        self.stats.frames_sent += 1
+        sock = self._sock
+        if sock is not None:
+            for peer in self._peers:
+                try:
+                    sock.sendto(frame, peer)
+                except OSError:
+                    self.stats.send_errors += 1
+        if self._tlog is not None:
+            self._tlog.write(self._now_s, frame)
+
+    def _build(self, msg_id: int) -> mavlink2.MAVLink_message | None:
+        """Build message ``msg_id`` from this poll's snapshot (None: nothing to report).
+
+        An exception from ``vehicle.telemetry()`` propagates (a flight-stack bug); one from
+        building the message is counted in ``stats.encode_errors`` and logged.
+        """
+        snapshot = self._telemetry()
+        try:
+            return messages.BUILDERS[msg_id](snapshot, self._context)
+        except Exception:
+            self.stats.encode_errors += 1
+            logger.exception("cannot build message %d", msg_id)
+            return None
+
+    def _emit(self, msg_id: int) -> None:
+        message = self._build(msg_id)
+        if message is not None:
+            self._send(message)
+
+    def announce(self, severity: int, text: str) -> None:
+        """Send ``text`` as STATUSTEXT (chunked when longer than 50 bytes)."""
+        self._statustext_id = self._statustext_id % 0xFFFF + 1
+        for chunk in messages.statustext_chunks(severity, text, self._statustext_id):
+            self._send(chunk)
+
+    # --- receiving ---------------------------------------------------------------------------
+
+    def _on_datagram(self, data: bytes, address: tuple[str, int]) -> None:
+        """Parse one datagram and handle each frame in it."""
+        self.stats.datagrams_received += 1
+        parser = self._mav
+        try:
+            frames = parser.parse_buffer(data) or []
+        except Exception as exc:
+            self.stats.parse_errors += 1
+            logger.debug("unparsable datagram from %s: %s", address, exc)
+            frames = []
+        if parser.buf_len() > 0:
+            # A frame cut short by the end of the datagram: drop it rather than let it swallow
+            # the start of the next datagram.
+            self.stats.parse_errors += 1
+            logger.debug("truncated frame from %s (%d bytes)", address, parser.buf_len())
+            parser.buf = bytearray()
+            parser.buf_index = 0
+            parser.expected_length = mavlink2.HEADER_LEN_V1 + 2
+        learned = False
+        for msg in frames:
+            msg_id = msg.get_msgId()
+            if msg_id == mavlink2.MAVLINK_MSG_ID_BAD_DATA:
+                self.stats.parse_errors += 1
+                logger.debug("bad data from %s: %s", address, getattr(msg, "reason", ""))
+                continue
+            self.stats.frames_received += 1
+            if self._tlog is not None:
+                self._tlog.write(self._now_s, bytes(msg.get_msgbuf()))
+            if msg_id == mavlink2.MAVLINK_MSG_ID_UNKNOWN:
+                self.stats.unknown_messages += 1
+                continue
+            if not learned:
+                self._learn_peer(address)
+                learned = True
+            handler = self._handlers.get(msg_id)
+            if handler is None or self._from_ourselves(msg):
+                continue
+            try:
+                handler(msg)
+            except Exception:
+                self.stats.handler_errors += 1
+                logger.exception("error handling %s from %s", msg.get_type(), address)
+
+    def _learn_peer(self, address: tuple[str, int]) -> None:
+        peer = (address[0], address[1])
+        if peer in self._peers:
+            return
+        if self._learned_peers >= MAX_LEARNED_PEERS:
+            logger.debug("not learning peer %s: already %d learned", peer, MAX_LEARNED_PEERS)
+            return
+        self._learned_peers += 1
+        self._peers.append(peer)
+        logger.info("new MAVLink peer %s:%d", *peer)
+
+    def _from_ourselves(self, msg: mavlink2.MAVLink_message) -> bool:
+        return (
+            msg.get_srcSystem() == self._config.sysid
+            and msg.get_srcComponent() == self._config.compid
+        )
+
+    def _targets_us(self, target_system: int, target_component: int) -> bool:
+        return target_system in (0, self._config.sysid) and target_component in (
+            0,
+            self._config.compid,
+        )
+
+    def _on_command(self, msg: mavlink2.MAVLink_message) -> None:
+        if not self._targets_us(msg.target_system, msg.target_component):
+            self.stats.commands_ignored += 1
+            return
+        self._replies.clear()
+        reply = self._commands.handle(CommandRequest.from_message(msg))
+        if reply.duplicate:
+            self.stats.commands_duplicate += 1
+        else:
+            self.stats.commands_handled += 1
+        self._send(
+            mavlink2.MAVLink_command_ack_message(
+                command=msg.command,
+                result=reply.result,
+                progress=0,
+                result_param2=0,
+                target_system=msg.get_srcSystem(),
+                target_component=msg.get_srcComponent(),
+            )
+        )
+        replies, self._replies = self._replies, []
+        for message in replies:
+            self._send(message)
+
+    def _on_param_request_list(self, msg: mavlink2.MAVLink_message) -> None:
+        if self._targets_us(msg.target_system, msg.target_component):
+            self._params.handle_request_list()
+            self._next_work_s = -_NEVER
+
+    def _on_param_request_read(self, msg: mavlink2.MAVLink_message) -> None:
+        if self._targets_us(msg.target_system, msg.target_component):
+            self._params.handle_request_read(msg)
+
+    def _on_param_set(self, msg: mavlink2.MAVLink_message) -> None:
+        if self._targets_us(msg.target_system, msg.target_component):
+            self._params.handle_set(msg)
+
+    def _on_ping(self, msg: mavlink2.MAVLink_message) -> None:
+        # As PX4: target 0/0 is a request to answer; a PING addressed to us is a reply to a
+        # ping of ours (we send none), answering it could start a ping-pong between vehicles.
+        if msg.target_system == 0 and msg.target_component == 0:
+            self._send(
+                mavlink2.MAVLink_ping_message(
+                    time_usec=msg.time_usec,
+                    seq=msg.seq,
+                    target_system=msg.get_srcSystem(),
+                    target_component=msg.get_srcComponent(),
+                )
+            )
+
+    # --- CommandServices (called by the dispatcher) ------------------------------------------
+
+    def request_message(self, msg_id: int) -> int:
+        """MAV_CMD_REQUEST_MESSAGE: build ``msg_id`` now, send it after the ACK."""
+        if msg_id not in messages.BUILDERS:
+            return DENIED
+        message = self._build(msg_id)
+        if message is None:
+            return DENIED
+        self._replies.append(message)
+        return ACCEPTED
+
+    def set_message_interval(self, msg_id: int, interval_us: int) -> int:
+        """MAV_CMD_SET_MESSAGE_INTERVAL on one of our streams."""
+        now_us = round(self._now_s * 1e6)
+        if not self._streams.set_interval(msg_id, interval_us, now_us):
+            return DENIED
+        self._reschedule()
+        return ACCEPTED
+
+    def report_message_interval(self, msg_id: int) -> int:
+        """MAV_CMD_GET_MESSAGE_INTERVAL: reply MESSAGE_INTERVAL (0 = not available)."""
+        interval_us = self._streams.interval_us(msg_id) if self._streams.knows(msg_id) else 0
+        self._replies.append(messages.message_interval(msg_id, interval_us))
+        return ACCEPTED
+
+    def home_alt_amsl_m(self) -> float | None:
+        """Home altitude AMSL from this poll's snapshot; None without a home."""
+        home = self._telemetry().home
+        return None if home is None else home.alt_amsl_m

@@ -1,0 +1,141 @@
+"""The PX4 simulator messages: HIL_SENSOR and HIL_GPS out, HIL_ACTUATOR_CONTROLS in.
+
+Units and frames are MAVLink's: body FRD, m/s^2, rad/s, gauss, hPa, degE7, mm, cm, cm/s, cdeg.
+``time_usec`` is simulation time. Messages are built only when a sensor is due.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from pymavlink.dialects.v20 import common as mavlink2
+
+from sitl.sensors.baro import BaroSample
+from sitl.sensors.gps import GpsSample
+
+FIELDS_IMU = (
+    mavlink2.HIL_SENSOR_UPDATED_XACC
+    | mavlink2.HIL_SENSOR_UPDATED_YACC
+    | mavlink2.HIL_SENSOR_UPDATED_ZACC
+    | mavlink2.HIL_SENSOR_UPDATED_XGYRO
+    | mavlink2.HIL_SENSOR_UPDATED_YGYRO
+    | mavlink2.HIL_SENSOR_UPDATED_ZGYRO
+)
+"""HIL_SENSOR fields_updated bits of accelerometer and gyroscope (0x3F)."""
+FIELDS_MAG = (
+    mavlink2.HIL_SENSOR_UPDATED_XMAG
+    | mavlink2.HIL_SENSOR_UPDATED_YMAG
+    | mavlink2.HIL_SENSOR_UPDATED_ZMAG
+)
+"""HIL_SENSOR fields_updated bits of the magnetometer (0x1C0)."""
+FIELDS_BARO = (
+    mavlink2.HIL_SENSOR_UPDATED_ABS_PRESSURE
+    | mavlink2.HIL_SENSOR_UPDATED_PRESSURE_ALT
+    | mavlink2.HIL_SENSOR_UPDATED_TEMPERATURE
+)
+"""HIL_SENSOR fields_updated bits of the barometer (0x1A00)."""
+
+GPS_FIX_3D = mavlink2.GPS_FIX_TYPE_3D_FIX
+"""HIL_GPS fix_type reported (3)."""
+COG_UNKNOWN = 65535
+"""HIL_GPS cog when the course is unknown."""
+COG_MIN_SPEED_M_S = 0.3
+"""Ground speed below which the course over ground is reported unknown, m/s."""
+
+_ARMED = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
+
+
+def read_actuator_controls(
+    messages: Sequence[mavlink2.MAVLink_hil_actuator_controls_message | None],
+    controls_out: np.ndarray,
+) -> bool | None:
+    """Copy the motor commands of the given messages into ``controls_out`` (N, n_rotors).
+
+    A ``None`` entry leaves that vehicle's row unchanged; a message without the SAFETY_ARMED mode
+    flag sets it to zero. Values are copied raw (NaN included): clipping is the caller's.
+
+    Returns:
+        None if no row was written, else whether any written value was NaN.
+    """
+    n_rotors = controls_out.shape[1]
+    written = False
+    nan_seen = False
+    for i, msg in enumerate(messages):
+        if msg is None:
+            continue
+        written = True
+        if msg.mode & _ARMED:
+            values = msg.controls[:n_rotors]
+            total = sum(values)
+            nan_seen = nan_seen or total != total  # NaN (or +inf and -inf together)
+            controls_out[i] = values
+        else:
+            controls_out[i] = 0.0
+    return nan_seen if written else None
+
+
+def hil_sensor_messages(
+    time_usec: int,
+    imu_frd: np.ndarray,
+    mag_frd_gauss: np.ndarray,
+    baro: BaroSample,
+    fields_updated: int,
+) -> list[mavlink2.MAVLink_hil_sensor_message]:
+    """One HIL_SENSOR per vehicle.
+
+    Args:
+        time_usec: simulation time, us.
+        imu_frd: ``(N, 2, 3)``: specific force (m/s^2) and angular rate (rad/s), body FRD.
+        mag_frd_gauss: magnetic field, body FRD, gauss, (N, 3).
+        baro: barometer reading (its latest, flagged or not).
+        fields_updated: HIL_SENSOR_UPDATED_FLAGS bitmask.
+    """
+    n = imu_frd.shape[0]
+    imu = np.concatenate([imu_frd.reshape(n, 6), mag_frd_gauss], axis=1).tolist()
+    pressure = baro.abs_pressure_hpa.tolist()
+    alt = baro.pressure_alt_m.tolist()
+    temp = baro.temperature_c.tolist()
+    make = mavlink2.MAVLink_hil_sensor_message
+    return [
+        make(time_usec, *row, p_hpa, 0.0, alt_m, t_c, fields_updated, 0)
+        for row, p_hpa, alt_m, t_c in zip(imu, pressure, alt, temp, strict=True)
+    ]
+
+
+def hil_gps_messages(
+    time_usec: int, fix: GpsSample, eph_m: float, epv_m: float, satellites_visible: int
+) -> list[mavlink2.MAVLink_hil_gps_message]:
+    """One HIL_GPS (3D fix) per vehicle."""
+    lat = np.rint(fix.lat_deg * 1e7).astype(np.int64).tolist()
+    lon = np.rint(fix.lon_deg * 1e7).astype(np.int64).tolist()
+    alt = np.rint(fix.alt_amsl_m * 1e3).astype(np.int64).tolist()
+    v = fix.velocity_ned_m_s
+    ground_speed = np.hypot(v[:, 0], v[:, 1])
+    cog = np.rint(np.degrees(np.arctan2(v[:, 1], v[:, 0])) % 360.0 * 100.0).astype(np.int64)
+    cog = np.where(ground_speed < COG_MIN_SPEED_M_S, COG_UNKNOWN, cog % 36000).tolist()
+    speed_cm = np.rint(np.clip(ground_speed * 100.0, 0, 65534)).astype(np.int64).tolist()
+    vel_cm = np.rint(np.clip(v * 100.0, -32767, 32767)).astype(np.int64).tolist()
+    eph = round(eph_m * 100.0)
+    epv = round(epv_m * 100.0)
+    make = mavlink2.MAVLink_hil_gps_message
+    return [
+        make(
+            time_usec,
+            GPS_FIX_3D,
+            lat[i],
+            lon[i],
+            alt[i],
+            eph,
+            epv,
+            speed_cm[i],
+            vel_cm[i][0],
+            vel_cm[i][1],
+            vel_cm[i][2],
+            cog[i],
+            satellites_visible,
+            0,
+            0,
+        )
+        for i in range(len(lat))
+    ]

@@ -1,0 +1,147 @@
+"""The PyBullet scene: one DIRECT client, a ground plane and one rigid body per vehicle.
+
+Only the calls PyBullet has no batched form of are made per vehicle (read pose and velocity, apply
+force and torque); everything else works on ``(N, ...)`` arrays. Forces and torques are applied in
+the WORLD frame (PyBullet's LINK_FRAME torque on a base is unreliable).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pybullet as p
+
+from sitl.physics.earth import GRAVITY_M_S2
+
+_STATE_WIDTH = 22  # position 3, quaternion 4, velocity 3, angular velocity 3, rotation matrix 9
+
+
+class BulletScene:
+    """PyBullet world (ENU, z up, ground plane at z = 0) holding N identical rigid bodies."""
+
+    def __init__(
+        self,
+        urdf_path: Path,
+        spawn_positions_enu_m: np.ndarray,
+        spawn_quaternion_xyzw: tuple[float, float, float, float],
+        dt_s: float,
+        ground_friction: float = 1.0,
+    ) -> None:
+        self._cid = p.connect(p.DIRECT)
+        if self._cid < 0:
+            raise RuntimeError("could not start a PyBullet DIRECT client")
+        cid = self._cid
+        p.resetSimulation(physicsClientId=cid)
+        p.setGravity(0.0, 0.0, -GRAVITY_M_S2, physicsClientId=cid)
+        p.setPhysicsEngineParameter(
+            fixedTimeStep=dt_s,
+            numSubSteps=0,
+            deterministicOverlappingPairs=1,
+            physicsClientId=cid,
+        )
+        plane = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid)
+        self.ground_id = p.createMultiBody(0.0, plane, physicsClientId=cid)
+        p.changeDynamics(
+            self.ground_id,
+            -1,
+            lateralFriction=ground_friction,
+            restitution=0.0,
+            physicsClientId=cid,
+        )
+
+        self.body_ids: list[int] = []
+        for position in np.asarray(spawn_positions_enu_m, dtype=float):
+            try:
+                body = p.loadURDF(
+                    str(urdf_path),
+                    basePosition=position.tolist(),
+                    baseOrientation=list(spawn_quaternion_xyzw),
+                    flags=p.URDF_USE_INERTIA_FROM_FILE,
+                    physicsClientId=cid,
+                )
+            except p.error as exc:
+                self.close()
+                raise ValueError(f"{urdf_path}: PyBullet could not load it ({exc})") from exc
+            p.changeDynamics(
+                body,
+                -1,
+                linearDamping=0.0,
+                angularDamping=0.0,
+                lateralFriction=ground_friction,
+                restitution=0.0,
+                activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING,
+                physicsClientId=cid,
+            )
+            self.body_ids.append(body)
+
+        n = len(self.body_ids)
+        self._state = np.zeros((n, _STATE_WIDTH))
+        s = self._state
+        self.position_enu_m = s[:, 0:3]
+        """Centre-of-mass positions, ENU, m, (N, 3) view (valid after ``read_state``)."""
+        self.quaternion_xyzw = s[:, 3:7]
+        """Attitudes FLU->ENU, (x, y, z, w), (N, 4) view."""
+        self.velocity_enu_m_s = s[:, 7:10]
+        """Centre-of-mass velocities, ENU, m/s, (N, 3) view."""
+        self.angular_velocity_enu_rad_s = s[:, 10:13]
+        """Angular velocities in world ENU axes, rad/s, (N, 3) view."""
+        self.rotation = s[:, 13:22].reshape(n, 3, 3)
+        """Rotation matrices FLU->ENU (``v_enu = R @ v_flu``), (N, 3, 3) view."""
+        assert np.shares_memory(self.rotation, s), "rotation must be a view of the state"
+        self._rotation_t = self.rotation.transpose(0, 2, 1)
+        self._velocity_row = self.velocity_enu_m_s[:, None, :]
+        self.velocity_flu_m_s = np.zeros((n, 1, 3))
+        """Centre-of-mass velocities in body FLU axes, m/s, (N, 1, 3) (valid after read_state)."""
+        self._wrench_world = np.zeros((n, 2, 3))
+        self._positions: list[tuple[float, float, float]] = []
+        self.read_state()
+
+    @property
+    def client_id(self) -> int:
+        """PyBullet physics client id."""
+        return self._cid
+
+    def read_state(self) -> None:
+        """Copy every body's pose and velocity from PyBullet into the state arrays."""
+        cid = self._cid
+        get_pose = p.getBasePositionAndOrientation
+        get_vel = p.getBaseVelocity
+        get_mat = p.getMatrixFromQuaternion
+        rows = []
+        positions = []
+        for body in self.body_ids:
+            pos, orn = get_pose(body, physicsClientId=cid)
+            lin, ang = get_vel(body, physicsClientId=cid)
+            rows.append(pos + orn + lin + ang + get_mat(orn))
+            positions.append(pos)
+        self._state[:] = rows
+        self._positions = positions
+        np.matmul(self._velocity_row, self.rotation, out=self.velocity_flu_m_s)
+
+    def apply_body_wrench_and_step(self, wrench_flu: np.ndarray) -> None:
+        """Apply [F_flu, tau_flu] ``(N, 6)`` at each centre of mass, step once, read the state."""
+        n = len(self.body_ids)
+        # Row vectors: [F; tau] (N, 2, 3) @ R^T = [(R F)^T; (R tau)^T].
+        np.matmul(wrench_flu.reshape(n, 2, 3), self._rotation_t, out=self._wrench_world)
+        wrenches = self._wrench_world.tolist()
+        cid = self._cid
+        world = p.WORLD_FRAME
+        apply_force = p.applyExternalForce
+        apply_torque = p.applyExternalTorque
+        for body, (force, torque), pos in zip(
+            self.body_ids, wrenches, self._positions, strict=True
+        ):
+            apply_force(body, -1, force, pos, world, physicsClientId=cid)
+            apply_torque(body, -1, torque, world, physicsClientId=cid)
+        p.stepSimulation(physicsClientId=cid)
+        self.read_state()
+
+    def close(self) -> None:
+        """Disconnect the PyBullet client (idempotent)."""
+        if self._cid >= 0:
+            try:
+                p.disconnect(physicsClientId=self._cid)
+            except p.error:
+                pass
+            self._cid = -1

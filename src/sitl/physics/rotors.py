@@ -1,0 +1,190 @@
+"""Rotors of a whole fleet of multirotors: motor lag, thrust, yaw reaction, rotor drag.
+
+The model is the one of PX4's Gazebo-classic motor plugin (``gazebo_motor_model.cpp``), written
+for arrays of shape ``(N, n_rotors)`` so that one numpy call advances every vehicle:
+
+- motor speed follows its command through a first-order lag whose time constant is
+  ``time_constant_up_s`` when speeding up and ``time_constant_down_s`` when slowing down, discretised
+  exactly: ``w += (1 - exp(-dt / tau)) * (w_cmd - w)``;
+- thrust ``k_f w^2`` along body up, applied at the rotor hub;
+- yaw reaction ``moment_coefficient_m * k_f w^2``: a CW rotor (seen from above) pushes the body
+  counter-clockwise, i.e. about +z FLU;
+- rotor drag ``-w * rotor_drag_coefficient * v_perp`` (v_perp: airspeed in the rotor plane),
+  applied at the hub, and rolling moment ``-w * rolling_moment_coefficient * v_perp``;
+- a constant linear fuselage drag ``-c * v`` per body axis (not in the Gazebo model; documented in
+  the airframe YAML).
+
+Not modelled: PX4 Gazebo's ad-hoc thrust reduction with axial speed (its own comment says it "has to
+be modelled better"), blade flapping, ground effect, wind. The airspeed of every rotor is taken as
+the velocity of the centre of mass (the ``omega x r`` term is neglected).
+
+Everything here is expressed in the body FLU frame, in which PyBullet integrates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from sitl import frames
+
+
+class Spin(str, Enum):
+    """Turning direction of a rotor seen from above."""
+
+    CW = "cw"
+    CCW = "ccw"
+
+
+@dataclass(frozen=True)
+class MotorParams:
+    """Parameters shared by every motor and propeller of an airframe."""
+
+    thrust_coefficient_n_s2_rad2: float
+    """Thrust per squared rotor speed k_f, N/(rad/s)^2 (Gazebo ``motorConstant``)."""
+    moment_coefficient_m: float
+    """Yaw reaction torque per unit thrust, m (Gazebo ``momentConstant``)."""
+    max_speed_rad_s: float
+    """Rotor speed at command 1, rad/s (Gazebo ``maxRotVelocity``)."""
+    time_constant_up_s: float
+    """First-order lag time constant while speeding up, s."""
+    time_constant_down_s: float
+    """First-order lag time constant while slowing down, s."""
+    rotor_drag_coefficient_n_s_m_rad: float
+    """In-plane rotor drag per rotor speed per airspeed, N/((rad/s)(m/s))."""
+    rolling_moment_coefficient_n_s_rad: float
+    """Rolling moment per rotor speed per in-plane airspeed, N m/((rad/s)(m/s))."""
+
+    def __post_init__(self) -> None:
+        for name in (
+            "thrust_coefficient_n_s2_rad2",
+            "max_speed_rad_s",
+            "time_constant_up_s",
+            "time_constant_down_s",
+        ):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"motor {name} must be positive, got {getattr(self, name)!r}")
+
+
+@dataclass(frozen=True)
+class RotorSpec:
+    """One rotor of a layout table."""
+
+    output: int
+    """Actuator output index (position in HIL_ACTUATOR_CONTROLS.controls)."""
+    position_frd_m: tuple[float, float, float]
+    """Hub position relative to the centre of mass, body FRD, m."""
+    spin: Spin
+    """Turning direction seen from above."""
+
+
+class RotorModel:
+    """Rotor speeds and the body wrench they produce, for N vehicles at once.
+
+    The wrench is linear in the features ``[w_i^2, w_i v_j, v_j]``, so one matrix product maps
+    them all: ``wrench (N, 6) = features (N, n + 3 (n + 1)) @ wrench_map``.
+    """
+
+    def __init__(
+        self,
+        motor: MotorParams,
+        rotors: tuple[RotorSpec, ...],
+        fuselage_drag_n_s_m: tuple[float, float, float],
+        n_vehicles: int,
+        dt_s: float,
+    ) -> None:
+        n_rot = len(rotors)
+        self.motor = motor
+        self.n_rotors = n_rot
+        k_f = motor.thrust_coefficient_n_s2_rad2
+        self.yaw_coefficient_n_m_s2_rad2 = motor.moment_coefficient_m * k_f
+        """Yaw reaction torque per squared rotor speed k_m, N m/(rad/s)^2."""
+
+        pos_flu = frames.frd_to_flu(np.array([r.position_frd_m for r in rotors]))
+        spin_sign = np.array([1.0 if r.spin is Spin.CW else -1.0 for r in rotors])
+
+        # Wrench [F_flu, tau_flu] per squared rotor speed: (n_rot, 6).
+        thrust_map = np.zeros((n_rot, 6))
+        thrust_map[:, 2] = k_f
+        thrust_map[:, 3] = pos_flu[:, 1] * k_f
+        thrust_map[:, 4] = -pos_flu[:, 0] * k_f
+        thrust_map[:, 5] = spin_sign * self.yaw_coefficient_n_m_s2_rad2
+
+        # Wrench per unit rotor speed per unit body velocity component: (n_rot + 1, 3, 6); the
+        # extra "rotor", whose speed is a constant 1, holds the fuselage drag.
+        in_plane = np.diag([1.0, 1.0, 0.0])
+        c_d = motor.rotor_drag_coefficient_n_s_m_rad
+        c_roll = motor.rolling_moment_coefficient_n_s_rad
+        drag_map = np.zeros((n_rot + 1, 6, 3))
+        for i, r in enumerate(pos_flu):
+            cross = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+            drag_map[i, :3] = -c_d * in_plane
+            drag_map[i, 3:] = -c_d * cross @ in_plane - c_roll * in_plane
+        drag_map[n_rot, :3] = -np.diag(np.asarray(fuselage_drag_n_s_m, dtype=float))
+        drag_rows = drag_map.transpose(0, 2, 1).reshape(3 * (n_rot + 1), 6)
+        self._wrench_map = np.vstack([thrust_map, drag_rows])
+
+        self._alpha_up = -np.expm1(-dt_s / motor.time_constant_up_s)
+        self._alpha_down = -np.expm1(-dt_s / motor.time_constant_down_s)
+
+        # State and scratch buffers, allocated once (none in the hot loop).
+        self._speed_aug = np.zeros((n_vehicles, n_rot + 1))
+        self._speed_aug[:, n_rot] = 1.0
+        self._speed_aug_col = self._speed_aug[:, :, None]
+        self.speed_rad_s = self._speed_aug[:, :n_rot]
+        """Rotor speeds, rad/s, (N, n_rotors) view into the state buffer."""
+        self.command_rad_s = np.zeros((n_vehicles, n_rot))
+        """Commanded rotor speeds, rad/s, (N, n_rotors); set through ``set_command``."""
+        self._features = np.zeros((n_vehicles, n_rot + 3 * (n_rot + 1)))
+        self._features_sq = self._features[:, :n_rot]
+        self._features_drag = self._features[:, n_rot:].reshape(n_vehicles, n_rot + 1, 3)
+        self._wrench = np.zeros((n_vehicles, 6))
+        # Lag w += alpha (w_cmd - w) as w = keep * w + gain; alpha is fixed between command
+        # changes because an exact first-order lag never overshoots its command.
+        self._rising = np.zeros((n_vehicles, n_rot), dtype=bool)
+        self._alpha = np.zeros((n_vehicles, n_rot))
+        self._keep = np.ones((n_vehicles, n_rot))
+        self._gain = np.zeros((n_vehicles, n_rot))
+
+    def set_command(self, command_rad_s: np.ndarray) -> None:
+        """Set the commanded rotor speeds, rad/s, (N, n_rotors)."""
+        if command_rad_s is not self.command_rad_s:
+            self.command_rad_s[:] = command_rad_s
+        self._refresh_lag()
+
+    def set_speed(self, speed_rad_s: np.ndarray) -> None:
+        """Set the rotor speeds directly (initial conditions, tests), rad/s."""
+        self.speed_rad_s[:] = speed_rad_s
+        self._refresh_lag()
+
+    def _refresh_lag(self) -> None:
+        np.greater(self.command_rad_s, self.speed_rad_s, out=self._rising)
+        np.multiply(self._rising, self._alpha_up - self._alpha_down, out=self._alpha)
+        np.add(self._alpha, self._alpha_down, out=self._alpha)
+        np.subtract(1.0, self._alpha, out=self._keep)
+        np.multiply(self._alpha, self.command_rad_s, out=self._gain)
+
+    def body_wrench(self, velocity_flu_m_s: np.ndarray) -> np.ndarray:
+        """Force and torque on each body, ``(N, 6)`` = [F_flu (N), tau_flu (N m)].
+
+        Args:
+            velocity_flu_m_s: velocity of each centre of mass in its body FLU frame, ``(N, 1, 3)``.
+
+        Returns:
+            A buffer owned by this object, overwritten by the next call.
+        """
+        np.multiply(self.speed_rad_s, self.speed_rad_s, out=self._features_sq)
+        np.multiply(self._speed_aug_col, velocity_flu_m_s, out=self._features_drag)
+        return np.matmul(self._features, self._wrench_map, out=self._wrench)
+
+    def advance(self) -> None:
+        """Move the rotor speeds one physics step towards their commands (first-order lag)."""
+        speed = self.speed_rad_s
+        np.multiply(speed, self._keep, out=speed)
+        np.add(speed, self._gain, out=speed)
+
+    def shaft_power_w(self) -> np.ndarray:
+        """Mechanical shaft power of each vehicle's rotors, sum of k_m w^3, W, ``(N,)``."""
+        return self.yaw_coefficient_n_m_s2_rad2 * np.sum(self.speed_rad_s**3, axis=1)

@@ -1,0 +1,81 @@
+"""StreamScheduler: simulation-time intervals, SET_MESSAGE_INTERVAL semantics."""
+
+from __future__ import annotations
+
+import pytest
+
+from autopilot_emu.mavlink.streams import (
+    DEFAULT_STREAMS,
+    StreamScheduler,
+    StreamSpec,
+    rate_to_interval_us,
+)
+
+SPECS = (StreamSpec("A", 1, 10.0), StreamSpec("B", 2, 1.0), StreamSpec("C", 3, 0.0))
+
+
+def _names(specs):
+    return [s.name for s in specs]
+
+
+def test_everything_enabled_is_due_at_start_then_at_its_rate():
+    scheduler = StreamScheduler(SPECS)
+    assert _names(scheduler.pop_due(0)) == ["A", "B"]
+    assert scheduler.next_due_us == 100_000
+    assert scheduler.pop_due(99_999) == []
+    assert _names(scheduler.pop_due(100_000)) == ["A"]
+    counts = {"A": 0, "B": 0}
+    for now_us in range(101_000, 10_000_001, 1000):
+        for spec in scheduler.pop_due(now_us):
+            counts[spec.name] += 1
+    assert counts == {"A": 99, "B": 10}
+
+
+def test_a_late_poll_does_not_burst():
+    scheduler = StreamScheduler(SPECS)
+    scheduler.pop_due(0)
+    assert _names(scheduler.pop_due(1_000_000)) == ["A", "B"]
+    assert _names(scheduler.pop_due(1_000_000)) == []
+    assert scheduler.next_due_us == 1_100_000
+
+
+def test_set_interval_semantics():
+    scheduler = StreamScheduler(SPECS)
+    scheduler.pop_due(0)
+    assert scheduler.set_interval(1, 500_000, 0)
+    assert scheduler.interval_us(1) == 500_000
+    assert scheduler.set_interval(1, -1, 0)
+    assert scheduler.interval_us(1) == -1
+    assert scheduler.set_interval(1, 0, 0)
+    assert scheduler.interval_us(1) == 100_000
+    assert scheduler.set_interval(3, 250_000, 0)  # off by default, switched on
+    assert _names(scheduler.pop_due(250_000)) == ["A", "C"]
+    assert not scheduler.set_interval(99, 1000, 0)
+    assert not scheduler.set_interval(1, -2, 0)
+    assert not scheduler.knows(99)
+
+
+def test_rate_overrides_and_validation():
+    scheduler = StreamScheduler(SPECS, {"A": 0.0, "C": 2.0})
+    assert _names(scheduler.pop_due(0)) == ["B", "C"]
+    with pytest.raises(ValueError, match="D"):
+        StreamScheduler(SPECS, {"D": 1.0})
+
+
+def test_restart_makes_every_enabled_stream_due():
+    scheduler = StreamScheduler(SPECS)
+    scheduler.pop_due(5_000_000)
+    scheduler.restart(0)
+    assert _names(scheduler.pop_due(0)) == ["A", "B"]
+
+
+def test_rate_to_interval():
+    assert rate_to_interval_us(20.0) == 50_000
+    assert rate_to_interval_us(0.0) == -1
+    assert rate_to_interval_us(-3.0) == -1
+
+
+def test_default_table_starts_with_heartbeat_at_1_hz():
+    assert DEFAULT_STREAMS[0].name == "HEARTBEAT"
+    assert DEFAULT_STREAMS[0].default_rate_hz == 1.0
+    assert len({s.msg_id for s in DEFAULT_STREAMS}) == len(DEFAULT_STREAMS)

@@ -1,0 +1,24 @@
+"""The package boundaries of DESIGN.md hold: companion and autopilot never import the simulator."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from importlinter.cli import lint_imports
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_import_contracts_are_kept(monkeypatch):
+    """All import-linter contracts in pyproject.toml pass (companion/autopilot_emu/sitl limits)."""
+    monkeypatch.chdir(ROOT)
+    assert lint_imports(config_filename=str(ROOT / "pyproject.toml")) == 0
+
+
+def test_contracts_cover_the_design_boundaries():
+    """The contracts themselves forbid what DESIGN.md forbids (so they cannot be weakened silently)."""
+    text = (ROOT / "pyproject.toml").read_text()
+    assert 'source_modules = ["companion"]' in text
+    assert 'forbidden_modules = ["sitl", "autopilot_emu", "harness"]' in text
+    assert 'source_modules = ["autopilot_emu"]' in text
+    assert 'forbidden_modules = ["sitl", "companion", "worlds", "compression", "harness"]' in text
