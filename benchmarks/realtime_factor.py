@@ -29,7 +29,7 @@ import pymap3d
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from harness.simulation import PortPlan, Simulation, SimulationConfig  # noqa: E402
+from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 TAKEOFF_AT_S = 3.0
 GOTO_AT_S = 12.0
@@ -97,9 +97,11 @@ def main() -> int:
     args = ap.parse_args()
     counts = [int(c) for c in args.vehicles.split(",") if c.strip()]
     print(f"machine: {machine()}")
-    print(f"scenario: boot {TAKEOFF_AT_S:g} s, takeoff to MIS_TAKEOFF_ALT, hover, goto "
-          f"{GOTO_NORTH_M:g} m north at {GOTO_AT_S:g} s, until {args.sim_seconds:g} s; "
-          f"500 Hz physics, lockstep, MAVLink endpoints open, no clients")  # fmt: skip
+    print(
+        f"scenario: boot {TAKEOFF_AT_S:g} s, takeoff to MIS_TAKEOFF_ALT, hover, goto "
+        f"{GOTO_NORTH_M:g} m north at {GOTO_AT_S:g} s, until {args.sim_seconds:g} s; "
+        f"500 Hz physics, lockstep, MAVLink endpoints open, no clients"
+    )
     results: dict[str, str] = {}
     for n in counts:
         prof = cProfile.Profile() if args.profile else None
@@ -110,9 +112,11 @@ def main() -> int:
             prof.disable()
         rtf = args.sim_seconds / wall
         steps = args.sim_seconds * 500
-        print(f"swarmsitl N={n:3d}: {wall:7.2f} s wall for {args.sim_seconds:g} s sim -> "
-              f"rtf {rtf:7.2f}  ({1e6 * wall / steps:7.1f} us per physics step)  "
-              f"flight: {summary}")  # fmt: skip
+        print(
+            f"swarmsitl N={n:3d}: {wall:7.2f} s wall for {args.sim_seconds:g} s sim -> "
+            f"rtf {rtf:7.2f}  ({1e6 * wall / steps:7.1f} us per physics step)  "
+            f"flight: {summary}"
+        )
         results[f"rtf_{n}"] = f"{rtf:.2f}"
         if prof:
             buf = io.StringIO()
@@ -126,9 +130,11 @@ def main() -> int:
             try:
                 peer = run_pyflyt(n, args.sim_seconds)
                 results[key] = f"{peer['rtf']:.2f}"
-                print(f"PyFlyt    N={n:3d}: {peer['wall_seconds']:7.2f} s wall -> rtf "
-                      f"{peer['rtf']:7.2f} (PyFlyt {peer.get('pyflyt_version')}, physics "
-                      f"{peer.get('physics_hz')} Hz, control {peer.get('control_hz')} Hz)")  # fmt: skip
+                print(
+                    f"PyFlyt    N={n:3d}: {peer['wall_seconds']:7.2f} s wall -> rtf "
+                    f"{peer['rtf']:7.2f} (PyFlyt {peer.get('pyflyt_version')}, physics "
+                    f"{peer.get('physics_hz')} Hz, control {peer.get('control_hz')} Hz)"
+                )
             except PeerUnavailable as exc:
                 results[key] = "nan"
                 print(f"PyFlyt    N={n:3d}: unavailable: {exc}")

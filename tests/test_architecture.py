@@ -16,7 +16,7 @@ def test_import_contracts_are_kept(monkeypatch):
 
 
 def test_contracts_cover_the_design_boundaries():
-    """The contracts themselves forbid what DESIGN.md forbids (so they cannot be weakened silently)."""
+    """The contracts forbid what DESIGN.md forbids (so they cannot be weakened silently)."""
     text = (ROOT / "pyproject.toml").read_text()
     assert 'source_modules = ["companion"]' in text
     assert 'forbidden_modules = ["sitl", "autopilot_emu", "harness"]' in text

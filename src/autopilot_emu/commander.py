@@ -178,8 +178,10 @@ class Commander:
         self._set_mode(MainMode.AUTO, AutoSubMode.TAKEOFF)
         if not self.in_air:
             self.landed_state = LandedState.TAKEOFF
-        self._say(SEVERITY_INFO, "Takeoff to {:.1f} m above home".format(
-            alt_amsl_m - self.home.alt_amsl_m))  # fmt: skip
+        self._say(
+            SEVERITY_INFO,
+            f"Takeoff to {alt_amsl_m - self.home.alt_amsl_m:.1f} m above home",
+        )
         return ACCEPTED
 
     def land(self) -> int:
@@ -207,8 +209,8 @@ class Commander:
         self._target[2] = self._rtl_alt_ned_z
         self._yaw_sp = self._last.yaw_rad
         self._set_mode(MainMode.AUTO, AutoSubMode.RTL)
-        self._say(SEVERITY_INFO, "RTL: climbing to {:.1f} m above home".format(
-            self._last.origin_alt_amsl_m - self._rtl_alt_ned_z - self.home.alt_amsl_m))  # fmt: skip
+        above_home = self._last.origin_alt_amsl_m - self._rtl_alt_ned_z - self.home.alt_amsl_m
+        self._say(SEVERITY_INFO, f"RTL: climbing to {above_home:.1f} m above home")
         return ACCEPTED
 
     def set_mode(self, main: int, sub: int) -> int:
@@ -235,8 +237,14 @@ class Commander:
         if main == MainMode.OFFBOARD:
             self._say(SEVERITY_CRITICAL, "Offboard mode denied: no setpoint stream")
             return DENIED
-        if main in (MainMode.POSCTL, MainMode.ALTCTL, MainMode.MANUAL, MainMode.STABILIZED,
-                    MainMode.ACRO, MainMode.RATTITUDE):  # fmt: skip
+        if main in (
+            MainMode.POSCTL,
+            MainMode.ALTCTL,
+            MainMode.MANUAL,
+            MainMode.STABILIZED,
+            MainMode.ACRO,
+            MainMode.RATTITUDE,
+        ):
             self._say(SEVERITY_CRITICAL, "Manual modes denied: no RC or manual control input")
             return DENIED
         return DENIED
@@ -262,7 +270,9 @@ class Commander:
 
     def change_speed(self, speed_m_s: float) -> int:
         """Ground speed for AUTO modes; -1 or NaN restores MPC_XY_CRUISE."""
-        self._speed_override_m_s = speed_m_s if math.isfinite(speed_m_s) and speed_m_s > 0 else math.nan
+        self._speed_override_m_s = (
+            speed_m_s if math.isfinite(speed_m_s) and speed_m_s > 0 else math.nan
+        )
         return ACCEPTED
 
     def terminate(self) -> int:
@@ -331,9 +341,10 @@ class Commander:
         elif self._rtl_phase == RtlPhase.RETURN:
             out.position_ned_m = self._target.copy()
             dist = float(np.hypot(*(nav.position_ned_m[:2] - home.position_ned_m[:2])))
-            if dist < float(self.params.get("NAV_ACC_RAD")) * 0.5 and np.hypot(
-                nav.velocity_ned_m_s[0], nav.velocity_ned_m_s[1]
-            ) < 0.5:
+            if (
+                dist < float(self.params.get("NAV_ACC_RAD")) * 0.5
+                and np.hypot(nav.velocity_ned_m_s[0], nav.velocity_ned_m_s[1]) < 0.5
+            ):
                 self._rtl_phase = RtlPhase.LAND
                 self._target = np.array([home.position_ned_m[0], home.position_ned_m[1], np.nan])
                 self._say(SEVERITY_INFO, "RTL: landing at home")
@@ -351,8 +362,10 @@ class Commander:
         vz = abs(float(nav.velocity_ned_m_s[2]))
         vxy = float(np.hypot(nav.velocity_ned_m_s[0], nav.velocity_ned_m_s[1]))
         if not self.in_air or self.landed_state == LandedState.TAKEOFF:
-            if self.armed and self.landed_state == LandedState.TAKEOFF and (
-                self._relative_alt(nav) > 0.5 or nav.velocity_ned_m_s[2] < -0.5
+            if (
+                self.armed
+                and self.landed_state == LandedState.TAKEOFF
+                and (self._relative_alt(nav) > 0.5 or nav.velocity_ned_m_s[2] < -0.5)
             ):
                 self.landed_state = LandedState.IN_AIR
             return
@@ -376,7 +389,11 @@ class Commander:
     def _check_preflight_disarm(self, nav: NavInput) -> None:
         since = self._ground_since_s if self._ground_since_s is not None else self._arm_time_s
         since = max(since, self._arm_time_s)
-        landed_after_flight = self._ground_since_s is not None and self._ground_since_s >= self._arm_time_s
-        limit = float(self.params.get("COM_DISARM_LAND" if landed_after_flight else "COM_DISARM_PRFLT"))
+        landed_after_flight = (
+            self._ground_since_s is not None and self._ground_since_s >= self._arm_time_s
+        )
+        limit = float(
+            self.params.get("COM_DISARM_LAND" if landed_after_flight else "COM_DISARM_PRFLT")
+        )
         if limit > 0 and nav.time_s - since >= limit:
             self._disarm("Disarmed by landing" if landed_after_flight else "Disarmed: no takeoff")

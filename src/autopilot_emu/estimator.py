@@ -73,22 +73,13 @@ class _SharedGain:
         dt = self.pending_s
         if dt > 0.0:
             self.kf.F = np.array([[1.0, dt], [0.0, 1.0]])
-            self.kf.Q = self._s2 * np.array(
-                [[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]]
-            )
+            self.kf.Q = self._s2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
             self.kf.predict()
             self.pending_s = 0.0
         self.kf.update(np.zeros(h.shape[0]), R=r, H=h)
         return self.kf.K
 
 
-def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of (N, 3) arrays (cheaper than np.cross for small N)."""
-    return a[:, _YZX] * b[:, _ZXY] - a[:, _ZXY] * b[:, _YZX]
-
-
-_YZX = [1, 2, 0]
-_ZXY = [2, 0, 1]
 _H_POS = np.array([[1.0, 0.0]])
 _H_POS_VEL = np.eye(2)
 
@@ -160,9 +151,9 @@ class FleetEstimator:
         r = self.r
         # Expected specific force from the estimated acceleration: f = R^T (a - g).
         f_exp = np.einsum("nji,nj->ni", r, self.accel_ned_m_s2 - _G_NED)
-        a_unit = accel_frd / np.maximum(np.linalg.norm(accel_frd, axis=1, keepdims=True), 1e-6)
-        v_unit = f_exp / np.maximum(np.linalg.norm(f_exp, axis=1, keepdims=True), 1e-6)
-        err = cross(a_unit, v_unit)
+        a_unit = accel_frd / np.maximum(quat.row_norm(accel_frd), 1e-6)[:, None]
+        v_unit = f_exp / np.maximum(quat.row_norm(f_exp), 1e-6)[:, None]
+        err = quat.cross(a_unit, v_unit)
         rates = gyro_frd - self.gyro_bias_rad_s
         self.gyro_bias_rad_s -= (cfg.bias_gain * dt_s) * err
         self.rates_rad_s = rates
@@ -180,13 +171,11 @@ class FleetEstimator:
         self._h_gain.pending_s += dt_s
         self._v_gain.pending_s += dt_s
         self.r = quat.to_rotation_matrix(self.q)
-        self._update_accel_estimate(dt_s)
 
     def update_mag(self, mag_frd: np.ndarray, mask: np.ndarray) -> None:
         """Heading correction from the magnetometer, applied by the next ``update_imu``."""
-        if not mask.all():
-            if not mask.any():
-                return
+        if not mask.any():
+            return
         r = self.r
         m_ned = np.einsum("nij,nj->ni", r, mag_frd)
         heading_err = quat.wrap_pi(np.arctan2(m_ned[:, 1], m_ned[:, 0]) - self._decl_rad)
@@ -261,12 +250,14 @@ class FleetEstimator:
         return new_origin
 
     # -- internals ---------------------------------------------------------------------------
-    def _update_accel_estimate(self, dt_s: float) -> None:
+    def update_acceleration(self, dt_s: float) -> None:
+        """Refresh the NED-acceleration estimate (navigation rate is enough for its 0.3 s LPF)."""
         vel = self.velocity_ned_m_s
         deriv = (vel - self._last_vel) * (1.0 / dt_s)
         self._last_vel = vel.copy()
         alpha = dt_s / (self.config.accel_lpf_tau_s + dt_s)
-        self.accel_ned_m_s2 += alpha * (np.clip(deriv, -30.0, 30.0) - self.accel_ned_m_s2)
+        deriv = np.minimum(np.maximum(deriv, -30.0), 30.0)
+        self.accel_ned_m_s2 += alpha * (deriv - self.accel_ned_m_s2)
         # Without a position fix there is nothing to compensate with.
         if not self.origin_set.all():
             self.accel_ned_m_s2[~self.origin_set] = 0.0

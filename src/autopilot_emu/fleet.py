@@ -13,9 +13,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import pymap3d
 from pymavlink.dialects.v20 import common as mavlink2
 
+from autopilot_emu import geodesy
 from autopilot_emu import quaternion as quat
 from autopilot_emu.battery import BatteryModel, FleetBattery
 from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
@@ -102,12 +102,24 @@ class AutopilotFleet:
         est = self.estimator
         raw = np.array(
             [
-                (m.xacc, m.yacc, m.zacc, m.xgyro, m.ygyro, m.zgyro, m.xmag, m.ymag, m.zmag,
-                 m.pressure_alt, m.fields_updated)
+                (
+                    m.xacc,
+                    m.yacc,
+                    m.zacc,
+                    m.xgyro,
+                    m.ygyro,
+                    m.zgyro,
+                    m.xmag,
+                    m.ymag,
+                    m.zmag,
+                    m.pressure_alt,
+                    m.fields_updated,
+                )
                 for m in msgs
-            ]  # fmt: skip
+            ]
         )
-        raw = np.nan_to_num(raw)
+        if not np.isfinite(raw).all():
+            raw = np.nan_to_num(raw)  # a corrupt sample must not poison the filters
         t_usec = int(msgs[0].time_usec)
         if self.time_usec == 0 or t_usec <= self.time_usec:
             dt = 1.0 / self.config.imu_hz
@@ -128,10 +140,11 @@ class AutopilotFleet:
         gains = self._refresh_gains()
         self._nav_accum_s += dt
         if self._nav_accum_s >= self._nav_period_s - 1e-9:
+            self.battery.update(self.thrust, gains.hover_thrust, self.armed, self._nav_accum_s)
+            est.update_acceleration(self._nav_accum_s)
             self._navigate(self._nav_accum_s, gains)
             self._nav_accum_s = 0.0
         self._control(dt, gains)
-        self.battery.update(self.thrust, gains.hover_thrust, self.armed, dt)
         return self._actuator_messages(t_usec)
 
     def handle_gps(self, msgs: list[mavlink2.MAVLink_hil_gps_message]) -> None:
@@ -143,22 +156,27 @@ class AutopilotFleet:
         )
         lla = np.stack((g[:, 0] * 1e-7, g[:, 1] * 1e-7, g[:, 2] * 1e-3), axis=1)
         vel = g[:, 3:6] * 0.01
-        o = est.origin_lla
-        n, e, d = pymap3d.geodetic2ned(lla[:, 0], lla[:, 1], lla[:, 2], o[:, 0], o[:, 1], o[:, 2])
-        ned = np.stack((n, e, d), axis=1)
+        ned = geodesy.geodetic_to_ned(lla, est.origin_lla)
         est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m)
 
     # -- loops ------------------------------------------------------------------------------------
     def _navigate(self, dt: float, gains: _Gains) -> None:
         est = self.estimator
         pos, vel = est.position_ned_m, est.velocity_ned_m_s
-        yaw = quat.to_euler(est.q)[:, 2]
+        yaw = quat.yaw_of(est.r)
         ok = est.position_ok
         sp = self._sp
         for i, cmd in enumerate(self.commanders):
             out: NavOutput = cmd.update(
-                NavInput(est.time_s, pos[i], vel[i], float(yaw[i]), bool(ok[i]),
-                         float(self.thrust[i]), float(est.origin_lla[i, 2]))  # fmt: skip
+                NavInput(
+                    est.time_s,
+                    pos[i],
+                    vel[i],
+                    float(yaw[i]),
+                    bool(ok[i]),
+                    float(self.thrust[i]),
+                    float(est.origin_lla[i, 2]),
+                )
             )
             sp.position_ned_m[i] = out.position_ned_m
             sp.velocity_ff_m_s[i] = out.velocity_ff_m_s
@@ -184,9 +202,10 @@ class AutopilotFleet:
             est.rates_rad_s, rate_sp, gains.rate_p, gains.rate_i, gains.rate_d, dt, self.active
         )
         out = self.mixer.mix(torque, self.thrust)
-        idle = np.full_like(out, self.mixer.idle_output)
-        out = np.where(self.active[:, None], out, idle)
-        self.outputs = np.where(self.armed[:, None], out, 0.0)
+        if not (self.active.all() and self.armed.all()):
+            out[~self.active] = self.mixer.idle_output
+            out[~self.armed] = 0.0
+        self.outputs = out
 
     def _actuator_messages(
         self, t_usec: int
@@ -241,15 +260,16 @@ class _Gains:
             return np.stack([col(fmt.format(a)) for a in ("ROLL", "PITCH", "YAW")], axis=1)
 
         hover = col("MPC_THR_HOVER")
+        xyz = ("MPC_XY_{}", "MPC_XY_{}", "MPC_Z_{}")
+
+        def axes(suffix: str) -> np.ndarray:
+            return np.stack([col(fmt.format(suffix)) for fmt in xyz], axis=1)
+
         position = PositionGains(
-            xy_p=col("MPC_XY_P"),
-            z_p=col("MPC_Z_P"),
-            xy_vel_p=col("MPC_XY_VEL_P_ACC"),
-            xy_vel_i=col("MPC_XY_VEL_I_ACC"),
-            xy_vel_d=col("MPC_XY_VEL_D_ACC"),
-            z_vel_p=col("MPC_Z_VEL_P_ACC"),
-            z_vel_i=col("MPC_Z_VEL_I_ACC"),
-            z_vel_d=col("MPC_Z_VEL_D_ACC"),
+            pos_p=axes("P"),
+            vel_p=axes("VEL_P_ACC"),
+            vel_i=axes("VEL_I_ACC"),
+            vel_d=axes("VEL_D_ACC"),
             hover_thrust=hover,
             tilt_max_rad=np.radians(col("MPC_TILTMAX_AIR")),
             acc_hor_max_m_s2=col("MPC_ACC_HOR"),
@@ -279,14 +299,12 @@ class FleetVehicle:
         return result
 
     def _geodetic(self, ned: np.ndarray) -> tuple[float, float, float]:
-        o = self.fleet.estimator.origin_lla[self.index]
-        lat, lon, alt = pymap3d.ned2geodetic(ned[0], ned[1], ned[2], o[0], o[1], o[2])
-        return float(lat), float(lon), float(alt)
+        lla = geodesy.ned_to_geodetic(ned, self.fleet.estimator.origin_lla[self.index])
+        return float(lla[0]), float(lla[1]), float(lla[2])
 
     def _to_ned(self, lat: float, lon: float, alt: float) -> np.ndarray:
-        o = self.fleet.estimator.origin_lla[self.index]
-        n, e, d = pymap3d.geodetic2ned(lat, lon, alt, o[0], o[1], o[2])
-        return np.array([n, e, d], dtype=float)
+        lla = np.array([lat, lon, alt], dtype=float)
+        return geodesy.geodetic_to_ned(lla, self.fleet.estimator.origin_lla[self.index])
 
     # -- commands ----------------------------------------------------------------------------
     def arm(self, force: bool) -> int:
@@ -370,7 +388,7 @@ class FleetVehicle:
         home = None
         rel_alt = 0.0
         if cmd.home is not None and origin_ok:
-            hlat, hlon, halt = self._geodetic(cmd.home.position_ned_m)
+            hlat, hlon, _ = self._geodetic(cmd.home.position_ned_m)
             home = HomeSnapshot(hlat, hlon, cmd.home.alt_amsl_m, tuple(cmd.home.position_ned_m))
             rel_alt = float(cmd.home.position_ned_m[2] - pos[2])
         pos_ok = bool(est.position_ok[i])
@@ -393,10 +411,15 @@ class FleetVehicle:
             )
         else:
             gps_fields = dict(
-                gps_fix_type=0, gps_lat_deg=math.nan, gps_lon_deg=math.nan,
-                gps_alt_amsl_m=math.nan, gps_eph_m=math.nan, gps_epv_m=math.nan,
-                gps_satellites=0, gps_velocity_ned_m_s=(0.0, 0.0, 0.0),
-            )  # fmt: skip
+                gps_fix_type=0,
+                gps_lat_deg=math.nan,
+                gps_lon_deg=math.nan,
+                gps_alt_amsl_m=math.nan,
+                gps_eph_m=math.nan,
+                gps_epv_m=math.nan,
+                gps_satellites=0,
+                gps_velocity_ned_m_s=(0.0, 0.0, 0.0),
+            )
         bat = f.battery
         return TelemetrySnapshot(
             time_usec=f.time_usec,

@@ -77,8 +77,9 @@ def up(
     """
     run_dir = out or default_run_dir()
     ports = PortPlan(bind, sdk_port, listen_port, gcs_port)
-    cfg = SimulationConfig(n_vehicles=vehicles, seed=seed, spacing_m=spacing, ports=ports,
-                           out_dir=run_dir)  # fmt: skip
+    cfg = SimulationConfig(
+        n_vehicles=vehicles, seed=seed, spacing_m=spacing, ports=ports, out_dir=run_dir
+    )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
     for col in ("vehicle", "sysid", "listens on", "sends to", "MAVSDK URL", "home (lat, lon, alt)"):
@@ -86,8 +87,14 @@ def up(
     for i in range(vehicles):
         lat, lon, alt = sim.world.home_geodetic(i)
         sends = ", ".join(f"{a}:{p}" for a, p in ports.peers(i))
-        table.add_row(str(i), str(i + 1), f"{bind}:{ports.listen_port(i)}", sends,
-                      f"udpin://0.0.0.0:{ports.sdk_port(i)}", f"{lat:.6f}, {lon:.6f}, {alt:.1f}")  # fmt: skip
+        table.add_row(
+            str(i),
+            str(i + 1),
+            f"{bind}:{ports.listen_port(i)}",
+            sends,
+            f"udpin://0.0.0.0:{ports.sdk_port(i)}",
+            f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
+        )
     console.print(table)
     console.print("Press Ctrl-C to stop.")
     flag = _StopFlag()
@@ -126,9 +133,17 @@ def demo(
     cfg = SimulationConfig(n_vehicles=1, seed=seed, ports=ports, out_dir=run_dir)
     sim = _open_simulation(cfg)
     events_path = run_dir / "client_events.json"
-    cmd = [sys.executable, "-m", "companion.scripts.demo_flight",
-           "--url", f"udpin://0.0.0.0:{sdk_port}", "--grpc-port", str(grpc_port),
-           "--events", str(events_path)]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "companion.scripts.demo_flight",
+        "--url",
+        f"udpin://0.0.0.0:{sdk_port}",
+        "--grpc-port",
+        str(grpc_port),
+        "--events",
+        str(events_path),
+    ]
     env = os.environ | {"SWARMSITL_SPEED": str(speed)}
     console.print(f"[bold]swarmsitl demo[/bold]: speed {speed:g}x, run dir {run_dir}")
     log = (run_dir / "client.log").open("w")
@@ -160,14 +175,23 @@ def demo(
         raise typer.Exit(1)
     client = json.loads(events_path.read_text())
     track = sim.recorder.vehicle(0)
-    origin = (sim.world.config.origin_lat_deg, sim.world.config.origin_lon_deg,
-              sim.world.config.origin_alt_amsl_m)  # fmt: skip
+    origin = (
+        sim.world.config.origin_lat_deg,
+        sim.world.config.origin_lon_deg,
+        sim.world.config.origin_alt_amsl_m,
+    )
     metrics = demo_metrics(track, client["events"], client["settings"], origin)
     write_report(
         run_dir / "report.json",
         metrics,
-        {"speed": speed, "seed": seed, "sim_time_s": sim.time_s, "client_exit_code": proc.returncode,
-         "events": client["events"], "units": "SI; keys carry their unit"},  # fmt: skip
+        {
+            "speed": speed,
+            "seed": seed,
+            "sim_time_s": sim.time_s,
+            "client_exit_code": proc.returncode,
+            "events": client["events"],
+            "units": "SI; keys carry their unit",
+        },
     )
     plot_trajectory(track, run_dir / "trajectory.png", "swarmsitl demo: takeoff, goto, RTL")
     table = Table(title="demo flight (from simulated ground truth)")

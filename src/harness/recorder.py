@@ -18,10 +18,26 @@ if TYPE_CHECKING:
     from harness.simulation import Simulation
 
 COLUMNS = (
-    "time_s", "vehicle", "east_m", "north_m", "up_m", "v_east_m_s", "v_north_m_s", "v_up_m_s",
-    "tilt_deg", "rotor_power_w", "est_north_m", "est_east_m", "est_down_m", "armed",
-    "main_mode", "sub_mode", "landed_state", "thrust", "wall_s",
-)  # fmt: skip
+    "time_s",
+    "vehicle",
+    "east_m",
+    "north_m",
+    "up_m",
+    "v_east_m_s",
+    "v_north_m_s",
+    "v_up_m_s",
+    "tilt_deg",
+    "rotor_power_w",
+    "est_north_m",
+    "est_east_m",
+    "est_down_m",
+    "armed",
+    "main_mode",
+    "sub_mode",
+    "landed_state",
+    "thrust",
+    "wall_s",
+)
 
 
 @dataclass
@@ -44,14 +60,25 @@ class FlightRecorder:
         n = fleet.n
         est = fleet.estimator.position_ned_m
         state = np.array(
-            [(c.armed, int(c.main_mode), int(c.sub_mode), int(c.landed_state))
-             for c in fleet.commanders], dtype=float)  # fmt: skip
+            [
+                (c.armed, int(c.main_mode), int(c.sub_mode), int(c.landed_state))
+                for c in fleet.commanders
+            ],
+            dtype=float,
+        )
         block = np.column_stack(
             (
-                np.full(n, t), np.arange(n), truth.position_enu_m, truth.velocity_enu_m_s,
-                np.degrees(truth.tilt_rad), truth.rotor_shaft_power_w, est, state, fleet.thrust,
+                np.full(n, t),
+                np.arange(n),
+                truth.position_enu_m,
+                truth.velocity_enu_m_s,
+                np.degrees(truth.tilt_rad),
+                truth.rotor_shaft_power_w,
+                est,
+                state,
+                fleet.thrust,
                 np.full(n, time.time()),
-            )  # fmt: skip
+            )
         )
         self.rows.append(block)
 

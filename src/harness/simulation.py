@@ -120,9 +120,7 @@ class Simulation:
         self._step_count = 0
         self._actuators: list = [None] * n
         self._keep: list = [None] * n
-        self.recorder = (
-            FlightRecorder(self, config.record_hz) if config.record_hz > 0 else None
-        )
+        self.recorder = FlightRecorder(self, config.record_hz) if config.record_hz > 0 else None
         self._closed = False
 
     def _endpoint(self, i: int) -> MavlinkEndpoint:

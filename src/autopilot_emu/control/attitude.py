@@ -27,4 +27,4 @@ def attitude_rate_setpoint(
         # A yaw rate about NED z expressed in the body frame (third row of R).
         r = quat.to_rotation_matrix(q)
         rate_sp += np.nan_to_num(yaw_rate_ff_rad_s)[:, None] * r[:, 2, :]
-    return np.clip(rate_sp, -rate_max_rad_s, rate_max_rad_s)
+    return np.minimum(np.maximum(rate_sp, -rate_max_rad_s), rate_max_rad_s)

@@ -49,14 +49,20 @@ class Mixer:
         t_rp = torque[:, :2] @ self.matrix[:, :2].T
         t_y = torque[:, 2:3] * self.matrix[:, 2][None, :]
         thr = thrust[:, None] * self.thrust_column[None, :]
-        # Shift collective thrust so roll/pitch fit in [0, 1] (PX4 airmode-like desaturation).
+        base = thr + t_rp
+        fractions = base + t_y
+        if fractions.max() > 1.0 or fractions.min() < 0.0:
+            fractions = self._desaturate(thr, t_rp, t_y)
+        return np.maximum(np.sqrt(fractions), self.idle_output)
+
+    @staticmethod
+    def _desaturate(thr: np.ndarray, t_rp: np.ndarray, t_y: np.ndarray) -> np.ndarray:
+        """Keep roll/pitch by shifting collective thrust, then scale yaw into what is left."""
         hi = (thr + t_rp).max(axis=1, keepdims=True)
         lo = (thr + t_rp).min(axis=1, keepdims=True)
         thr = thr - np.maximum(hi - 1.0, 0.0) + np.maximum(-lo, 0.0)
         base = thr + t_rp
-        # Scale yaw into the remaining headroom.
         room_up = np.where(t_y > 0, (1.0 - base) / np.maximum(t_y, 1e-9), np.inf)
         room_dn = np.where(t_y < 0, base / np.maximum(-t_y, 1e-9), np.inf)
         k = np.clip(np.minimum(room_up, room_dn).min(axis=1, keepdims=True), 0.0, 1.0)
-        fractions = np.clip(base + k * t_y, 0.0, 1.0)
-        return np.maximum(np.sqrt(fractions), self.idle_output)
+        return np.clip(base + k * t_y, 0.0, 1.0)

@@ -9,7 +9,7 @@ hover thrust MPC_THR_HOVER. The attitude setpoint combines that body-z with the 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -19,19 +19,23 @@ from autopilot_emu.estimator import GRAVITY_M_S2
 
 @dataclass
 class PositionGains:
-    """Per-vehicle gains (N,) arrays, refreshed from parameters when they change."""
+    """Per-vehicle gains, refreshed from parameters when they change.
 
-    xy_p: np.ndarray
-    z_p: np.ndarray
-    xy_vel_p: np.ndarray
-    xy_vel_i: np.ndarray
-    xy_vel_d: np.ndarray
-    z_vel_p: np.ndarray
-    z_vel_i: np.ndarray
-    z_vel_d: np.ndarray
+    Per-axis gains are (N, 3) arrays (north, east, down: MPC_XY_* twice, then MPC_Z_*); the rest
+    are (N,).
+    """
+
+    pos_p: np.ndarray
+    vel_p: np.ndarray
+    vel_i: np.ndarray
+    vel_d: np.ndarray
     hover_thrust: np.ndarray
     tilt_max_rad: np.ndarray
     acc_hor_max_m_s2: np.ndarray
+    cos_tilt_max: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.cos_tilt_max = np.cos(self.tilt_max_rad)
 
 
 @dataclass
@@ -62,6 +66,13 @@ class PositionSetpoint:
         )
 
 
+_G_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
+_ACC_Z_MAX = 0.8 * GRAVITY_M_S2
+"""Vertical acceleration demand limit, m/s²."""
+_INT_MAX = np.array([1.0, 1.0, 4.0])
+"""Velocity-integrator limits (north, east, down), m/s²."""
+
+
 class PositionController:
     """Cascaded position and velocity control for N vehicles."""
 
@@ -88,75 +99,72 @@ class PositionController:
         """Return the attitude setpoint quaternions (N, 4) and collective thrust (N,) in 0..1."""
         err = sp.position_ned_m - position
         has_pos = np.isfinite(err)
-        vel_cmd = sp.velocity_ff_m_s.copy()
-        p = np.stack((gains.xy_p, gains.xy_p, gains.z_p), axis=1)
-        vel_cmd += np.where(has_pos, p * np.nan_to_num(err), 0.0)
+        err = np.where(has_pos, err, 0.0)
+        vel_cmd = sp.velocity_ff_m_s + gains.pos_p * err
         # Per-axis limits: horizontal norm, vertical up/down. Horizontally also the speed from
         # which the vehicle can still stop at the target with half of MPC_ACC_HOR (what PX4's
         # jerk-limited trajectory achieves), so goto arrives without overshoot.
         hnorm = np.hypot(vel_cmd[:, 0], vel_cmd[:, 1])
-        dist = np.where(has_pos[:, 0], np.hypot(*np.nan_to_num(err[:, :2]).T), np.inf)
-        v_stop = np.sqrt(gains.acc_hor_max_m_s2 * dist)
-        scale = np.minimum(1.0, np.minimum(sp.max_speed_xy_m_s, v_stop) / np.maximum(hnorm, 1e-9))
-        vel_cmd[:, :2] *= scale[:, None]
-        vel_cmd[:, 2] = np.clip(vel_cmd[:, 2], -sp.max_speed_up_m_s, sp.max_speed_down_m_s)
+        dist = np.where(has_pos[:, 0], np.hypot(err[:, 0], err[:, 1]), np.inf)
+        v_max = np.minimum(sp.max_speed_xy_m_s, np.sqrt(gains.acc_hor_max_m_s2 * dist))
+        vel_cmd[:, :2] *= np.minimum(1.0, v_max / np.maximum(hnorm, 1e-9))[:, None]
+        vel_cmd[:, 2] = np.minimum(
+            np.maximum(vel_cmd[:, 2], -sp.max_speed_up_m_s), sp.max_speed_down_m_s
+        )
         # Horizontal slew limit (acceleration) on the velocity setpoint.
         dv = vel_cmd[:, :2] - self.vel_sp[:, :2]
         dvn = np.hypot(dv[:, 0], dv[:, 1])
-        step = gains.acc_hor_max_m_s2 * dt_s
-        dv *= np.minimum(1.0, step / np.maximum(dvn, 1e-9))[:, None]
+        dv *= np.minimum(1.0, (gains.acc_hor_max_m_s2 * dt_s) / np.maximum(dvn, 1e-9))[:, None]
         self.vel_sp[:, :2] += dv
         self.vel_sp[:, 2] = vel_cmd[:, 2]
-        self.vel_sp[~active] = velocity[~active]
+        if not active.all():
+            self.vel_sp[~active] = velocity[~active]
 
         # Velocity PID -> acceleration setpoint (NED).
         verr = self.vel_sp - velocity
-        kp = np.stack((gains.xy_vel_p, gains.xy_vel_p, gains.z_vel_p), axis=1)
-        ki = np.stack((gains.xy_vel_i, gains.xy_vel_i, gains.z_vel_i), axis=1)
-        kd = np.stack((gains.xy_vel_d, gains.xy_vel_d, gains.z_vel_d), axis=1)
-        dvel = (velocity - self._prev_vel) / dt_s
+        dvel = (velocity - self._prev_vel) * (1.0 / dt_s)
         self._prev_vel = velocity.copy()
-        acc = kp * verr + self.vel_int - kd * dvel
-        acc[:, 2] = np.clip(acc[:, 2], -GRAVITY_M_S2 * 0.8, GRAVITY_M_S2 * 0.8)
+        acc = gains.vel_p * verr + self.vel_int - gains.vel_d * dvel
+        acc[:, 2] = np.minimum(np.maximum(acc[:, 2], -_ACC_Z_MAX), _ACC_Z_MAX)
 
         # Thrust direction: body z (down) opposes the required specific force.
-        force = acc - np.array([0.0, 0.0, GRAVITY_M_S2])
-        body_z = -force / np.maximum(np.linalg.norm(force, axis=1, keepdims=True), 1e-6)
-        body_z = _limit_tilt(body_z, gains.tilt_max_rad)
+        force = acc - _G_NED
+        body_z = force * (-1.0 / np.maximum(quat.row_norm(force), 1e-6))[:, None]
+        body_z = _limit_tilt(body_z, gains.tilt_max_rad, gains.cos_tilt_max)
         thrust = gains.hover_thrust * (GRAVITY_M_S2 - acc[:, 2]) / (GRAVITY_M_S2 * body_z[:, 2])
-        thrust_sat = np.clip(thrust, 0.05, 0.95)
+        thrust_sat = np.minimum(np.maximum(thrust, 0.05), 0.95)
 
-        # Integrate with anti-windup: stop integrating an axis that saturates.
-        sat_z = thrust != thrust_sat
-        int_step = ki * verr * dt_s
-        int_step[sat_z, 2] = 0.0
-        self.vel_int += np.where(active[:, None], int_step, 0.0)
-        self.vel_int[:, :2] = np.clip(self.vel_int[:, :2], -1.0, 1.0)
-        self.vel_int[:, 2] = np.clip(self.vel_int[:, 2], -4.0, 4.0)
+        # Integrate with anti-windup: stop integrating the vertical axis while thrust saturates.
+        int_step = gains.vel_i * verr * dt_s
+        int_step[:, 2] *= thrust == thrust_sat
+        int_step *= active[:, None]
+        self.vel_int = np.minimum(np.maximum(self.vel_int + int_step, -_INT_MAX), _INT_MAX)
         return attitude_from_body_z(body_z, sp.yaw_rad), thrust_sat
 
 
-def _limit_tilt(body_z: np.ndarray, tilt_max_rad: np.ndarray) -> np.ndarray:
+def _limit_tilt(body_z: np.ndarray, tilt_max_rad: np.ndarray, cos_max: np.ndarray) -> np.ndarray:
     """Rotate body_z towards vertical so its tilt never exceeds tilt_max."""
-    cos_tilt = np.clip(body_z[:, 2], -1.0, 1.0)
-    tilt = np.arccos(cos_tilt)
-    over = tilt > tilt_max_rad
+    over = body_z[:, 2] < cos_max
     if not over.any():
         return body_z
     out = body_z.copy()
     h = body_z[over, :2]
-    hn = np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-9)
-    t = tilt_max_rad[over]
-    out[over, :2] = h / hn * np.sin(t)[:, None]
-    out[over, 2] = np.cos(t)
+    hn = np.maximum(np.hypot(h[:, 0], h[:, 1]), 1e-9)[:, None]
+    out[over, :2] = h / hn * np.sin(tilt_max_rad[over])[:, None]
+    out[over, 2] = cos_max[over]
     return out
 
 
 def attitude_from_body_z(body_z: np.ndarray, yaw_rad: np.ndarray) -> np.ndarray:
-    """Attitude quaternion whose body z is ``body_z`` (NED) and whose heading is ``yaw``."""
-    y_c = np.stack((-np.sin(yaw_rad), np.cos(yaw_rad), np.zeros_like(yaw_rad)), axis=1)
-    body_x = np.cross(y_c, body_z)
-    body_x /= np.maximum(np.linalg.norm(body_x, axis=1, keepdims=True), 1e-9)
-    body_y = np.cross(body_z, body_x)
-    r = np.stack((body_x, body_y, body_z), axis=2)
-    return quat.from_rotation_matrix(r)
+    """Attitude quaternion whose body z is ``body_z`` (NED) and whose heading is ``yaw``.
+
+    As PX4's bodyzToAttitude: body x is the horizontal heading direction made orthogonal to
+    body z (y_C x body_z), body y completes the frame.
+    """
+    y_c = np.zeros_like(body_z)
+    y_c[:, 0] = -np.sin(yaw_rad)
+    y_c[:, 1] = np.cos(yaw_rad)
+    body_x = quat.cross(y_c, body_z)
+    body_x /= np.maximum(quat.row_norm(body_x), 1e-9)[:, None]
+    body_y = quat.cross(body_z, body_x)
+    return quat.from_rotation_matrix(np.stack((body_x, body_y, body_z), axis=2))

@@ -34,5 +34,6 @@ class RateController:
         self._prev_rates = rates
         torque = kp * err + self.integral - kd * d_rates
         self.integral += np.where(integrate[:, None], ki * err * dt_s, 0.0)
-        np.clip(self.integral, -self.integrator_limit, self.integrator_limit, out=self.integral)
-        return np.clip(torque, -1.0, 1.0)
+        lim = self.integrator_limit
+        np.minimum(np.maximum(self.integral, -lim, out=self.integral), lim, out=self.integral)
+        return np.minimum(np.maximum(torque, -1.0), 1.0)

@@ -114,7 +114,7 @@ class VehiclePort(Protocol):
         ...
 
     def set_mode(self, main_mode: int, sub_mode: int) -> int:
-        """MAV_CMD_DO_SET_MODE with PX4 custom main/sub mode (the armed bit of param1 is ignored)."""
+        """MAV_CMD_DO_SET_MODE with PX4 custom main/sub modes (param1's armed bit is ignored)."""
         ...
 
     def reposition(

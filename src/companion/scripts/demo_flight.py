@@ -28,16 +28,16 @@ class FlightError(RuntimeError):
     """The vehicle did not do what was asked in time."""
 
 
-async def _first(stream: Any) -> Any:  # noqa: ANN401 - MAVSDK async generators are untyped
+async def _first(stream: Any) -> Any:
     async for item in stream:
         return item
     raise FlightError("telemetry stream ended")
 
 
-async def _wait_for(stream: Any, predicate: Any, timeout_s: float, what: str) -> Any:  # noqa: ANN401
+async def _wait_for(stream: Any, predicate: Any, timeout_s: float, what: str) -> Any:
     """Wait (in simulated seconds) until an item of ``stream`` satisfies ``predicate``."""
 
-    async def scan() -> Any:  # noqa: ANN401
+    async def scan() -> Any:
         async for item in stream:
             if predicate(item):
                 return item
@@ -53,7 +53,7 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
     """The flight itself."""
     from mavsdk_grpc import System
 
-    def event(name: str, **data: Any) -> None:  # noqa: ANN401
+    def event(name: str, **data: Any) -> None:
         events.append({"event": name, "wall_s": time.time(), **data})
         print(f"[demo] {name} {json.dumps(data) if data else ''}", flush=True)
 
@@ -69,8 +69,12 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
             "global position and home",
         )
         home = await _first(drone.telemetry.home())
-        event("health_ok", home_lat=home.latitude_deg, home_lon=home.longitude_deg,
-              home_alt_amsl_m=home.absolute_altitude_m)  # fmt: skip
+        event(
+            "health_ok",
+            home_lat=home.latitude_deg,
+            home_lon=home.longitude_deg,
+            home_alt_amsl_m=home.absolute_altitude_m,
+        )
         await drone.action.set_takeoff_altitude(args.takeoff_alt)
         await drone.action.set_return_to_launch_altitude(args.rtl_alt)
         await drone.action.arm()
@@ -89,14 +93,18 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
         event("hover_done", relative_alt_m=pos.relative_altitude_m)
 
         lat, lon, _ = pymap3d.ned2geodetic(
-            args.goto_north_m, args.goto_east_m, 0.0,
-            home.latitude_deg, home.longitude_deg, home.absolute_altitude_m,
-        )  # fmt: skip
+            args.goto_north_m,
+            args.goto_east_m,
+            0.0,
+            home.latitude_deg,
+            home.longitude_deg,
+            home.absolute_altitude_m,
+        )
         alt = home.absolute_altitude_m + args.takeoff_alt
         await drone.action.goto_location(float(lat), float(lon), alt, 0.0)
         event("goto_commanded", lat=float(lat), lon=float(lon), alt_amsl_m=alt)
 
-        def arrived(p: Any) -> bool:  # noqa: ANN401
+        def arrived(p: Any) -> bool:
             n, e, d = pymap3d.geodetic2ned(
                 p.latitude_deg, p.longitude_deg, p.absolute_altitude_m, lat, lon, alt
             )
@@ -144,8 +152,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[demo] error: {exc!r}", file=sys.stderr, flush=True)
         rc = 1
     if args.events:
-        args.events.write_text(json.dumps({"settings": vars(args) | {"events": None},
-                                           "events": events}, default=str, indent=1))  # fmt: skip
+        args.events.write_text(
+            json.dumps(
+                {"settings": vars(args) | {"events": None}, "events": events}, default=str, indent=1
+            )
+        )
     sys.stdout.flush()
     sys.stderr.flush()
     # mavsdk_grpc leaves a non-daemon log thread behind; leave without waiting for it.
