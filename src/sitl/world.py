@@ -24,7 +24,7 @@ from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import BulletScene
 from sitl.physics.earth import magnetic_field_ned_gauss
 from sitl.physics.rotors import RotorModel
-from sitl.sensors.baro import Barometer
+from sitl.sensors.baro import Barometer, BaroSample
 from sitl.sensors.gps import Gps
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer
@@ -143,6 +143,9 @@ class World:
 
         self._rotors = RotorModel(spec.motor, spec.rotors, spec.fuselage_drag_n_s_m, n, dt)
         self._controls = np.zeros((n, len(spec.rotors)))
+        self._zeros = np.zeros_like(self._controls)
+        self._ones = np.ones_like(self._controls)
+        self._max_speed_rad_s = np.full_like(self._controls, spec.motor.max_speed_rad_s)
         self._nan_logged = False
 
         # Sensor construction order fixes the order of random draws: keep it.
@@ -159,8 +162,14 @@ class World:
         self._last_tick = {"imu": -1, "mag": -1, "baro": -1, "gps": -1}
         self._next_mag_tick = 0
         self._next_baro_tick = 0
-        self._mag_frd = np.zeros((n, 3))
-        self._baro_sample = self._baro.sample(np.full(n, self.origin.alt_amsl_m), 0.0)
+        # HIL_SENSOR values, body FRD: specific force, angular rate, magnetic field (views).
+        self._imu_mag_frd = np.zeros((n, 9))
+        self._imu_frd = self._imu_mag_frd[:, :6].reshape(n, 2, 3)
+        self._mag_frd = self._imu_mag_frd[:, 6:]
+        assert np.shares_memory(self._imu_frd, self._imu_mag_frd), "must be a view"
+        # Magnetometer and barometer fall due at tick 0, so they are sampled for (at the latest)
+        # the first HIL_SENSOR, whenever the first poll happens.
+        self._baro_sample: BaroSample | None = None
 
     # -- time ---------------------------------------------------------------------------------
 
@@ -180,7 +189,9 @@ class World:
         """
         if actuators is not None:
             if len(actuators) != self.n_vehicles:
-                raise ValueError(f"expected {self.n_vehicles} actuator entries, got {len(actuators)}")
+                raise ValueError(
+                    f"expected {self.n_vehicles} actuator entries, got {len(actuators)}"
+                )
             nan_seen = hil.read_actuator_controls(actuators, self._controls)
             if nan_seen is not None:
                 self._update_rotor_commands(nan_seen)
@@ -195,11 +206,9 @@ class World:
             log.warning("NaN motor command received; treating it as 0 (logged once per world)")
             self._nan_logged = True
         u = self._controls
-        np.fmax(u, 0.0, out=u)  # fmax turns NaN into 0
-        np.fmin(u, 1.0, out=u)
-        command = self._rotors.command_rad_s
-        np.multiply(u, self.airframe.motor.max_speed_rad_s, out=command)
-        self._rotors.set_command(command)
+        np.fmax(u, self._zeros, out=u)  # fmax turns NaN into 0
+        np.fmin(u, self._ones, out=u)
+        np.multiply(u, self._max_speed_rad_s, out=self._rotors.command_rad_s)
 
     # -- sensors ------------------------------------------------------------------------------
 
@@ -232,16 +241,17 @@ class World:
 
     def _sample_hil_sensor(self, tick: int) -> list[mavlink2.MAVLink_hil_sensor_message]:
         scene = self._scene
-        imu = self._imu.sample(
+        self._imu.sample(
             scene.rotation,
             scene.velocity_enu_m_s,
             scene.angular_velocity_enu_rad_s,
             self._interval_s("imu", tick, self._imu_div),
+            out=self._imu_frd,
         )
         fields = hil.FIELDS_IMU
         if tick >= self._next_mag_tick:
             dt = self._interval_s("mag", tick, self._mag_div)
-            self._mag_frd = self._mag.sample(scene.rotation, dt)
+            self._mag.sample(scene.rotation, dt, out=self._mag_frd)
             self._next_mag_tick = (tick // self._mag_div + 1) * self._mag_div
             fields |= hil.FIELDS_MAG
         if tick >= self._next_baro_tick:
@@ -250,8 +260,9 @@ class World:
             self._baro_sample = self._baro.sample(alt, dt)
             self._next_baro_tick = (tick // self._baro_div + 1) * self._baro_div
             fields |= hil.FIELDS_BARO
+        assert self._baro_sample is not None  # due at tick 0
         return hil.hil_sensor_messages(
-            self._clock.time_usec, imu, self._mag_frd, self._baro_sample, fields
+            self._clock.time_usec, self._imu_mag_frd, self._baro_sample, fields
         )
 
     def _sample_hil_gps(self, tick: int) -> list[mavlink2.MAVLink_hil_gps_message]:
@@ -285,7 +296,7 @@ class World:
         )
 
     def home_geodetic(self, i: int) -> tuple[float, float, float]:
-        """Latitude (deg), longitude (deg) and altitude AMSL (m) of vehicle i's spawn point (CoM)."""
+        """Latitude (deg), longitude (deg), altitude AMSL (m) of vehicle i's spawn point (CoM)."""
         if not 0 <= i < self.n_vehicles:
             raise IndexError(f"vehicle index {i} out of range 0..{self.n_vehicles - 1}")
         lat, lon, alt = frames.enu_to_geodetic(self._spawn_enu[i], self.origin)
@@ -302,7 +313,9 @@ class World:
         self.close()
 
 
-def hover_actuator_message(airframe: MultirotorSpec) -> mavlink2.MAVLink_hil_actuator_controls_message:
+def hover_actuator_message(
+    airframe: MultirotorSpec,
+) -> mavlink2.MAVLink_hil_actuator_controls_message:
     """An armed HIL_ACTUATOR_CONTROLS commanding every rotor to the hover speed."""
     controls = [airframe.hover_command] * len(airframe.rotors) + [0.0] * (16 - len(airframe.rotors))
     return mavlink2.MAVLink_hil_actuator_controls_message(
@@ -320,7 +333,7 @@ def profile(n_vehicles: int, n_steps: int, airborne_steps: int = 1000) -> dict[s
         ``step``: ``World.step`` alone; ``step+poll``: with ``poll_sensors`` after each step;
         ``pybullet``: ``stepSimulation`` alone on the same bodies in free fall (the floor).
     """
-    import pybullet as p  # noqa: PLC0415  (only the profiler calls PyBullet directly)
+    import pybullet as p  # only the profiler calls PyBullet directly
 
     def timed(poll: bool) -> float:
         # Best chunk (least disturbed by other processes), as timeit does.

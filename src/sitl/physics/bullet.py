@@ -7,6 +7,7 @@ the WORLD frame (PyBullet's LINK_FRAME torque on a base is unreliable).
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -42,11 +43,14 @@ class BulletScene:
         )
         plane = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid)
         self.ground_id = p.createMultiBody(0.0, plane, physicsClientId=cid)
+        # Zero collision margin: shapes are exactly as the URDF says, so a vehicle spawned at its
+        # resting height does not pop up by PyBullet's default 1 mm margin.
         p.changeDynamics(
             self.ground_id,
             -1,
             lateralFriction=ground_friction,
             restitution=0.0,
+            collisionMargin=0.0,
             physicsClientId=cid,
         )
 
@@ -70,6 +74,7 @@ class BulletScene:
                 angularDamping=0.0,
                 lateralFriction=ground_friction,
                 restitution=0.0,
+                collisionMargin=0.0,
                 activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING,
                 physicsClientId=cid,
             )
@@ -94,6 +99,7 @@ class BulletScene:
         self.velocity_flu_m_s = np.zeros((n, 1, 3))
         """Centre-of-mass velocities in body FLU axes, m/s, (N, 1, 3) (valid after read_state)."""
         self._wrench_world = np.zeros((n, 2, 3))
+        self._wrench_shape = (n, 2, 3)
         self._positions: list[tuple[float, float, float]] = []
         self.read_state()
 
@@ -111,37 +117,33 @@ class BulletScene:
         rows = []
         positions = []
         for body in self.body_ids:
-            pos, orn = get_pose(body, physicsClientId=cid)
-            lin, ang = get_vel(body, physicsClientId=cid)
+            pos, orn = get_pose(body, cid)
+            lin, ang = get_vel(body, cid)
             rows.append(pos + orn + lin + ang + get_mat(orn))
             positions.append(pos)
         self._state[:] = rows
         self._positions = positions
-        np.matmul(self._velocity_row, self.rotation, out=self.velocity_flu_m_s)
+        np.matmul(self._velocity_row, self.rotation, self.velocity_flu_m_s)
 
     def apply_body_wrench_and_step(self, wrench_flu: np.ndarray) -> None:
         """Apply [F_flu, tau_flu] ``(N, 6)`` at each centre of mass, step once, read the state."""
-        n = len(self.body_ids)
         # Row vectors: [F; tau] (N, 2, 3) @ R^T = [(R F)^T; (R tau)^T].
-        np.matmul(wrench_flu.reshape(n, 2, 3), self._rotation_t, out=self._wrench_world)
-        wrenches = self._wrench_world.tolist()
+        np.matmul(wrench_flu.reshape(self._wrench_shape), self._rotation_t, self._wrench_world)
         cid = self._cid
         world = p.WORLD_FRAME
         apply_force = p.applyExternalForce
         apply_torque = p.applyExternalTorque
         for body, (force, torque), pos in zip(
-            self.body_ids, wrenches, self._positions, strict=True
+            self.body_ids, self._wrench_world.tolist(), self._positions, strict=True
         ):
-            apply_force(body, -1, force, pos, world, physicsClientId=cid)
-            apply_torque(body, -1, torque, world, physicsClientId=cid)
-        p.stepSimulation(physicsClientId=cid)
+            apply_force(body, -1, force, pos, world, cid)
+            apply_torque(body, -1, torque, world, cid)
+        p.stepSimulation(cid)
         self.read_state()
 
     def close(self) -> None:
         """Disconnect the PyBullet client (idempotent)."""
         if self._cid >= 0:
-            try:
+            with contextlib.suppress(p.error):
                 p.disconnect(physicsClientId=self._cid)
-            except p.error:
-                pass
             self._cid = -1

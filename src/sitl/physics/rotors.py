@@ -4,9 +4,9 @@ The model is the one of PX4's Gazebo-classic motor plugin (``gazebo_motor_model.
 for arrays of shape ``(N, n_rotors)`` so that one numpy call advances every vehicle:
 
 - motor speed follows its command through a first-order lag whose time constant is
-  ``time_constant_up_s`` when speeding up and ``time_constant_down_s`` when slowing down, discretised
-  exactly: ``w += (1 - exp(-dt / tau)) * (w_cmd - w)``;
-- thrust ``k_f w^2`` along body up, applied at the rotor hub;
+  ``time_constant_up_s`` when speeding up and ``time_constant_down_s`` when slowing down,
+  discretised exactly: ``w += (1 - exp(-dt / tau)) * (w_cmd - w)``;
+- thrust ``k_f w^2`` along body up, at the rotor hub;
 - yaw reaction ``moment_coefficient_m * k_f w^2``: a CW rotor (seen from above) pushes the body
   counter-clockwise, i.e. about +z FLU;
 - rotor drag ``-w * rotor_drag_coefficient * v_perp`` (v_perp: airspeed in the rotor plane),
@@ -24,14 +24,14 @@ Everything here is expressed in the body FLU frame, in which PyBullet integrates
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
 from sitl import frames
 
 
-class Spin(str, Enum):
+class Spin(StrEnum):
     """Turning direction of a rotor seen from above."""
 
     CW = "cw"
@@ -112,8 +112,8 @@ class RotorModel:
         thrust_map[:, 4] = -pos_flu[:, 0] * k_f
         thrust_map[:, 5] = spin_sign * self.yaw_coefficient_n_m_s2_rad2
 
-        # Wrench per unit rotor speed per unit body velocity component: (n_rot + 1, 3, 6); the
-        # extra "rotor", whose speed is a constant 1, holds the fuselage drag.
+        # Wrench (6) per unit rotor speed per unit body velocity component (3): (n_rot + 1, 6, 3);
+        # the extra "rotor", whose speed is a constant 1, holds the fuselage drag.
         in_plane = np.diag([1.0, 1.0, 0.0])
         c_d = motor.rotor_drag_coefficient_n_s_m_rad
         c_roll = motor.rolling_moment_coefficient_n_s_rad
@@ -126,8 +126,13 @@ class RotorModel:
         drag_rows = drag_map.transpose(0, 2, 1).reshape(3 * (n_rot + 1), 6)
         self._wrench_map = np.vstack([thrust_map, drag_rows])
 
-        self._alpha_up = -np.expm1(-dt_s / motor.time_constant_up_s)
-        self._alpha_down = -np.expm1(-dt_s / motor.time_constant_down_s)
+        alpha_up = -np.expm1(-dt_s / motor.time_constant_up_s)
+        alpha_down = -np.expm1(-dt_s / motor.time_constant_down_s)
+        # Full-shape constants: same-shape ufuncs are cheaper than scalar/broadcast ones.
+        self._alpha_up = np.full((n_vehicles, n_rot), alpha_up)
+        self._alpha_down = np.full((n_vehicles, n_rot), alpha_down)
+        # max(a_up d, a_down d) picks a_up when speeding up iff a_up > a_down; else use min.
+        self._pick = np.maximum if alpha_up >= alpha_down else np.minimum
 
         # State and scratch buffers, allocated once (none in the hot loop).
         self._speed_aug = np.zeros((n_vehicles, n_rot + 1))
@@ -136,35 +141,14 @@ class RotorModel:
         self.speed_rad_s = self._speed_aug[:, :n_rot]
         """Rotor speeds, rad/s, (N, n_rotors) view into the state buffer."""
         self.command_rad_s = np.zeros((n_vehicles, n_rot))
-        """Commanded rotor speeds, rad/s, (N, n_rotors); set through ``set_command``."""
+        """Commanded rotor speeds, rad/s, (N, n_rotors); write into it."""
         self._features = np.zeros((n_vehicles, n_rot + 3 * (n_rot + 1)))
         self._features_sq = self._features[:, :n_rot]
         self._features_drag = self._features[:, n_rot:].reshape(n_vehicles, n_rot + 1, 3)
+        assert np.shares_memory(self._features_drag, self._features), "must be a view"
         self._wrench = np.zeros((n_vehicles, 6))
-        # Lag w += alpha (w_cmd - w) as w = keep * w + gain; alpha is fixed between command
-        # changes because an exact first-order lag never overshoots its command.
-        self._rising = np.zeros((n_vehicles, n_rot), dtype=bool)
-        self._alpha = np.zeros((n_vehicles, n_rot))
-        self._keep = np.ones((n_vehicles, n_rot))
-        self._gain = np.zeros((n_vehicles, n_rot))
-
-    def set_command(self, command_rad_s: np.ndarray) -> None:
-        """Set the commanded rotor speeds, rad/s, (N, n_rotors)."""
-        if command_rad_s is not self.command_rad_s:
-            self.command_rad_s[:] = command_rad_s
-        self._refresh_lag()
-
-    def set_speed(self, speed_rad_s: np.ndarray) -> None:
-        """Set the rotor speeds directly (initial conditions, tests), rad/s."""
-        self.speed_rad_s[:] = speed_rad_s
-        self._refresh_lag()
-
-    def _refresh_lag(self) -> None:
-        np.greater(self.command_rad_s, self.speed_rad_s, out=self._rising)
-        np.multiply(self._rising, self._alpha_up - self._alpha_down, out=self._alpha)
-        np.add(self._alpha, self._alpha_down, out=self._alpha)
-        np.subtract(1.0, self._alpha, out=self._keep)
-        np.multiply(self._alpha, self.command_rad_s, out=self._gain)
+        self._diff = np.zeros((n_vehicles, n_rot))
+        self._diff_up = np.zeros((n_vehicles, n_rot))
 
     def body_wrench(self, velocity_flu_m_s: np.ndarray) -> np.ndarray:
         """Force and torque on each body, ``(N, 6)`` = [F_flu (N), tau_flu (N m)].
@@ -175,15 +159,17 @@ class RotorModel:
         Returns:
             A buffer owned by this object, overwritten by the next call.
         """
-        np.multiply(self.speed_rad_s, self.speed_rad_s, out=self._features_sq)
-        np.multiply(self._speed_aug_col, velocity_flu_m_s, out=self._features_drag)
-        return np.matmul(self._features, self._wrench_map, out=self._wrench)
+        np.multiply(self.speed_rad_s, self.speed_rad_s, self._features_sq)
+        np.multiply(self._speed_aug_col, velocity_flu_m_s, self._features_drag)
+        return self._features.dot(self._wrench_map, self._wrench)  # 2-D dot: cheapest product
 
     def advance(self) -> None:
         """Move the rotor speeds one physics step towards their commands (first-order lag)."""
-        speed = self.speed_rad_s
-        np.multiply(speed, self._keep, out=speed)
-        np.add(speed, self._gain, out=speed)
+        d = np.subtract(self.command_rad_s, self.speed_rad_s, self._diff)
+        np.multiply(d, self._alpha_up, self._diff_up)
+        np.multiply(d, self._alpha_down, d)
+        self._pick(self._diff_up, d, out=d)
+        np.add(self.speed_rad_s, d, self.speed_rad_s)
 
     def shaft_power_w(self) -> np.ndarray:
         """Mechanical shaft power of each vehicle's rotors, sum of k_m w^3, W, ``(N,)``."""

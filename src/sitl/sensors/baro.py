@@ -46,7 +46,7 @@ class Barometer:
         self._drift_pa = 0.0
 
     def sample(self, alt_amsl_m: np.ndarray, dt_s: float) -> BaroSample:
-        """Measure at altitudes AMSL ``alt_amsl_m`` (N,); ``dt_s`` is the time since the last one."""
+        """Measure at altitudes AMSL ``alt_amsl_m`` (N,); ``dt_s``: time since the last sample."""
         self._drift_pa += self.params.drift_pa_s * dt_s
         pressure_pa = (
             isa_pressure_pa(alt_amsl_m)

@@ -94,7 +94,7 @@ class Gps:
         self, position_enu_m: np.ndarray, velocity_enu_m_s: np.ndarray, dt_s: float
     ) -> GpsSample:
         """Measure at true positions/velocities (N, 3) ENU; ``dt_s`` is the time since the last."""
-        z = self._rng.standard_normal((2,) + position_enu_m.shape)
+        z = self._rng.standard_normal((2, *position_enu_m.shape))
         pos = position_enu_m + self.bias_enu.advance(dt_s) + self._pos_sigma * z[0]
         vel = velocity_enu_m_s + self._vel_sigma * z[1]
         lat, lon, alt = frames.enu_to_geodetic(pos, self._origin)

@@ -51,7 +51,10 @@ class Imu:
         self.noise = BiasedWhiteNoise(
             (n_vehicles, 2, 3),
             np.array(
-                [[params.accel_noise_density_m_s2_sqrt_hz], [params.gyro_noise_density_rad_s_sqrt_hz]]
+                [
+                    [params.accel_noise_density_m_s2_sqrt_hz],
+                    [params.gyro_noise_density_rad_s_sqrt_hz],
+                ]
             ),
             np.array(
                 [[params.accel_random_walk_m_s3_sqrt_hz], [params.gyro_random_walk_rad_s2_sqrt_hz]]
@@ -68,6 +71,10 @@ class Imu:
         self._last_velocity_enu = np.zeros((n_vehicles, 3))
         self._first = True
         self._world = np.zeros((n_vehicles, 2, 3))
+        self._accel = self._world[:, 0]
+        self._rate = self._world[:, 1]
+        self._gravity_up = np.zeros((n_vehicles, 3))
+        self._gravity_up[:, 2] = GRAVITY_M_S2
 
     def sample(
         self,
@@ -75,29 +82,26 @@ class Imu:
         velocity_enu_m_s: np.ndarray,
         angular_velocity_enu_rad_s: np.ndarray,
         dt_s: float,
-    ) -> np.ndarray:
-        """Measure specific force (m/s^2) and angular rate (rad/s) in body FRD.
+        out: np.ndarray,
+    ) -> None:
+        """Measure specific force (m/s^2) and angular rate (rad/s) in body FRD into ``out``.
 
         Args:
             rotation_flu_to_enu: body attitudes, (N, 3, 3).
             velocity_enu_m_s: centre-of-mass velocities now, (N, 3).
             angular_velocity_enu_rad_s: angular velocities in world axes now, (N, 3).
             dt_s: time since the previous sample, s.
-
-        Returns:
-            ``(N, 2, 3)``: ``[:, 0]`` specific force, ``[:, 1]`` angular rate (a new array).
+            out: ``(N, 2, 3)``: ``[:, 0]`` specific force, ``[:, 1]`` angular rate.
         """
-        world = self._world
-        accel = world[:, 0]
+        accel = self._accel
         if self._first:
-            accel[:] = 0.0
+            accel.fill(0.0)
             self._first = False
         else:
-            np.subtract(velocity_enu_m_s, self._last_velocity_enu, out=accel)
-            accel *= 1.0 / dt_s
-        self._last_velocity_enu[:] = velocity_enu_m_s
-        accel[:, 2] += GRAVITY_M_S2
-        world[:, 1] = angular_velocity_enu_rad_s
-        measured = frames.world_enu_to_body_frd(rotation_flu_to_enu, world)
-        measured += self.noise.sample(dt_s)
-        return measured
+            np.subtract(velocity_enu_m_s, self._last_velocity_enu, accel)
+            np.multiply(accel, 1.0 / dt_s, accel)
+        np.copyto(self._last_velocity_enu, velocity_enu_m_s)
+        np.add(accel, self._gravity_up, accel)
+        np.copyto(self._rate, angular_velocity_enu_rad_s)
+        frames.world_enu_to_body_frd(rotation_flu_to_enu, self._world, out=out)
+        np.add(out, self.noise.sample(dt_s), out=out)

@@ -43,8 +43,10 @@ class Magnetometer:
             rng,
         )
 
-    def sample(self, rotation_flu_to_enu: np.ndarray, dt_s: float) -> np.ndarray:
-        """Measure the field in body FRD, gauss, (N, 3); ``dt_s`` is the time since the last one."""
-        field = frames.world_enu_to_body_frd(rotation_flu_to_enu, self._field_enu)
-        field += self.noise.sample(dt_s)
-        return field
+    def sample(self, rotation_flu_to_enu: np.ndarray, dt_s: float, out: np.ndarray) -> None:
+        """Measure the field in body FRD, gauss, into ``out`` (N, 3).
+
+        ``dt_s`` is the time since the previous sample.
+        """
+        out[:] = frames.world_enu_to_body_frd(rotation_flu_to_enu, self._field_enu)
+        np.add(out, self.noise.sample(dt_s), out=out)

@@ -108,6 +108,4 @@ def inspect_urdf(path: Path) -> UrdfBody:
     if not collisions:
         raise ValueError(f"{path}: the link has no <collision> shape to stand on")
     lowest = min(_lowest_z(c, path) for c in collisions)
-    return UrdfBody(
-        mass_kg=mass, inertia_diag_kg_m2=(ixx, iyy, izz), lowest_point_m=float(lowest)
-    )
+    return UrdfBody(mass_kg=mass, inertia_diag_kg_m2=(ixx, iyy, izz), lowest_point_m=float(lowest))

@@ -1,0 +1,51 @@
+"""Shared helpers of the sitl tests (imported by basename; pytest puts this folder on sys.path)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from pymavlink.dialects.v20 import common as mavlink2
+
+from sitl.world import World, WorldConfig
+
+ARMED = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
+
+
+def actuator_message(
+    controls: Sequence[float], armed: bool = True
+) -> mavlink2.MAVLink_hil_actuator_controls_message:
+    """HIL_ACTUATOR_CONTROLS with the given first controls (rest 0)."""
+    padded = [float(c) for c in controls] + [0.0] * (16 - len(controls))
+    return mavlink2.MAVLink_hil_actuator_controls_message(0, padded, ARMED if armed else 0, 0)
+
+
+def make_world(**overrides: object) -> World:
+    """A World with the default configuration except ``overrides``."""
+    return World(WorldConfig(**overrides))
+
+
+def run(world: World, seconds: float, actuators: list | None = None) -> None:
+    """Step ``world`` for ``seconds`` with the same actuator entries every step."""
+    steps = round(seconds * world.config.physics_hz)
+    for _ in range(steps):
+        world.step(actuators)
+
+
+def collect(world: World, seconds: float, actuators: list | None = None) -> tuple[list, list]:
+    """Step and poll for ``seconds``; return all HIL_SENSOR lists and HIL_GPS lists."""
+    sensors, gps = [], []
+    steps = round(seconds * world.config.physics_hz)
+    for _ in range(steps):
+        world.step(actuators)
+        s, g = world.poll_sensors()
+        if s is not None:
+            sensors.append(s)
+        if g is not None:
+            gps.append(g)
+    return sensors, gps
+
+
+def sensor_array(sensors: list, vehicle: int, fields: Sequence[str]) -> np.ndarray:
+    """(samples, len(fields)) array of HIL_SENSOR fields of one vehicle."""
+    return np.array([[getattr(batch[vehicle], f) for f in fields] for batch in sensors])
