@@ -93,6 +93,8 @@ class AutopilotFleet:
         self._gains: _Gains | None = None
         self._controls = [0.0] * 16
         self._pressure_alt_m = np.zeros(n)
+        self._att_target_q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+        self._att_target_thrust = np.full(n, np.nan)
 
     # -- simulator side ------------------------------------------------------------------------
     def handle_sensors(
@@ -194,6 +196,28 @@ class AutopilotFleet:
             sp, gains.position, pos, vel, dt, self.active
         )
         self.thrust = np.where(self.active, thrust, 0.0)
+        override = self.active & np.isfinite(self._att_target_thrust)
+        if override.any():
+            self.q_sp[override] = self._att_target_q[override]
+            self.thrust[override] = self._att_target_thrust[override]
+
+    def set_attitude_target(self, i: int, q_wxyz: np.ndarray | None, thrust: float) -> None:
+        """Fly vehicle i at a fixed attitude and collective thrust (0..1) while airborne.
+
+        ``None`` hands control back to the position controller.
+
+        This is the attitude-setpoint entry of the stack (what SET_ATTITUDE_TARGET feeds in
+        PX4's offboard mode); the position loop keeps running underneath so that releasing the
+        target resumes the current mode smoothly.
+        """
+        if q_wxyz is None:
+            self._att_target_thrust[i] = np.nan
+            return
+        q = np.asarray(q_wxyz, dtype=float)
+        if q.shape != (4,) or not np.isfinite(q).all() or not np.isfinite(thrust):
+            raise ValueError("attitude target needs a finite quaternion [w, x, y, z] and thrust")
+        self._att_target_q[i] = q / np.linalg.norm(q)
+        self._att_target_thrust[i] = min(max(float(thrust), 0.0), 1.0)
 
     def _control(self, dt: float, gains: _Gains) -> None:
         est = self.estimator
