@@ -6,7 +6,7 @@ import math
 from dataclasses import replace
 
 import pytest
-from mavlink_fakes import HOME, FakeVehicle, MavClient, command_long, has, make_endpoint
+from mavlink_fakes import HOME, FakeVehicle, MavClient, command_long, has
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.commands import (
@@ -20,24 +20,6 @@ ACCEPTED = mavlink2.MAV_RESULT_ACCEPTED
 DENIED = mavlink2.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink2.MAV_RESULT_UNSUPPORTED
 FAILED = mavlink2.MAV_RESULT_FAILED
-
-
-@pytest.fixture
-def client():
-    c = MavClient()
-    yield c
-    c.close()
-
-
-@pytest.fixture
-def vehicle():
-    return FakeVehicle()
-
-
-@pytest.fixture
-def endpoint(vehicle):
-    with make_endpoint(vehicle, stream_rates_hz={"HEARTBEAT": 0}) as ep:
-        yield ep
 
 
 def _acks(inbox):

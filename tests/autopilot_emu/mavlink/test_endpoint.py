@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 from mavlink_fakes import (
     EPOCH_START_S,
-    FakeVehicle,
     MavClient,
     command_long,
     has,
@@ -21,18 +20,6 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint, PortInUseError
 from autopilot_emu.mavlink.streams import DEFAULT_STREAMS
-
-
-@pytest.fixture
-def client():
-    c = MavClient()
-    yield c
-    c.close()
-
-
-@pytest.fixture
-def vehicle():
-    return FakeVehicle()
 
 
 def _drive(endpoint, client, start_ms, stop_ms):

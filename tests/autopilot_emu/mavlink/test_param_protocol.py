@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import pytest
-from mavlink_fakes import FakeVehicle, MavClient, has, make_endpoint
+from mavlink_fakes import has
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.params import (
@@ -15,24 +14,6 @@ from autopilot_emu.params import (
     decode_param_value,
     encode_param_value,
 )
-
-
-@pytest.fixture
-def client():
-    c = MavClient()
-    yield c
-    c.close()
-
-
-@pytest.fixture
-def vehicle():
-    return FakeVehicle()
-
-
-@pytest.fixture
-def endpoint(vehicle):
-    with make_endpoint(vehicle, stream_rates_hz={"HEARTBEAT": 0}) as ep:
-        yield ep
 
 
 def _only(inbox, type_name):
