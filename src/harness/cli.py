@@ -24,7 +24,7 @@ app = typer.Typer(
     no_args_is_help=True,
     help="swarmsitl: PyBullet UAV swarm SITL with PX4-flavoured MAVLink autopilots.",
 )
-console = Console()
+console = Console(width=max(Console().width, 140))
 
 
 def default_run_dir() -> Path:
@@ -82,13 +82,12 @@ def up(
     )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
-    for col in ("vehicle", "sysid", "listens on", "sends to", "MAVSDK URL", "home (lat, lon, alt)"):
-        table.add_column(col)
+    for col in ("sysid", "listens on", "streams to", "connect with", "home lat, lon, alt"):
+        table.add_column(col, no_wrap=True)
     for i in range(vehicles):
         lat, lon, alt = sim.world.home_geodetic(i)
-        sends = ", ".join(f"{a}:{p}" for a, p in ports.peers(i))
+        sends = " ".join(f"{a}:{p}" for a, p in ports.peers(i))
         table.add_row(
-            str(i),
             str(i + 1),
             f"{bind}:{ports.listen_port(i)}",
             sends,
