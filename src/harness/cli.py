@@ -98,13 +98,18 @@ def up(
     console.print("Press Ctrl-C to stop.")
     flag = _StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
+    t_start = time.monotonic()
     try:
         sim.run_paced(speed, lambda: flag.stop, duration if duration > 0 else float("inf"))
     finally:
         for s, h in old.items():
             signal.signal(s, h)
         sim.close()
-    console.print(f"stopped at t = {sim.time_s:.1f} s simulated; tlogs in {run_dir}")
+    wall = max(time.monotonic() - t_start, 1e-9)
+    console.print(
+        f"stopped at t = {sim.time_s:.1f} s simulated ({sim.time_s / wall:.2f}x real time "
+        f"achieved, {speed:g}x asked); tlogs in {run_dir}"
+    )
 
 
 @app.command()
