@@ -158,8 +158,9 @@ class Commander:
         return ACCEPTED
 
     def _disarm(self, text: str) -> None:
+        # The mode stays what it was (PX4 shows LAND / RTL after landing); that is why MAVSDK's
+        # arm() switches to Hold first when it finds the vehicle in RTL or Mission.
         self.armed = False
-        self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
         self._say(SEVERITY_INFO, text)
 
     def takeoff(self, alt_amsl_m: float | None) -> int:

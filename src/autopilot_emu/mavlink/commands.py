@@ -134,6 +134,9 @@ class _Handled:
     identity: tuple[int, int | None, bytes]
     result: int
     wall_time_s: float
+    state: tuple[bool, int, int]
+    """Armed flag and PX4 mode right after execution: a retransmission is only recognised while
+    they still hold (a vehicle that auto-disarmed in between is armed again by a repeated ARM)."""
 
 
 class _Rejected(Exception):
@@ -208,11 +211,16 @@ class CommandDispatcher:
             and previous is not None
             and previous.identity == identity
             and now_s - previous.wall_time_s <= DUPLICATE_WINDOW_S
+            and previous.state == self._state()
         ):
             return CommandReply(previous.result, duplicate=True)
         result = self._execute(request)
-        self._last_by_source[request.source] = _Handled(identity, result, now_s)
+        self._last_by_source[request.source] = _Handled(identity, result, now_s, self._state())
         return CommandReply(result, duplicate=False)
+
+    def _state(self) -> tuple[bool, int, int]:
+        snap = self._vehicle.telemetry()
+        return (snap.armed, snap.main_mode, snap.sub_mode)
 
     def _execute(self, request: CommandRequest) -> int:
         handler = self._handlers.get(request.command)

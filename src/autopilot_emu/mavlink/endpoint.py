@@ -19,6 +19,7 @@ import logging
 import math
 import socket
 import time
+from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,7 +46,9 @@ MAX_DATAGRAMS_PER_POLL = 64
 """Datagrams drained per poll; the rest wait for the next poll."""
 MAX_DATAGRAM_BYTES = 65535
 MAX_LEARNED_PEERS = 16
-"""Remote addresses remembered from received traffic, beyond the configured peers."""
+"""Remote addresses remembered from received traffic, beyond the configured peers; when more
+talk to the vehicle, the one heard from least recently is forgotten (it is re-learned as soon as
+it sends again, so every sender always gets its replies)."""
 STATUSTEXT_POLL_INTERVAL_US = 20_000
 """How often the vehicle's status-text queue is read, simulation microseconds."""
 TLOG_FLUSH_INTERVAL_US = 1_000_000
@@ -162,8 +165,11 @@ class MavlinkEndpoint:
             mavlink2.MAVLINK_MSG_ID_PARAM_SET: self._on_param_set,
             mavlink2.MAVLINK_MSG_ID_PING: self._on_ping,
         }
-        self._peers = list(dict.fromkeys(_resolve(host, port) for host, port in config.peers))
-        self._learned_peers = 0
+        self._configured_peers = list(
+            dict.fromkeys(_resolve(host, port) for host, port in config.peers)
+        )
+        self._learned_peers: OrderedDict[tuple[str, int], None] = OrderedDict()
+        self._peers = list(self._configured_peers)
         self._tlog = (
             TlogWriter(config.tlog_path, config.epoch_start_s) if config.tlog_path else None
         )
@@ -392,13 +398,17 @@ class MavlinkEndpoint:
 
     def _learn_peer(self, address: tuple[str, int]) -> None:
         peer = (address[0], address[1])
-        if peer in self._peers:
+        if peer in self._configured_peers:
             return
-        if self._learned_peers >= MAX_LEARNED_PEERS:
-            logger.debug("not learning peer %s: already %d learned", peer, MAX_LEARNED_PEERS)
+        learned = self._learned_peers
+        if peer in learned:
+            learned.move_to_end(peer)
             return
-        self._learned_peers += 1
-        self._peers.append(peer)
+        learned[peer] = None
+        if len(learned) > MAX_LEARNED_PEERS:
+            old, _ = learned.popitem(last=False)
+            logger.info("forgetting MAVLink peer %s:%d (least recently heard)", *old)
+        self._peers = self._configured_peers + list(learned)
         logger.info("new MAVLink peer %s:%d", *peer)
 
     def _from_ourselves(self, msg: mavlink2.MAVLink_message) -> bool:

@@ -1,0 +1,76 @@
+"""Helpers shared by the e2e client scripts (each script runs in its own process).
+
+A client prints exactly one JSON line on stdout (``{"ok": ..., "stage": ..., ...}``) and leaves
+with ``os._exit`` so that no stray thread (mavsdk_grpc's log thread) can keep it alive.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import os
+import sys
+import traceback
+
+import pymap3d
+
+
+class ClientError(RuntimeError):
+    """The vehicle did not do what was asked within the (wall-clock) time limit."""
+
+
+class Report(dict):
+    """What the client measured, plus the stage it reached."""
+
+    def stage(self, name: str) -> None:
+        self["stage"] = name
+        print(f"[client] stage {name}", file=sys.stderr, flush=True)
+
+
+async def first(stream):
+    """First item of an async generator."""
+    async for item in stream:
+        return item
+    raise ClientError("stream ended")
+
+
+async def wait_for(stream, predicate, timeout_s: float, what: str):
+    """First item of ``stream`` satisfying ``predicate``, within ``timeout_s`` wall seconds."""
+
+    async def scan():
+        async for item in stream:
+            if predicate(item):
+                return item
+        raise ClientError(f"stream ended while waiting for {what}")
+
+    try:
+        return await asyncio.wait_for(scan(), timeout_s)
+    except TimeoutError as exc:
+        raise ClientError(f"timed out after {timeout_s:.0f} s (wall) waiting for {what}") from exc
+
+
+def ned_of(lat: float, lon: float, alt: float, ref: tuple[float, float, float]):
+    """(north, east, down) of a geodetic point relative to ``ref`` (lat, lon, alt AMSL)."""
+    n, e, d = pymap3d.geodetic2ned(lat, lon, alt, *ref)
+    return float(n), float(e), float(d)
+
+
+def horizontal(n: float, e: float) -> float:
+    return math.hypot(n, e)
+
+
+def run(main, report: Report) -> None:
+    """Run ``main(report)``, print the report as one JSON line, exit hard."""
+    rc = 0
+    report.setdefault("ok", False)
+    try:
+        asyncio.run(main(report))
+        report["ok"] = True
+    except BaseException as exc:  # report everything, including timeouts and KeyboardInterrupt
+        report["error"] = f"{type(exc).__name__}: {exc}"
+        traceback.print_exc(file=sys.stderr)
+        rc = 1
+    print(json.dumps(report, default=str), flush=True)
+    sys.stderr.flush()
+    os._exit(rc)

@@ -1,0 +1,77 @@
+"""Classic MAVSDK-Python client for one vehicle of a swarm: identity, arm, take off.
+
+    python classic_takeoff.py --url udpin://0.0.0.0:PORT --grpc-port GRPC --alt 5
+
+Reports the system ids seen in HEARTBEATs (mavlink_direct), MAV_SYS_ID, the home position and
+the relative altitude reached.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+
+from _common import Report, first, run, wait_for
+
+
+async def heartbeat_sysids(drone, count: int) -> list[int]:
+    """System ids of the next ``count`` HEARTBEATs received by mavsdk_server."""
+    ids = []
+    async for msg in drone.mavlink_direct.message("HEARTBEAT"):
+        ids.append(int(msg.system_id))
+        if len(ids) >= count:
+            return ids
+    return ids
+
+
+async def fly(args, r: Report) -> None:
+    from mavsdk_grpc import System
+
+    drone = System(port=args.grpc_port)
+    try:
+        r.stage("connect")
+        await drone.connect(system_address=args.url)
+        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 90, "connection")
+        r.stage("health")
+        await wait_for(
+            drone.telemetry.health(),
+            lambda h: h.is_global_position_ok and h.is_home_position_ok,
+            90,
+            "global position and home",
+        )
+        r.stage("identity")
+        r["heartbeat_sysids"] = await asyncio.wait_for(heartbeat_sysids(drone, 3), 60)
+        r["mav_sys_id"] = await drone.param.get_param_int("MAV_SYS_ID")
+        home = await first(drone.telemetry.home())
+        r["home"] = [home.latitude_deg, home.longitude_deg, home.absolute_altitude_m]
+
+        r.stage("arm")
+        await drone.action.set_takeoff_altitude(args.alt)
+        await drone.action.arm()
+        await wait_for(drone.telemetry.armed(), bool, 60, "armed")
+        r.stage("takeoff")
+        await drone.action.takeoff()
+        reached = await wait_for(
+            drone.telemetry.position(),
+            lambda p: p.relative_altitude_m >= 0.9 * args.alt,
+            120,
+            "90 % of the takeoff altitude",
+        )
+        r["rel_alt_reached_m"] = reached.relative_altitude_m
+        r["in_air"] = await wait_for(drone.telemetry.in_air(), bool, 60, "in_air")
+        r.stage("done")
+    finally:
+        drone._stop_mavsdk_server()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--url", required=True)
+    ap.add_argument("--grpc-port", type=int, required=True)
+    ap.add_argument("--alt", type=float, default=5.0)
+    args = ap.parse_args()
+    run(lambda report: fly(args, report), Report())
+
+
+if __name__ == "__main__":
+    main()

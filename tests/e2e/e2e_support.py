@@ -1,0 +1,477 @@
+"""Shared machinery of the end-to-end tests: real ``swarmsitl up``, real clients, real UDP.
+
+* :func:`running_swarm` starts ``python -m harness.cli up`` in a subprocess, waits for its
+  endpoint table, and on exit stops it with SIGINT and checks exit code 0 and the tlogs.
+* :func:`start_client` runs a script of ``tests/e2e/clients`` in its own process (own session,
+  hard timeout); :meth:`ClientProcess.result` parses the JSON line it prints and makes sure no
+  ``mavsdk_server`` of that client's gRPC port survives (MAVSDK_CONTRACT.md section 14).
+* :class:`RawLink` is a raw pymavlink client on a plain UDP socket.
+
+Each test module gets its own block of ports from :func:`module_ports`, so modules never
+collide with each other nor with a developer's ``swarmsitl up`` on the default ports
+(14540/14550/14580). Move the blocks with SWARMSITL_E2E_PORT_BASE / SWARMSITL_E2E_GRPC_BASE.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import common as mavlink2
+
+E2E_DIR = Path(__file__).resolve().parent
+CLIENTS_DIR = E2E_DIR / "clients"
+REPO_ROOT = E2E_DIR.parents[1]
+
+SPEED = 4.0
+"""Simulated seconds per wall second for every e2e run (paced, not lockstep)."""
+
+PORT_BASE = int(os.environ.get("SWARMSITL_E2E_PORT_BASE", "24500"))
+GRPC_BASE = int(os.environ.get("SWARMSITL_E2E_GRPC_BASE", "51500"))
+PORT_BLOCK = 10
+"""Ports per module: sdk ports at +0..+4, listen ports at +5..+9 (up to 5 vehicles)."""
+RESERVED_PORTS = frozenset({14540, 14550, 14580})
+
+READY_MARKER = "Press Ctrl-C to stop."
+STARTUP_TIMEOUT_S = 90.0
+SHUTDOWN_TIMEOUT_S = 30.0
+
+
+# --- ports -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Ports:
+    """UDP and gRPC ports of one test module."""
+
+    sdk: int
+    """Vehicle i streams to sdk + i (MAVSDK: udpin://0.0.0.0:sdk+i)."""
+    listen: int
+    """Vehicle i listens on listen + i."""
+    grpc: int
+    """mavsdk_server gRPC port of client i is grpc + i."""
+
+    def url(self, i: int = 0) -> str:
+        return f"udpin://0.0.0.0:{self.sdk + i}"
+
+
+def module_ports(slot: int) -> Ports:
+    """The port block of test module number ``slot`` (each module uses its own slot)."""
+    base = PORT_BASE + PORT_BLOCK * slot
+    ports = Ports(sdk=base, listen=base + PORT_BLOCK // 2, grpc=GRPC_BASE + PORT_BLOCK * slot)
+    used = set(range(base, base + PORT_BLOCK))
+    assert not used & RESERVED_PORTS, f"e2e port block {base}.. overlaps {RESERVED_PORTS}"
+    return ports
+
+
+def udp_port_free(port: int) -> bool:
+    """True if nobody holds UDP ``port`` (checked on 0.0.0.0, which MAVSDK binds)."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.bind(("0.0.0.0", port))
+    except OSError:
+        return False
+    finally:
+        sock.close()
+    return True
+
+
+def require_free_udp(ports: list[int]) -> None:
+    busy = [p for p in ports if not udp_port_free(p)]
+    if busy:
+        pytest.fail(
+            f"UDP port(s) {busy} already in use (another e2e run or a leftover mavsdk_server?); "
+            "stop it or move the e2e ports with SWARMSITL_E2E_PORT_BASE"
+        )
+
+
+# --- mavsdk_server hygiene -------------------------------------------------------------------
+
+
+def _cmdline(pid: int) -> list[str]:
+    try:
+        raw = Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return []
+    return [part.decode(errors="replace") for part in raw.split(b"\0") if part]
+
+
+def _is_zombie_or_gone(pid: int) -> bool:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return True
+    return stat.rsplit(")", 1)[-1].split()[0] in ("Z", "X")
+
+
+def mavsdk_servers(grpc_port: int) -> list[int]:
+    """Pids of live ``mavsdk_server`` processes serving gRPC on ``grpc_port``."""
+    pids = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        pid = int(entry.name)
+        args = _cmdline(pid)
+        if not args or not any(Path(a).name.startswith("mavsdk_server") for a in args[:2]):
+            continue
+        port_args = [args[i + 1] for i, a in enumerate(args[:-1]) if a in ("-p", "--port")]
+        if str(grpc_port) in port_args and not _is_zombie_or_gone(pid):
+            pids.append(pid)
+    return pids
+
+
+def kill_mavsdk_servers(grpc_port: int) -> list[int]:
+    """SIGKILL every ``mavsdk_server`` on ``grpc_port``; wait until gone; return their pids."""
+    pids = mavsdk_servers(grpc_port)
+    for pid in pids:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+    deadline = time.monotonic() + 10.0
+    while any(not _is_zombie_or_gone(pid) for pid in pids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return pids
+
+
+# --- clients ---------------------------------------------------------------------------------
+
+
+@dataclass
+class ClientResult:
+    """What a client process printed and how it ended."""
+
+    name: str
+    returncode: int | None
+    timed_out: bool
+    data: dict
+    stdout: str
+    stderr: str
+    leftover_servers: list[int] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.returncode == 0 and not self.timed_out and bool(self.data.get("ok"))
+
+    def describe(self) -> str:
+        """Failure message: stage reached, error, and the end of the client's stderr."""
+        tail = "\n".join(self.stderr.strip().splitlines()[-25:])
+        return (
+            f"client {self.name}: rc={self.returncode} timed_out={self.timed_out} "
+            f"stage={self.data.get('stage')} error={self.data.get('error')}\n"
+            f"data={json.dumps(self.data, default=str)}\n--- stderr tail ---\n{tail}"
+        )
+
+
+class ClientProcess:
+    """A client script running in its own process group, with a hard wall-clock timeout."""
+
+    def __init__(
+        self,
+        script: str,
+        args: list[str],
+        log_dir: Path,
+        timeout_s: float,
+        grpc_port: int | None = None,
+    ) -> None:
+        self.name = f"{script} {' '.join(args)}"
+        self.grpc_port = grpc_port
+        self.deadline = time.monotonic() + timeout_s
+        log_dir.mkdir(parents=True, exist_ok=True)
+        stem = f"{Path(script).stem}-{grpc_port or os.getpid()}-{time.monotonic_ns()}"
+        self._out_path = log_dir / f"{stem}.stdout"
+        self._err_path = log_dir / f"{stem}.stderr"
+        env = os.environ | {"SWARMSITL_SPEED": str(SPEED), "PYTHONUNBUFFERED": "1"}
+        with self._out_path.open("w") as out, self._err_path.open("w") as err:
+            self.proc = subprocess.Popen(
+                [sys.executable, str(CLIENTS_DIR / script), *args],
+                stdout=out,
+                stderr=err,
+                stdin=subprocess.DEVNULL,
+                cwd=CLIENTS_DIR,
+                env=env,
+                start_new_session=True,
+            )
+
+    def result(self) -> ClientResult:
+        """Wait (until the deadline), kill the process group if needed, parse the JSON line."""
+        timed_out = False
+        try:
+            self.proc.wait(timeout=max(0.1, self.deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            timed_out = True
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait()
+            leftovers = kill_mavsdk_servers(self.grpc_port) if self.grpc_port else []
+        stdout = self._out_path.read_text(errors="replace")
+        stderr = self._err_path.read_text(errors="replace")
+        data: dict = {}
+        for line in reversed(stdout.splitlines()):
+            if line.startswith("{"):
+                with contextlib.suppress(json.JSONDecodeError):
+                    data = json.loads(line)
+                    break
+        result = ClientResult(
+            self.name, self.proc.returncode, timed_out, data, stdout, stderr, leftovers
+        )
+        if self.grpc_port:
+            assert not mavsdk_servers(self.grpc_port), (
+                f"mavsdk_server on gRPC port {self.grpc_port} survived SIGKILL"
+            )
+        return result
+
+
+def start_client(
+    script: str,
+    args: list[str],
+    log_dir: Path,
+    timeout_s: float = 180.0,
+    grpc_port: int | None = None,
+) -> ClientProcess:
+    """Start ``tests/e2e/clients/<script>`` with ``sys.executable``."""
+    if grpc_port is not None:
+        assert not mavsdk_servers(grpc_port), f"a mavsdk_server already serves {grpc_port}"
+    return ClientProcess(script, args, log_dir, timeout_s, grpc_port)
+
+
+def run_client(
+    script: str,
+    args: list[str],
+    log_dir: Path,
+    timeout_s: float = 180.0,
+    grpc_port: int | None = None,
+) -> ClientResult:
+    """Run a client to completion (or to its timeout) and return its result."""
+    return start_client(script, args, log_dir, timeout_s, grpc_port).result()
+
+
+# --- the vehicles ----------------------------------------------------------------------------
+
+
+def cli_command(subcommand: str, *options: object) -> list[str]:
+    """``python -m harness.cli <subcommand> <options>`` with this interpreter."""
+    return [sys.executable, "-m", "harness.cli", subcommand, *(str(o) for o in options)]
+
+
+def cli_env() -> dict[str, str]:
+    # A wide virtual terminal keeps rich from truncating the endpoint table's port numbers.
+    return os.environ | {"PYTHONUNBUFFERED": "1", "COLUMNS": "200"}
+
+
+@dataclass
+class Swarm:
+    """A running ``swarmsitl up``."""
+
+    proc: subprocess.Popen
+    vehicles: int
+    ports: Ports
+    out: Path
+    log_path: Path
+
+    def output(self) -> str:
+        return self.log_path.read_text(errors="replace")
+
+    def tlog(self, i: int = 0) -> Path:
+        return self.out / f"vehicle{i + 1}.tlog"
+
+
+def check_tlog(path: Path, sysid: int) -> int:
+    """Assert ``path`` is a non-empty tlog pymavlink reads, with HEARTBEATs of ``sysid``."""
+    assert path.is_file(), f"{path} missing"
+    assert path.stat().st_size > 0, f"{path} is empty"
+    log = mavutil.mavlink_connection(str(path))
+    heartbeats = 0
+    try:
+        while True:
+            msg = log.recv_match(type="HEARTBEAT")
+            if msg is None:
+                break
+            if msg.get_srcSystem() == sysid and msg.get_srcComponent() == 1:
+                heartbeats += 1
+    finally:
+        log.close()
+    assert heartbeats > 0, f"no HEARTBEAT of system {sysid} in {path}"
+    return heartbeats
+
+
+def start_swarm(vehicles: int, ports: Ports, out: Path, extra: tuple = ()) -> Swarm:
+    """Start ``swarmsitl up`` and return once it printed its endpoint table."""
+    out.mkdir(parents=True, exist_ok=True)
+    log_path = out.parent / f"{out.name}-swarmsitl.log"
+    cmd = cli_command(
+        "up",
+        "--vehicles", vehicles,
+        "--speed", SPEED,
+        "--sdk-port", ports.sdk,
+        "--listen-port", ports.listen,
+        "--gcs-port", 0,
+        "--out", out,
+        *extra,
+    )  # fmt: skip
+    with log_path.open("w") as log:
+        proc = subprocess.Popen(
+            cmd,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            cwd=REPO_ROOT,
+            env=cli_env(),
+            start_new_session=True,
+        )
+    swarm = Swarm(proc, vehicles, ports, out, log_path)
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S
+    while READY_MARKER not in swarm.output():
+        if proc.poll() is not None:
+            pytest.fail(f"swarmsitl up exited with {proc.returncode}:\n{swarm.output()}")
+        if time.monotonic() > deadline:
+            proc.kill()
+            proc.wait()
+            pytest.fail(f"swarmsitl up not ready after {STARTUP_TIMEOUT_S} s:\n{swarm.output()}")
+        time.sleep(0.1)
+    table = swarm.output()
+    for i in range(vehicles):
+        assert f"127.0.0.1:{ports.listen + i}" in table, table
+        assert f"udpin://0.0.0.0:{ports.sdk + i}" in table, table
+    return swarm
+
+
+def stop_swarm(swarm: Swarm) -> None:
+    """SIGINT, wait, assert exit code 0 and one readable tlog with HEARTBEATs per vehicle."""
+    proc = swarm.proc
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=SHUTDOWN_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+            pytest.fail(f"swarmsitl up ignored SIGINT for {SHUTDOWN_TIMEOUT_S} s")
+    assert proc.returncode == 0, f"swarmsitl up exit code {proc.returncode}:\n{swarm.output()}"
+    assert "stopped at t =" in swarm.output(), swarm.output()
+    for i in range(swarm.vehicles):
+        check_tlog(swarm.tlog(i), sysid=i + 1)
+
+
+@contextlib.contextmanager
+def running_swarm(vehicles: int, ports: Ports, out: Path) -> Iterator[Swarm]:
+    """``swarmsitl up`` for the duration of the block, checked on the way out."""
+    require_free_udp(
+        [ports.listen + i for i in range(vehicles)] + [ports.sdk + i for i in range(vehicles)]
+    )
+    swarm = start_swarm(vehicles, ports, out)
+    try:
+        yield swarm
+    finally:
+        stop_swarm(swarm)
+
+
+# --- raw pymavlink client --------------------------------------------------------------------
+
+
+class RawLink:
+    """A MAVLink 2 client on its own UDP socket, as MAVSDK would be (sysid 245, compid 190).
+
+    ``inbox`` keeps every decoded message received; :meth:`wait_for` and :meth:`pump` add to it.
+    """
+
+    def __init__(self, vehicle_port: int, sysid: int = 245, compid: int = 190) -> None:
+        self.addr = ("127.0.0.1", vehicle_port)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(0.05)
+        self.mav = mavlink2.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+        self.mav.robust_parsing = True
+        self.inbox: list = []
+
+    def close(self) -> None:
+        self.sock.close()
+
+    def pack(self, msg) -> bytes:
+        frame = bytes(msg.pack(self.mav))
+        self.mav.seq = (self.mav.seq + 1) & 0xFF
+        return frame
+
+    def send_raw(self, data: bytes) -> None:
+        self.sock.sendto(data, self.addr)
+
+    def send(self, msg) -> bytes:
+        frame = self.pack(msg)
+        self.send_raw(frame)
+        return frame
+
+    def _receive_once(self) -> list:
+        try:
+            data, _ = self.sock.recvfrom(65535)
+        except TimeoutError:
+            return []
+        msgs = [
+            m
+            for m in (self.mav.parse_buffer(data) or [])
+            if m.get_type() not in ("BAD_DATA", "UNKNOWN")
+        ]
+        self.inbox.extend(msgs)
+        return msgs
+
+    def pump(self, seconds: float) -> list:
+        """Receive for ``seconds`` of wall time; return what arrived."""
+        got = []
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            got.extend(self._receive_once())
+        return got
+
+    def wait_for(self, predicate: Callable, timeout_s: float = 10.0):
+        """First newly received message with ``predicate(msg)``; None after ``timeout_s``."""
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            for msg in self._receive_once():
+                if predicate(msg):
+                    return msg
+        return None
+
+    def drain(self) -> None:
+        """Drop whatever is queued in the socket and the inbox."""
+        self.sock.setblocking(False)
+        try:
+            while True:
+                self.sock.recvfrom(65535)
+        except BlockingIOError:
+            pass
+        finally:
+            self.sock.settimeout(0.05)
+        self.inbox.clear()
+
+    def heartbeats(self, count: int, timeout_s: float = 30.0) -> list:
+        """The next ``count`` HEARTBEATs from the autopilot (sysid 1 / compid 1)."""
+        beats = []
+        for _ in range(count):
+            hb = self.wait_for(
+                lambda m: m.get_type() == "HEARTBEAT" and m.get_srcComponent() == 1, timeout_s
+            )
+            assert hb is not None, f"no HEARTBEAT within {timeout_s} s"
+            beats.append(hb)
+        return beats
+
+
+def command_long(
+    command: int,
+    params: tuple = (),
+    target_system: int = 1,
+    target_component: int = 1,
+):
+    """COMMAND_LONG with params 1..7 (missing ones NaN, as MAVSDK sends them)."""
+    p = list(params) + [math.nan] * (7 - len(params))
+    return mavlink2.MAVLink_command_long_message(target_system, target_component, command, 0, *p)

@@ -1,0 +1,74 @@
+"""``swarmsitl demo`` end to end: the real CLI, its MAVSDK client, and the run report.
+
+The demo runs paced at 4x real time; MAVSDK's wall-clock timeouts are unaffected because the
+emulator ACKs commands at once. The metrics come from the simulated ground truth, not wall time.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import signal
+import subprocess
+
+import pytest
+from e2e_support import (
+    REPO_ROOT,
+    check_tlog,
+    cli_command,
+    cli_env,
+    kill_mavsdk_servers,
+    mavsdk_servers,
+    module_ports,
+    require_free_udp,
+)
+
+pytestmark = pytest.mark.e2e
+
+PORTS = module_ports(5)
+
+
+def test_demo_writes_a_good_report(tmp_path):
+    """demo exits 0; report.json has finite climb time, hover RMS < 0.5 m, arrival < 1.5 m."""
+    require_free_udp([PORTS.sdk, PORTS.listen])
+    assert not mavsdk_servers(PORTS.grpc)
+    out = tmp_path / "demo"
+    cmd = cli_command(
+        "demo", "--out", out, "--speed", 4, "--sdk-port", PORTS.sdk,
+        "--listen-port", PORTS.listen, "--grpc-port", PORTS.grpc, "--timeout", 240,
+    )  # fmt: skip
+    proc = subprocess.Popen(
+        cmd,
+        cwd=REPO_ROOT,
+        env=cli_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        output, _ = proc.communicate(timeout=300)
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        output, _ = proc.communicate()
+        pytest.fail(f"swarmsitl demo did not finish in 300 s:\n{output}")
+    finally:
+        leftovers = kill_mavsdk_servers(PORTS.grpc)
+    client_log = (out / "client.log").read_text() if (out / "client.log").exists() else ""
+    assert proc.returncode == 0, f"{output}\n--- client.log ---\n{client_log}"
+    assert leftovers == [], f"demo left mavsdk_server processes {leftovers} running"
+
+    report = json.loads((out / "report.json").read_text())
+    metrics = report["metrics"]
+    assert metrics["completed"] is True, metrics
+    assert math.isfinite(metrics["climb_time_s"]) and metrics["climb_time_s"] > 0, metrics
+    assert metrics["hover_error_rms_m"] < 0.5, metrics
+    assert metrics["arrival_error_m"] < 1.5, metrics
+    assert report["client_exit_code"] == 0
+    assert (out / "trajectory.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    header = (out / "truth.csv").read_text().splitlines()
+    assert len(header) > 10
+    check_tlog(out / "vehicle1.tlog", sysid=1)
