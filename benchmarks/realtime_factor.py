@@ -52,13 +52,17 @@ def machine() -> str:
     )
 
 
-def fly_scenario(n: int, sim_seconds: float, port_base: int) -> tuple[float, dict]:
+def fly_scenario(
+    n: int, sim_seconds: float, port_base: int, breakdown: bool = False
+) -> tuple[float, dict]:
     """Run the scenario for n vehicles; return wall seconds and a flight summary."""
     ports = PortPlan(sdk_base=port_base, listen_base=port_base + 40, gcs_port=0)
     cfg = SimulationConfig(n_vehicles=n, ports=ports, record_hz=0.0)
     with Simulation(cfg) as sim:
         vehicles = [sim.fleet.vehicle(i) for i in range(n)]
         start = sim.world.truth.position_enu_m.copy()
+        if breakdown:
+            sim.time_phases()
         t0 = time.perf_counter()
         sim.run_lockstep(TAKEOFF_AT_S)
         for v in vehicles:
@@ -83,6 +87,8 @@ def fly_scenario(n: int, sim_seconds: float, port_base: int) -> tuple[float, dic
             "up_m_mean": float(moved[:, 2].mean()),
             "armed": int(sum(c.armed for c in sim.fleet.commanders)),
         }
+        if sim.phase_seconds is not None:
+            summary["phases"] = dict(sim.phase_seconds)
     return wall, summary
 
 
@@ -108,6 +114,8 @@ def main() -> int:
         if prof:
             prof.enable()
         wall, summary = fly_scenario(n, args.sim_seconds, args.port_base)
+        # A second, instrumented run says where the time goes (timers cost a little).
+        _, timed = fly_scenario(n, args.sim_seconds, args.port_base, breakdown=True)
         if prof:
             prof.disable()
         rtf = args.sim_seconds / wall
@@ -118,6 +126,15 @@ def main() -> int:
             f"flight: {summary}"
         )
         results[f"rtf_{n}"] = f"{rtf:.2f}"
+        phases = timed["phases"]
+        total = sum(phases.values())
+        print(
+            "    where the time goes: "
+            + ", ".join(
+                f"{k} {100 * v / total:.0f}% ({1e6 * v / steps:.0f} us/step)"
+                for k, v in phases.items()
+            )
+        )
         if prof:
             buf = io.StringIO()
             pstats.Stats(prof, stream=buf).sort_stats("tottime").print_stats(20)

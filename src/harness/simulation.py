@@ -122,6 +122,8 @@ class Simulation:
         self._keep: list = [None] * n
         self.recorder = FlightRecorder(self, config.record_hz) if config.record_hz > 0 else None
         self._closed = False
+        self.phase_seconds: dict[str, float] | None = None
+        """Wall seconds per phase of ``step`` once ``time_phases()`` was called."""
 
     def _endpoint(self, i: int) -> MavlinkEndpoint:
         ports = self.config.ports
@@ -146,6 +148,9 @@ class Simulation:
 
     def step(self) -> None:
         """Advance one physics step and run everything that became due."""
+        if self.phase_seconds is not None:
+            self._step_timed()
+            return
         self.world.step(self._actuators)
         self._actuators = self._keep
         sensors, gps = self.world.poll_sensors()
@@ -160,6 +165,49 @@ class Simulation:
                 ep.poll(now)
         if self.recorder is not None:
             self.recorder.maybe_record()
+
+    def _step_timed(self) -> None:
+        """``step`` with the wall time of each phase added to ``phase_seconds``."""
+        clock = time.perf_counter
+        acc = self.phase_seconds
+        t0 = clock()
+        self.world.step(self._actuators)
+        self._actuators = self._keep
+        t1 = clock()
+        sensors, gps = self.world.poll_sensors()
+        t2 = clock()
+        if gps is not None:
+            self.fleet.handle_gps(gps)
+        if sensors is not None:
+            self._actuators = self.fleet.handle_sensors(sensors)
+        t3 = clock()
+        self._step_count += 1
+        if self.endpoints and self._step_count % self._poll_every == 0:
+            now = self.world.time_s
+            for ep in self.endpoints:
+                ep.poll(now)
+        t4 = clock()
+        if self.recorder is not None:
+            self.recorder.maybe_record()
+        t5 = clock()
+        acc["physics (sitl step)"] += t1 - t0
+        acc["sensors (sitl HIL messages)"] += t2 - t1
+        acc["autopilots (estimation, control)"] += t3 - t2
+        acc["MAVLink endpoints"] += t4 - t3
+        acc["recording"] += t5 - t4
+
+    def time_phases(self) -> None:
+        """Start accumulating the wall time of each phase of ``step`` in ``phase_seconds``."""
+        self.phase_seconds = dict.fromkeys(
+            (
+                "physics (sitl step)",
+                "sensors (sitl HIL messages)",
+                "autopilots (estimation, control)",
+                "MAVLink endpoints",
+                "recording",
+            ),
+            0.0,
+        )
 
     def run_lockstep(
         self, duration_s: float, until: Callable[[Simulation], bool] | None = None

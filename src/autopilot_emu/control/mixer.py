@@ -46,13 +46,11 @@ class Mixer:
 
     def mix(self, torque: np.ndarray, thrust: np.ndarray) -> np.ndarray:
         """Motor outputs (N, 6) for torque (N, 3) in -1..1 and collective thrust (N,) in 0..1."""
-        t_rp = torque[:, :2] @ self.matrix[:, :2].T
-        t_y = torque[:, 2:3] * self.matrix[:, 2][None, :]
-        thr = thrust[:, None] * self.thrust_column[None, :]
-        base = thr + t_rp
-        fractions = base + t_y
+        thr = thrust[:, None] * self.thrust_column
+        fractions = thr + torque @ self.matrix.T
         if fractions.max() > 1.0 or fractions.min() < 0.0:
-            fractions = self._desaturate(thr, t_rp, t_y)
+            fractions = self._desaturate(thr, torque[:, :2] @ self.matrix[:, :2].T,
+                                         torque[:, 2:3] * self.matrix[:, 2])  # fmt: skip
         return np.maximum(np.sqrt(fractions), self.idle_output)
 
     @staticmethod

@@ -30,10 +30,11 @@ class RateController:
     ) -> np.ndarray:
         """Torque command for rates (N, 3) given setpoints; ``integrate`` masks the I term."""
         err = rate_sp - rates
-        d_rates = (rates - self._prev_rates) / dt_s
+        torque = kp * err + self.integral - kd * ((rates - self._prev_rates) * (1.0 / dt_s))
         self._prev_rates = rates
-        torque = kp * err + self.integral - kd * d_rates
-        self.integral += np.where(integrate[:, None], ki * err * dt_s, 0.0)
+        step = (ki * dt_s) * err
+        if not integrate.all():
+            step *= integrate[:, None]
         lim = self.integrator_limit
-        np.minimum(np.maximum(self.integral, -lim, out=self.integral), lim, out=self.integral)
+        self.integral = np.minimum(np.maximum(self.integral + step, -lim), lim)
         return np.minimum(np.maximum(torque, -1.0), 1.0)
