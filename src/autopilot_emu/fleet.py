@@ -357,16 +357,11 @@ class FleetVehicle:
         """Fly to a geodetic point and hold there (NaN keeps)."""
         if not self.fleet.estimator.origin_set[self.index]:
             return 1
-        cur = self.fleet.estimator.position_ned_m[self.index]
-        clat, clon, calt = self._geodetic(cur)
-        lat = lat_deg if math.isfinite(lat_deg) else math.nan
-        lon = lon_deg if math.isfinite(lon_deg) else math.nan
+        # Project with the unknown parts zeroed, then mark them NaN: "keep the current target".
         target = self._to_ned(
-            lat if math.isfinite(lat) else clat,
-            lon if math.isfinite(lon) else clon,
-            alt_amsl_m if math.isfinite(alt_amsl_m) else calt,
+            np.nan_to_num(lat_deg, nan=0.0), np.nan_to_num(lon_deg, nan=0.0), alt_amsl_m
         )
-        if not math.isfinite(lat) or not math.isfinite(lon):
+        if not (math.isfinite(lat_deg) and math.isfinite(lon_deg)):
             target[:2] = np.nan
         if not math.isfinite(alt_amsl_m):
             target[2] = np.nan
