@@ -93,6 +93,8 @@ class AutopilotFleet:
         self._gains: _Gains | None = None
         self._controls = [0.0] * 16
         self._pressure_alt_m = np.zeros(n)
+        self.metres_per_degree = np.ones((n, 2))
+        """Local projection scale of each vehicle's EKF origin (lat, lon), m/deg."""
         self._att_target_q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
         self._att_target_thrust = np.full(n, np.nan)
 
@@ -159,7 +161,8 @@ class AutopilotFleet:
         lla = np.stack((g[:, 0] * 1e-7, g[:, 1] * 1e-7, g[:, 2] * 1e-3), axis=1)
         vel = g[:, 3:6] * 0.01
         ned = geodesy.geodetic_to_ned(lla, est.origin_lla)
-        est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m)
+        if est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m).any():
+            self.metres_per_degree = geodesy.metres_per_degree(est.origin_lla)
 
     # -- loops ------------------------------------------------------------------------------------
     def _navigate(self, dt: float, gains: _Gains) -> None:
@@ -323,8 +326,11 @@ class FleetVehicle:
         return result
 
     def _geodetic(self, ned: np.ndarray) -> tuple[float, float, float]:
-        lla = geodesy.ned_to_geodetic(ned, self.fleet.estimator.origin_lla[self.index])
-        return float(lla[0]), float(lla[1]), float(lla[2])
+        # Scalar form of geodesy.ned_to_geodetic with the origin's cached scale (hot: telemetry).
+        o = self.fleet.estimator.origin_lla[self.index].tolist()
+        s = self.fleet.metres_per_degree[self.index].tolist()
+        n, e, d = ned.tolist()
+        return o[0] + n / s[0], o[1] + e / s[1], o[2] - d
 
     def _to_ned(self, lat: float, lon: float, alt: float) -> np.ndarray:
         lla = np.array([lat, lon, alt], dtype=float)
@@ -400,8 +406,13 @@ class FleetVehicle:
         est, cmd = f.estimator, self.commander
         pos = est.position_ned_m[i]
         vel = est.velocity_ned_m_s[i]
-        q = est.q[i : i + 1]
-        euler = quat.to_euler(q)[0]
+        q = est.q[i]
+        r = est.r[i].tolist()
+        euler = (
+            math.atan2(r[2][1], r[2][2]),
+            math.asin(max(-1.0, min(1.0, -r[2][0]))),
+            math.atan2(r[1][0], r[0][0]),
+        )
         origin_ok = bool(est.origin_set[i])
         lat, lon, alt = self._geodetic(pos) if origin_ok else (math.nan, math.nan, math.nan)
         home = None
@@ -455,7 +466,7 @@ class FleetVehicle:
             relative_alt_m=rel_alt,
             position_ned_m=(float(pos[0]), float(pos[1]), float(pos[2])),
             velocity_ned_m_s=(float(vel[0]), float(vel[1]), float(vel[2])),
-            quaternion_wxyz=tuple(float(v) for v in q[0]),
+            quaternion_wxyz=tuple(q.tolist()),
             euler_rad=(float(euler[0]), float(euler[1]), float(euler[2])),
             body_rates_rad_s=tuple(float(v) for v in est.rates_rad_s[i]),
             throttle=float(f.thrust[i]),

@@ -22,23 +22,26 @@ def radii_of_curvature(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return WGS84_A_M * (1.0 - WGS84_E2) / w**3, WGS84_A_M / w
 
 
+def metres_per_degree(origin: np.ndarray) -> np.ndarray:
+    """(..., 2) metres per degree of latitude and of longitude at each origin (lat, lon, alt)."""
+    rm, rn = radii_of_curvature(origin[..., 0])
+    per_rad = np.stack(
+        (rm + origin[..., 2], (rn + origin[..., 2]) * np.cos(np.radians(origin[..., 0]))), axis=-1
+    )
+    return np.radians(per_rad)
+
+
 def geodetic_to_ned(lla: np.ndarray, origin: np.ndarray) -> np.ndarray:
     """(N, 3) lat/lon (deg), alt AMSL (m) -> NED (m) around per-row origins (N, 3)."""
-    rm, rn = radii_of_curvature(origin[..., 0])
-    north = np.radians(lla[..., 0] - origin[..., 0]) * (rm + origin[..., 2])
-    east = (
-        np.radians(lla[..., 1] - origin[..., 1])
-        * (rn + origin[..., 2])
-        * np.cos(np.radians(origin[..., 0]))
-    )
+    scale = metres_per_degree(origin)
+    north = (lla[..., 0] - origin[..., 0]) * scale[..., 0]
+    east = (lla[..., 1] - origin[..., 1]) * scale[..., 1]
     return np.stack((north, east, origin[..., 2] - lla[..., 2]), axis=-1)
 
 
 def ned_to_geodetic(ned: np.ndarray, origin: np.ndarray) -> np.ndarray:
     """Inverse of :func:`geodetic_to_ned`."""
-    rm, rn = radii_of_curvature(origin[..., 0])
-    lat = origin[..., 0] + np.degrees(ned[..., 0] / (rm + origin[..., 2]))
-    lon = origin[..., 1] + np.degrees(
-        ned[..., 1] / ((rn + origin[..., 2]) * np.cos(np.radians(origin[..., 0])))
-    )
+    scale = metres_per_degree(origin)
+    lat = origin[..., 0] + ned[..., 0] / scale[..., 0]
+    lon = origin[..., 1] + ned[..., 1] / scale[..., 1]
     return np.stack((lat, lon, origin[..., 2] - ned[..., 2]), axis=-1)
