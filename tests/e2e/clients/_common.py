@@ -50,6 +50,20 @@ async def wait_for(stream, predicate, timeout_s: float, what: str):
         raise ClientError(f"timed out after {timeout_s:.0f} s (wall) waiting for {what}") from exc
 
 
+async def connect_healthy(drone, url: str, report, timeout_s: float) -> None:
+    """Connect, then wait until MAVSDK reports global position and home OK (stages recorded)."""
+    report.stage("connect")
+    await drone.connect(system_address=url)
+    await wait_for(drone.core.connection_state(), lambda s: s.is_connected, timeout_s, "connection")
+    report.stage("health")
+    await wait_for(
+        drone.telemetry.health(),
+        lambda h: h.is_global_position_ok and h.is_home_position_ok,
+        timeout_s,
+        "global position and home",
+    )
+
+
 def ned_of(lat: float, lon: float, alt: float, ref: tuple[float, float, float]):
     """(north, east, down) of a geodetic point relative to ``ref`` (lat, lon, alt AMSL)."""
     n, e, d = pymap3d.geodetic2ned(lat, lon, alt, *ref)

@@ -15,7 +15,7 @@ import math
 import statistics
 
 import pymap3d
-from _common import ClientError, Report, first, horizontal, ned_of, run, wait_for
+from _common import ClientError, Report, connect_healthy, first, horizontal, ned_of, run, wait_for
 
 TAKEOFF_ALT_M = 5.0
 RTL_ALT_M = 10.0
@@ -57,16 +57,7 @@ async def fly(args, r: Report) -> None:
 
     drone = System(port=args.grpc_port)
     try:
-        r.stage("connect")
-        await drone.connect(system_address=args.url)
-        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
-        r.stage("health")
-        await wait_for(
-            drone.telemetry.health(),
-            lambda h: h.is_global_position_ok and h.is_home_position_ok,
-            60,
-            "global position and home",
-        )
+        await connect_healthy(drone, args.url, r, 60)
         modes: list[str] = []
         r["modes"] = modes
         watcher = asyncio.ensure_future(watch_modes(drone, modes))

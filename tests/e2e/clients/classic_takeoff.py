@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 
-from _common import Report, first, run, wait_for
+from _common import Report, connect_healthy, first, run, wait_for
 
 
 async def heartbeat_sysids(drone, count: int) -> list[int]:
@@ -29,16 +29,7 @@ async def fly(args, r: Report) -> None:
 
     drone = System(port=args.grpc_port)
     try:
-        r.stage("connect")
-        await drone.connect(system_address=args.url)
-        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 90, "connection")
-        r.stage("health")
-        await wait_for(
-            drone.telemetry.health(),
-            lambda h: h.is_global_position_ok and h.is_home_position_ok,
-            90,
-            "global position and home",
-        )
+        await connect_healthy(drone, args.url, r, 90)
         r.stage("identity")
         r["heartbeat_sysids"] = await asyncio.wait_for(heartbeat_sysids(drone, 3), 60)
         r["mav_sys_id"] = await drone.param.get_param_int("MAV_SYS_ID")
