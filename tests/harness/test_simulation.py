@@ -91,3 +91,63 @@ def test_port_plan_follows_px4_sitl_convention():
     assert [ports.listen_port(i) for i in range(3)] == [14580, 14581, 14582]
     assert ports.peers(2) == (("127.0.0.1", 14542), ("127.0.0.1", 14550))
     assert PortPlan(gcs_port=0).peers(0) == (("127.0.0.1", 14540),)
+
+
+def _airborne(seed=2):
+    sim = Simulation(SimulationConfig(n_vehicles=1, mavlink=False, record_hz=0, seed=seed))
+    sim.run_lockstep(3.0)
+    v = sim.fleet.vehicle(0)
+    assert v.arm(False) == 0 and v.takeoff(None) == 0
+    sim.run_lockstep(8.0)
+    return sim, v
+
+
+def test_goto_with_yaw_turns_the_vehicle():
+    """DO_REPOSITION's yaw (radians) is flown: the true heading ends at 90 degrees (east)."""
+    sim, v = _airborne()
+    try:
+        tel = v.telemetry()
+        assert v.reposition(tel.lat_deg, tel.lon_deg, tel.alt_amsl_m, math.pi / 2, math.nan) == 0
+        sim.run_lockstep(6.0)
+        yaw = np.degrees(sim.world.truth.euler_ned_frd_rad[0, 2])
+        assert abs(yaw - 90.0) < 5.0
+    finally:
+        sim.close()
+
+
+def test_kill_in_the_air_drops_the_vehicle_and_it_ends_on_the_ground():
+    """Kill (forced disarm) stops the motors at once; the vehicle falls and is detected landed."""
+    sim, v = _airborne()
+    try:
+        assert v.disarm(True) == 0
+        sim.run_lockstep(0.05)
+        assert np.all(sim.world.truth.rotor_speed_rad_s[0] < 1500 * 0.9)
+        sim.run_lockstep(5.0)
+        truth = sim.world.truth
+        assert np.isfinite(truth.position_enu_m).all()
+        assert truth.position_enu_m[0, 2] < 0.5
+        assert sim.fleet.commanders[0].landed_state == 1  # ON_GROUND
+        assert not v.telemetry().armed
+    finally:
+        sim.close()
+
+
+def test_hold_during_goto_stops_near_where_it_was():
+    """AUTO_LOITER mid-flight holds at the current position instead of finishing the goto."""
+    sim, v = _airborne()
+    try:
+        tel = v.telemetry()
+        home = tel.home
+        lat, lon, _ = pymap3d.ned2geodetic(
+            40.0, 0.0, 0.0, home.lat_deg, home.lon_deg, home.alt_amsl_m
+        )
+        v.reposition(float(lat), float(lon), tel.alt_amsl_m, 0.0, math.nan)
+        sim.run_lockstep(4.0)
+        north_at_hold = sim.world.truth.position_enu_m[0, 1]
+        assert v.set_mode(4, 3) == 0
+        sim.run_lockstep(8.0)
+        north = sim.world.truth.position_enu_m[0, 1]
+        assert 5.0 < north < 38.0
+        assert abs(north - north_at_hold) < 6.0  # braking distance from cruise speed
+    finally:
+        sim.close()
