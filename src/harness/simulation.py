@@ -118,8 +118,7 @@ class Simulation:
             raise
         self._poll_every = round(config.physics_hz / config.mavlink_poll_hz)
         self._step_count = 0
-        self._actuators: list = [None] * n
-        self._keep: list = [None] * n
+        self._actuators: list | None = None
         self.recorder = FlightRecorder(self, config.record_hz) if config.record_hz > 0 else None
         self._closed = False
         self.phase_seconds: dict[str, float] | None = None
@@ -152,7 +151,7 @@ class Simulation:
             self._step_timed()
             return
         self.world.step(self._actuators)
-        self._actuators = self._keep
+        self._actuators = None  # None: the world keeps every command
         sensors, gps = self.world.poll_sensors()
         if gps is not None:
             self.fleet.handle_gps(gps)
@@ -172,7 +171,7 @@ class Simulation:
         acc = self.phase_seconds
         t0 = clock()
         self.world.step(self._actuators)
-        self._actuators = self._keep
+        self._actuators = None  # None: the world keeps every command
         t1 = clock()
         sensors, gps = self.world.poll_sensors()
         t2 = clock()
