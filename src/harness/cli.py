@@ -99,8 +99,23 @@ def up(
     flag = _StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
     t_start = time.monotonic()
+    shown = [t_start]
+
+    def should_stop() -> bool:
+        now = time.monotonic()
+        if now - shown[0] >= 0.5:
+            shown[0] = now
+            armed = sum(c.armed for c in sim.fleet.commanders)
+            flying = sum(c.in_air for c in sim.fleet.commanders)
+            status.update(
+                f"t = {sim.time_s:8.1f} s simulated ({sim.time_s / (now - t_start):.2f}x), "
+                f"{armed} armed, {flying} in the air"
+            )
+        return flag.stop
+
     try:
-        sim.run_paced(speed, lambda: flag.stop, duration if duration > 0 else float("inf"))
+        with console.status("starting ...") as status:
+            sim.run_paced(speed, should_stop, duration if duration > 0 else float("inf"))
     finally:
         for s, h in old.items():
             signal.signal(s, h)
