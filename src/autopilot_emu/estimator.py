@@ -118,7 +118,7 @@ class FleetEstimator:
         self._r_gps_v = np.diag([cfg.gps_pos_std_v_m**2, cfg.gps_vel_std_v_m_s**2])
         self._r_baro = np.array([[cfg.baro_std_m**2]])
         self._last_vel = np.zeros((n, 3))
-        self._decl_rad = np.radians(cfg.mag_declination_deg)
+        self._decl_rad = np.full(n, np.radians(cfg.mag_declination_deg))
         self._mag_corr: np.ndarray | None = None
 
     # -- read-only views -------------------------------------------------------------------
@@ -139,9 +139,9 @@ class FleetEstimator:
         settled = (self.time_s - self.first_fix_s) >= self.config.settle_s
         return self.origin_set & self.attitude_ok & fresh & settled & (self.gps_fix_type >= 3)
 
-    def set_declination(self, declination_deg: float) -> None:
-        """Apply EKF2_MAG_DECL."""
-        self._decl_rad = np.radians(declination_deg)
+    def set_declination(self, declination_deg: np.ndarray | list[float]) -> None:
+        """Apply each vehicle's EKF2_MAG_DECL, (N,) degrees."""
+        self._decl_rad = np.radians(np.asarray(declination_deg, dtype=float))
 
     # -- sensor updates ----------------------------------------------------------------------
     def update_imu(self, accel_frd: np.ndarray, gyro_frd: np.ndarray, dt_s: float) -> None:
@@ -193,7 +193,7 @@ class FleetEstimator:
         zeros = np.zeros_like(roll)
         tilt = quat.to_rotation_matrix(quat.from_euler(np.stack((roll, pitch, zeros), axis=1)))
         m_h = np.einsum("nij,nj->ni", tilt, mag_frd[mask])
-        yaw = quat.wrap_pi(self._decl_rad - np.arctan2(m_h[:, 1], m_h[:, 0]))
+        yaw = quat.wrap_pi(self._decl_rad[mask] - np.arctan2(m_h[:, 1], m_h[:, 0]))
         self.q[mask] = quat.from_euler(np.stack((roll, pitch, yaw), axis=1))
         self.r = quat.to_rotation_matrix(self.q)
         self.attitude_ok[mask] = True

@@ -250,7 +250,7 @@ class AutopilotFleet:
         if versions != self._param_versions or self._gains is None:
             self._gains = _Gains.from_params(self.params)
             self._param_versions = versions
-            self.estimator.set_declination(float(self.params[0].get("EKF2_MAG_DECL")))
+            self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
         return self._gains
 
     # -- per-vehicle views ---------------------------------------------------------------------
@@ -407,12 +407,7 @@ class FleetVehicle:
         pos = est.position_ned_m[i]
         vel = est.velocity_ned_m_s[i]
         q = est.q[i]
-        r = est.r[i].tolist()
-        euler = (
-            math.atan2(r[2][1], r[2][2]),
-            math.asin(max(-1.0, min(1.0, -r[2][0]))),
-            math.atan2(r[1][0], r[0][0]),
-        )
+        euler = quat.euler_of(est.r[i : i + 1])[0].tolist()
         origin_ok = bool(est.origin_set[i])
         lat, lon, alt = self._geodetic(pos) if origin_ok else (math.nan, math.nan, math.nan)
         home = None
@@ -467,7 +462,7 @@ class FleetVehicle:
             position_ned_m=(float(pos[0]), float(pos[1]), float(pos[2])),
             velocity_ned_m_s=(float(vel[0]), float(vel[1]), float(vel[2])),
             quaternion_wxyz=tuple(q.tolist()),
-            euler_rad=(float(euler[0]), float(euler[1]), float(euler[2])),
+            euler_rad=tuple(euler),
             body_rates_rad_s=tuple(float(v) for v in est.rates_rad_s[i]),
             throttle=float(f.thrust[i]),
             battery_voltage_v=float(bat.voltage_v[i]),

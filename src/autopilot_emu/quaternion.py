@@ -109,13 +109,11 @@ def from_rotation_matrix(r: np.ndarray) -> np.ndarray:
     return q
 
 
-def to_euler(q: np.ndarray) -> np.ndarray:
-    """(N, 3) roll, pitch, yaw in radians (ZYX)."""
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.stack((roll, pitch, yaw), axis=1)
+def euler_of(r: np.ndarray) -> np.ndarray:
+    """(N, 3) roll, pitch, yaw in radians (ZYX) of (N, 3, 3) rotation matrices."""
+    roll = np.arctan2(r[:, 2, 1], r[:, 2, 2])
+    pitch = np.arcsin(np.clip(-r[:, 2, 0], -1.0, 1.0))
+    return np.stack((roll, pitch, yaw_of(r)), axis=1)
 
 
 def from_euler(rpy: np.ndarray) -> np.ndarray:
