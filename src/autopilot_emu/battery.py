@@ -34,6 +34,12 @@ class FleetBattery:
         self.model = model or BatteryModel()
         self.consumed_mah = np.zeros(n)
         self.current_a = np.zeros(n)
+        self.capacity_mah = np.full(n, self.model.capacity_mah)
+
+    def set_capacity(self, capacity_mah: list[float]) -> None:
+        """Pack capacities (BAT1_CAPACITY); zero or negative means "unknown": the model's."""
+        c = np.asarray(capacity_mah, dtype=float)
+        self.capacity_mah = np.where(c > 0, c, self.model.capacity_mah)
 
     def update(
         self, thrust: np.ndarray, hover_thrust: np.ndarray, armed: np.ndarray, dt_s: float
@@ -48,7 +54,7 @@ class FleetBattery:
     @property
     def remaining(self) -> np.ndarray:
         """State of charge, 0..1."""
-        return np.clip(1.0 - self.consumed_mah / self.model.capacity_mah, 0.0, 1.0)
+        return np.clip(1.0 - self.consumed_mah / self.capacity_mah, 0.0, 1.0)
 
     @property
     def voltage_v(self) -> np.ndarray:

@@ -16,6 +16,15 @@ from enum import Enum
 
 import numpy as np
 
+from autopilot_emu import geodesy
+from autopilot_emu.failsafe import Action, FailsafeInput, FailsafeMonitor
+from autopilot_emu.mission.executor import LegKind, MissionExecutor, StepInput, Tolerances
+from autopilot_emu.mission.feasibility import (
+    PlanContext,
+    mission_feasibility,
+)
+from autopilot_emu.mission.geofence import Fence, build_fence
+from autopilot_emu.mission.items import MissionItem, MissionState, MissionStore, MissionType
 from autopilot_emu.modes import AutoSubMode, LandedState, MainMode
 from autopilot_emu.params import ParamStore
 
@@ -23,6 +32,10 @@ ACCEPTED, TEMPORARILY_REJECTED, DENIED = 0, 1, 2
 SEVERITY_CRITICAL, SEVERITY_WARNING, SEVERITY_NOTICE, SEVERITY_INFO = 2, 4, 5, 6
 FORCE_MAGIC = 21196
 """MAV_CMD_COMPONENT_ARM_DISARM param2 that forces (kills) regardless of state."""
+MIN_TAKEOFF_HEIGHT_M = 1.0
+"""Lowest take-off height above the ground, m: a take-off to or below the ground (a NAV_TAKEOFF
+with a low param7, MIS_TAKEOFF_ALT 0) would leave the vehicle "taking off" on the ground."""
+MAV_MISSION_ACCEPTED = 0
 
 
 class RtlPhase(Enum):
@@ -45,6 +58,10 @@ class NavInput:
     thrust: float
     """Last collective thrust command, 0..1."""
     origin_alt_amsl_m: float
+    origin_lat_lon_deg: tuple[float, float] = (math.nan, math.nan)
+    """Latitude and longitude of the NED origin, deg (NaN before the first fix)."""
+    battery_remaining: float = math.nan
+    """Estimated state of charge, 0..1."""
 
 
 @dataclass
@@ -90,6 +107,14 @@ class Commander:
         self._landed_candidate_s: float | None = None
         self._last: NavInput | None = None
         self.killed = False
+        self.missions = MissionStore()
+        self.mission = MissionExecutor()
+        self.mission_reached: list[int] = []
+        self.fence = Fence()
+        self.fence_breached = False
+        self.failsafe = FailsafeMonitor(params)
+        self._gcs_heard_s: float | None = None
+        self._rtl_dest_ned = np.zeros(2)
 
     # -- helpers ------------------------------------------------------------------------------
     def _say(self, severity: int, text: str) -> None:
@@ -107,6 +132,8 @@ class Commander:
         return self._last.position_ned_m.copy() if self._last else np.zeros(3)
 
     def _set_mode(self, main: MainMode, sub: AutoSubMode = AutoSubMode.NONE) -> None:
+        if self.sub_mode == AutoSubMode.MISSION and sub != AutoSubMode.MISSION:
+            self.mission.pause()
         self.main_mode, self.sub_mode = main, sub
 
     def _hold_here(self) -> None:
@@ -121,6 +148,9 @@ class Commander:
             return
         pos = self._last.position_ned_m.copy()
         self.home = Home(pos, self._last.origin_alt_amsl_m - pos[2])
+        mission = self.missions.items(MissionType.MISSION)
+        if mission and not self.mission.valid:  # e.g. relative altitudes waited for a home
+            self.mission.load(mission, self._mission_feasible())
 
     def arm(self, force: bool) -> int:
         """Arm if armable (good position, on the ground), or unconditionally when forced."""
@@ -130,9 +160,10 @@ class Commander:
         if not ready and not force:
             self._say(SEVERITY_CRITICAL, "Arming denied: no valid position estimate")
             return DENIED
+        # Arming never takes off: only modes that stay on the ground are kept (MAVSDK's arm()
+        # itself switches Mission and RTL to Hold first).
         if self.main_mode != MainMode.AUTO or self.sub_mode not in (
             AutoSubMode.LOITER,
-            AutoSubMode.TAKEOFF,
             AutoSubMode.LAND,
         ):
             self._hold_here()
@@ -161,21 +192,38 @@ class Commander:
         # The mode stays what it was (PX4 shows LAND / RTL after landing); that is why MAVSDK's
         # arm() switches to Hold first when it finds the vehicle in RTL or Mission.
         self.armed = False
+        if self.landed_state == LandedState.TAKEOFF:
+            self.landed_state = LandedState.ON_GROUND  # disarmed before leaving the ground
         self._say(SEVERITY_INFO, text)
 
     def takeoff(self, alt_amsl_m: float | None) -> int:
-        """Climb to alt_amsl_m, or to home + MIS_TAKEOFF_ALT when None."""
+        """Climb to alt_amsl_m (NAV_TAKEOFF param7, AMSL), or to home + MIS_TAKEOFF_ALT.
+
+        On the ground the target is at least MIS_TAKEOFF_ALT (and never less than
+        :data:`MIN_TAKEOFF_HEIGHT_M`) above the ground; in the air a target below the vehicle
+        keeps the current altitude, as PX4's takeoff does.
+        """
         if not self.armed:
             self._say(SEVERITY_CRITICAL, "Takeoff denied: disarmed")
             return DENIED
         if self._last is None or not self._last.position_ok or self.home is None:
             return TEMPORARILY_REJECTED
+        nav = self._last
+        here_amsl = nav.origin_alt_amsl_m - float(nav.position_ned_m[2])
+        default_height = max(float(self.params.get("MIS_TAKEOFF_ALT")), MIN_TAKEOFF_HEIGHT_M)
         if alt_amsl_m is None or not math.isfinite(alt_amsl_m):
-            alt_amsl_m = self.home.alt_amsl_m + float(self.params.get("MIS_TAKEOFF_ALT"))
+            alt_amsl_m = max(self.home.alt_amsl_m, here_amsl if not self.in_air else -math.inf)
+            alt_amsl_m += default_height
+        elif not self.in_air and alt_amsl_m < here_amsl + default_height:
+            alt_amsl_m = here_amsl + default_height
+            self._say(SEVERITY_WARNING, f"Using minimum takeoff altitude: {default_height:.2f} m")
+        elif self.in_air and alt_amsl_m < here_amsl:
+            alt_amsl_m = here_amsl
+            self._say(SEVERITY_INFO, "Already higher than takeoff altitude")
         target = self._position()
-        target[2] = self._last.origin_alt_amsl_m - alt_amsl_m
+        target[2] = nav.origin_alt_amsl_m - alt_amsl_m
         self._target = target
-        self._yaw_sp = self._last.yaw_rad
+        self._yaw_sp = nav.yaw_rad
         self._set_mode(MainMode.AUTO, AutoSubMode.TAKEOFF)
         if not self.in_air:
             self.landed_state = LandedState.TAKEOFF
@@ -210,9 +258,34 @@ class Commander:
         self._target[2] = self._rtl_alt_ned_z
         self._yaw_sp = self._last.yaw_rad
         self._set_mode(MainMode.AUTO, AutoSubMode.RTL)
+        self._rtl_dest_ned, rally = self._rtl_destination()
         above_home = self._last.origin_alt_amsl_m - self._rtl_alt_ned_z - self.home.alt_amsl_m
-        self._say(SEVERITY_INFO, f"RTL: climbing to {above_home:.1f} m above home")
+        where = f"rally point {rally + 1}" if rally is not None else "home"
+        self._say(SEVERITY_INFO, f"RTL: climbing to {above_home:.1f} m above home, then to {where}")
         return ACCEPTED
+
+    def _rtl_destination(self) -> tuple[np.ndarray, int | None]:
+        """Home or the closest rally point, whichever is nearer (horizontal NED, m)."""
+        assert self.home is not None and self._last is not None
+        here = self._last.position_ned_m[:2]
+        best, best_index = self.home.position_ned_m[:2].copy(), None
+        best_dist = float(np.hypot(*(best - here)))
+        origin = self._origin()
+        if origin is None:
+            return best, None
+        for index, item in enumerate(self.missions.items(MissionType.RALLY)):
+            point = geodesy.geodetic_to_ned(np.array([item.lat_deg, item.lon_deg, 0.0]), origin)
+            dist = float(np.hypot(*(point[:2] - here)))
+            if dist < best_dist:
+                best, best_index, best_dist = point[:2], index, dist
+        return best, best_index
+
+    def _origin(self) -> np.ndarray | None:
+        """The NED origin as (lat, lon, alt AMSL), None before the first fix."""
+        nav = self._last
+        if nav is None or not math.isfinite(nav.origin_lat_lon_deg[0]):
+            return None
+        return np.array([*nav.origin_lat_lon_deg, nav.origin_alt_amsl_m])
 
     def set_mode(self, main: int, sub: int) -> int:
         """MAV_CMD_DO_SET_MODE with PX4 custom main/sub modes."""
@@ -232,8 +305,7 @@ class Commander:
                     return self._accept_on_ground(sub)
                 return self.return_to_launch()
             if sub == AutoSubMode.MISSION:
-                self._say(SEVERITY_CRITICAL, "Mission mode denied: no valid mission")
-                return DENIED
+                return self._start_mission()
             return DENIED
         if main == MainMode.OFFBOARD:
             self._say(SEVERITY_CRITICAL, "Offboard mode denied: no setpoint stream")
@@ -249,6 +321,89 @@ class Commander:
             self._say(SEVERITY_CRITICAL, "Manual modes denied: no RC or manual control input")
             return DENIED
         return DENIED
+
+    def _start_mission(self) -> int:
+        """Mission mode: fly the stored mission from its current item (taking off if landed)."""
+        if not self.mission.valid:
+            self._say(SEVERITY_CRITICAL, "Switching to Mission is currently not available")
+            return TEMPORARILY_REJECTED
+        if self.sub_mode == AutoSubMode.MISSION and self.mission.state == MissionState.ACTIVE:
+            return ACCEPTED
+        self._set_mode(MainMode.AUTO, AutoSubMode.MISSION)
+        if self.armed:
+            self.mission.activate(landed=not self.in_air)
+            if not self.in_air:
+                self.landed_state = LandedState.TAKEOFF
+        return ACCEPTED
+
+    # -- missions, geofence, rally -------------------------------------------------------------
+    def upload_mission(self, kind: MissionType, items: tuple[MissionItem, ...]) -> int:
+        """Store a plan (upload or clear), rebuild the fence, re-check the mission."""
+        kind = MissionType(kind)
+        self.missions.replace(kind, items)
+        if kind == MissionType.FENCE:
+            self.fence = build_fence(items)  # the transfer checked it is well formed
+        if kind == MissionType.RALLY:
+            return MAV_MISSION_ACCEPTED
+        running = self.sub_mode == AutoSubMode.MISSION and self.mission.state == MissionState.ACTIVE
+        self.mission.load(self.missions.items(MissionType.MISSION), self._mission_feasible())
+        if running:
+            if self.mission.valid:
+                self.mission.activate(landed=not self.in_air)
+            elif self.in_air:
+                self._hold_here()
+        return MAV_MISSION_ACCEPTED
+
+    def _mission_feasible(self) -> bool:
+        """PX4's feasibility check of the stored mission; announces why it is refused."""
+        items = self.missions.items(MissionType.MISSION)
+        if not items:
+            return False
+        home = None
+        if self.home is not None and (origin := self._origin()) is not None:
+            lat, lon, _ = geodesy.ned_to_geodetic(self.home.position_ned_m, origin)
+            home = (float(lat), float(lon), self.home.alt_amsl_m)
+        p = self.params
+        result = mission_feasibility(
+            items,
+            PlanContext(
+                home_lat_lon_alt=home,
+                fence=self.fence,
+                max_hor_dist_m=float(p.get("GF_MAX_HOR_DIST")),
+                max_ver_dist_m=float(p.get("GF_MAX_VER_DIST")),
+                dist_1wp_m=float(p.get("MIS_DIST_1WP")),
+            ),
+        )
+        for warning in result.warnings:
+            self._say(SEVERITY_WARNING, warning)
+        if result.problem is not None:
+            self._say(SEVERITY_CRITICAL, result.problem)
+            return False
+        return True
+
+    def set_mission_current(self, seq: int) -> bool:
+        """MISSION_SET_CURRENT: continue the mission at item ``seq``."""
+        return self.mission.set_current(seq)
+
+    def mission_status(self) -> tuple[int, int, int]:
+        """(current seq, total items or 65535 without a mission, MISSION_STATE), as PX4."""
+        total = len(self.mission.items)
+        state = self.mission.state
+        return (self.mission.current, total if state != MissionState.NO_MISSION else 0xFFFF, state)
+
+    def gcs_heartbeat(self) -> None:
+        """A ground-station HEARTBEAT arrived (data-link-loss failsafe)."""
+        self._gcs_heard_s = self._now()
+
+    @property
+    def fence_enabled(self) -> bool:
+        """A geofence is configured (areas, or a maximum distance or height)."""
+        p = self.params
+        return (
+            not self.fence.empty
+            or float(p.get("GF_MAX_HOR_DIST")) > 0
+            or float(p.get("GF_MAX_VER_DIST")) > 0
+        )
 
     def _accept_on_ground(self, sub: AutoSubMode) -> int:
         # On the ground RTL/LAND are already done: stay landed (auto-disarm follows).
@@ -291,6 +446,7 @@ class Commander:
         if self.home is None and nav.position_ok:
             self.set_home_here()
         self._detect_landing(nav)
+        self._check_failsafes(nav)
         out = NavOutput(yaw_rad=self._yaw_sp)
         cruise = self._speed_override_m_s
         if not math.isfinite(cruise):
@@ -316,7 +472,118 @@ class Commander:
             self._land_setpoint(nav, out)
         elif sub == AutoSubMode.RTL:
             self._rtl_setpoint(nav, out)
+        elif sub == AutoSubMode.MISSION:
+            self._mission_setpoint(nav, out)
         return out
+
+    def _mission_setpoint(self, nav: NavInput, out: NavOutput) -> None:
+        """One tick of the mission: the executor's leg becomes the controller setpoint."""
+        home = self.home
+        origin = self._origin()
+        if home is None or origin is None:
+            return
+        p = self.params
+
+        def to_ned(lat: float, lon: float, alt: float) -> np.ndarray:
+            return geodesy.geodetic_to_ned(np.array([lat, lon, alt]), origin)
+
+        mission = self.mission
+        leg = mission.step(
+            StepInput(
+                time_s=nav.time_s,
+                position_ned_m=nav.position_ned_m,
+                yaw_rad=nav.yaw_rad,
+                landed=self.landed_state == LandedState.ON_GROUND,
+                home_alt_amsl_m=home.alt_amsl_m,
+                tolerances=Tolerances(
+                    acceptance_radius_m=float(p.get("NAV_ACC_RAD")),
+                    altitude_radius_m=float(p.get("NAV_MC_ALT_RAD")),
+                    takeoff_alt_m=max(float(p.get("MIS_TAKEOFF_ALT")), MIN_TAKEOFF_HEIGHT_M),
+                ),
+                to_ned=to_ned,
+            )
+        )
+        self.mission_reached.extend(mission.reached)
+        mission.reached.clear()
+        for text in mission.texts:
+            self._say(SEVERITY_INFO, text)
+        mission.texts.clear()
+        if mission.speed_m_s is not None:
+            self.change_speed(mission.speed_m_s)
+            mission.speed_m_s = None
+        if leg.kind == LegKind.RTL:
+            if self.return_to_launch() != ACCEPTED:
+                self.land()
+            return
+        target = np.where(np.isfinite(leg.target_ned_m), leg.target_ned_m, nav.position_ned_m)
+        self._target = target
+        if math.isfinite(leg.yaw_rad):
+            self._yaw_sp = leg.yaw_rad
+            out.yaw_rad = leg.yaw_rad
+        out.position_ned_m = target.copy()
+        if leg.kind == LegKind.LAND:
+            offset = float(np.hypot(*(target[:2] - nav.position_ned_m[:2])))
+            if offset > float(p.get("NAV_ACC_RAD")):
+                out.position_ned_m[2] = nav.position_ned_m[2] if self.in_air else target[2]
+            else:
+                self._land_setpoint(nav, out)
+
+    # -- failsafes -------------------------------------------------------------------------------
+    def _check_failsafes(self, nav: NavInput) -> None:
+        """Geofence breach, data link, battery and position: announce, then act."""
+        self.fence_breached = self._breaching_fence(nav)
+        monitor = self.failsafe
+        action = monitor.update(
+            FailsafeInput(
+                time_s=nav.time_s,
+                armed=self.armed,
+                in_air=self.in_air and self.landed_state != LandedState.TAKEOFF,
+                landing=self.sub_mode == AutoSubMode.LAND or self._descending,
+                battery_remaining=nav.battery_remaining,
+                position_ok=nav.position_ok,
+                fence_breached=self.fence_breached,
+                gcs_heard_s=self._gcs_heard_s,
+            )
+        )
+        for severity, text in monitor.texts:
+            self._say(severity, text)
+        monitor.texts.clear()
+        if action == Action.HOLD:
+            self._hold_here()
+        elif action == Action.RTL:
+            if self.return_to_launch() != ACCEPTED:
+                self.land()
+        elif action == Action.LAND:
+            self.land()
+        elif action == Action.DISARM:
+            self.disarm(force=True)
+        elif action == Action.TERMINATE:
+            self.terminate()
+
+    def _breaching_fence(self, nav: NavInput) -> bool:
+        """Outside the geofence areas, or beyond GF_MAX_HOR_DIST / GF_MAX_VER_DIST of home."""
+        if not (self.fence_enabled and nav.position_ok and self.home is not None):
+            return False
+        p = self.params
+        offset = nav.position_ned_m - self.home.position_ned_m
+        max_hor = float(p.get("GF_MAX_HOR_DIST"))
+        max_ver = float(p.get("GF_MAX_VER_DIST"))
+        if 0 < max_hor < float(np.hypot(offset[0], offset[1])) or 0 < max_ver < -offset[2]:
+            return True
+        origin = self._origin()
+        if self.fence.empty or origin is None:
+            return False
+        lat, lon, _ = geodesy.ned_to_geodetic(nav.position_ned_m, origin)
+        return not self.fence.contains(float(lat), float(lon))
+
+    @property
+    def _descending(self) -> bool:
+        """In the final descent of LAND, RTL or a mission landing."""
+        return (
+            self.sub_mode == AutoSubMode.LAND
+            or (self.sub_mode == AutoSubMode.RTL and self._rtl_phase == RtlPhase.LAND)
+            or (self.sub_mode == AutoSubMode.MISSION and self.mission.landing)
+        )
 
     def _land_setpoint(self, nav: NavInput, out: NavOutput) -> None:
         out.position_ned_m[2] = np.nan
@@ -335,20 +602,20 @@ class Commander:
             out.position_ned_m = self._target.copy()
             if nav.position_ned_m[2] - self._rtl_alt_ned_z < 0.5:
                 self._rtl_phase = RtlPhase.RETURN
-                self._target = np.array(
-                    [home.position_ned_m[0], home.position_ned_m[1], self._rtl_alt_ned_z]
-                )
-                self._say(SEVERITY_INFO, "RTL: returning home")
+                dest = self._rtl_dest_ned
+                self._target = np.array([dest[0], dest[1], self._rtl_alt_ned_z])
+                self._say(SEVERITY_INFO, "RTL: returning")
         elif self._rtl_phase == RtlPhase.RETURN:
             out.position_ned_m = self._target.copy()
-            dist = float(np.hypot(*(nav.position_ned_m[:2] - home.position_ned_m[:2])))
+            dest = self._rtl_dest_ned
+            dist = float(np.hypot(*(nav.position_ned_m[:2] - dest)))
             if (
                 dist < float(self.params.get("NAV_ACC_RAD")) * 0.5
                 and np.hypot(nav.velocity_ned_m_s[0], nav.velocity_ned_m_s[1]) < 0.5
             ):
                 self._rtl_phase = RtlPhase.LAND
-                self._target = np.array([home.position_ned_m[0], home.position_ned_m[1], np.nan])
-                self._say(SEVERITY_INFO, "RTL: landing at home")
+                self._target = np.array([dest[0], dest[1], np.nan])
+                self._say(SEVERITY_INFO, "RTL: landing")
         else:
             out.position_ned_m = self._target.copy()
             self._land_setpoint(nav, out)
@@ -362,6 +629,9 @@ class Commander:
         """PX4-like land detector: low thrust, no vertical motion, for a while."""
         vz = abs(float(nav.velocity_ned_m_s[2]))
         vxy = float(np.hypot(nav.velocity_ned_m_s[0], nav.velocity_ned_m_s[1]))
+        if self.landed_state == LandedState.TAKEOFF and not self.armed:
+            self.landed_state = LandedState.ON_GROUND
+            return
         if not self.in_air or self.landed_state == LandedState.TAKEOFF:
             if (
                 self.armed
@@ -371,9 +641,7 @@ class Commander:
                 self.landed_state = LandedState.IN_AIR
             return
         hover = float(self.params.get("MPC_THR_HOVER"))
-        descending = self.sub_mode == AutoSubMode.LAND or (
-            self.sub_mode == AutoSubMode.RTL and self._rtl_phase == RtlPhase.LAND
-        )
+        descending = self._descending
         low_thrust = (not self.armed) or nav.thrust < 0.6 * hover
         still = vz < 0.3 and vxy < 0.5
         if still and (low_thrust or (descending and vz < 0.1)):

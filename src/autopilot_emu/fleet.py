@@ -25,6 +25,7 @@ from autopilot_emu.control.position import PositionController, PositionGains, Po
 from autopilot_emu.control.rate import RateController
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
 from autopilot_emu.mavlink.vehicle_port import HomeSnapshot, TelemetrySnapshot
+from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.params import ParamStore
 
 _ACC_BITS, _GYRO_BITS, _MAG_BITS = 0x7, 0x38, 0x1C0
@@ -42,6 +43,9 @@ _SENSORS = (
     | mavlink2.MAV_SYS_STATUS_SENSOR_BATTERY
     | mavlink2.MAV_SYS_STATUS_PREARM_CHECK
 )
+_GEOFENCE = mavlink2.MAV_SYS_STATUS_GEOFENCE
+_FAILURE_UNIT_GPS = mavlink2.FAILURE_UNIT_SENSOR_GPS
+_FAILURE_OK, _FAILURE_OFF = mavlink2.FAILURE_TYPE_OK, mavlink2.FAILURE_TYPE_OFF
 
 
 @dataclass(frozen=True)
@@ -86,6 +90,8 @@ class AutopilotFleet:
         self.armed = np.zeros(n, dtype=bool)
         self.q_sp = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
         self.last_gps: list[mavlink2.MAVLink_hil_gps_message | None] = [None] * n
+        self.gps_failed = np.zeros(n, dtype=bool)
+        """GPS switched off by MAV_CMD_INJECT_FAILURE: its samples are dropped."""
         self._sp = PositionSetpoint.hold(n)
         self._nav_period_s = 1.0 / config.nav_hz
         self._nav_accum_s = self._nav_period_s  # run navigation on the first sample
@@ -154,10 +160,13 @@ class AutopilotFleet:
     def handle_gps(self, msgs: list[mavlink2.MAVLink_hil_gps_message]) -> None:
         """Consume one HIL_GPS per vehicle."""
         est = self.estimator
-        self.last_gps = list(msgs)
         g = np.array(
             [(m.lat, m.lon, m.alt, m.vn, m.ve, m.vd, m.fix_type) for m in msgs], dtype=float
         )
+        if self.gps_failed.any():
+            g[self.gps_failed, 6] = 0  # no fix: the estimator ignores the sample
+            msgs = [None if off else m for m, off in zip(msgs, self.gps_failed, strict=True)]
+        self.last_gps = list(msgs)
         lla = np.stack((g[:, 0] * 1e-7, g[:, 1] * 1e-7, g[:, 2] * 1e-3), axis=1)
         vel = g[:, 3:6] * 0.01
         ned = geodesy.geodetic_to_ned(lla, est.origin_lla)
@@ -170,8 +179,11 @@ class AutopilotFleet:
         pos, vel = est.position_ned_m, est.velocity_ned_m_s
         yaw = quat.yaw_of(est.r)
         ok = est.position_ok
+        origin = est.origin_lla.tolist()
+        remaining = self.battery.remaining.tolist()
         sp = self._sp
         for i, cmd in enumerate(self.commanders):
+            lat, lon, alt = origin[i] if est.origin_set[i] else (math.nan, math.nan, 0.0)
             out: NavOutput = cmd.update(
                 NavInput(
                     est.time_s,
@@ -180,7 +192,9 @@ class AutopilotFleet:
                     float(yaw[i]),
                     bool(ok[i]),
                     float(self.thrust[i]),
-                    float(est.origin_lla[i, 2]),
+                    alt,
+                    (lat, lon),
+                    remaining[i],
                 )
             )
             sp.position_ned_m[i] = out.position_ned_m
@@ -251,6 +265,7 @@ class AutopilotFleet:
             self._gains = _Gains.from_params(self.params)
             self._param_versions = versions
             self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
+            self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
         return self._gains
 
     # -- per-vehicle views ---------------------------------------------------------------------
@@ -399,6 +414,45 @@ class FleetVehicle:
         texts, self.commander.status_texts = self.commander.status_texts, []
         return texts
 
+    # -- missions ---------------------------------------------------------------------------------
+    def mission_items(self, kind: MissionType) -> tuple[MissionItem, ...]:
+        """A stored plan."""
+        return self.commander.missions.items(kind)
+
+    def upload_mission(self, kind: MissionType, items: tuple[MissionItem, ...]) -> int:
+        """Store a plan (see Commander.upload_mission)."""
+        return self._sync(self.commander.upload_mission(kind, items))
+
+    def set_mission_current(self, seq: int) -> bool:
+        """Continue the mission at ``seq``."""
+        return self.commander.set_mission_current(seq)
+
+    def mission_status(self) -> tuple[int, int, int]:
+        """(seq, total, MISSION_STATE)."""
+        return self.commander.mission_status()
+
+    def pop_mission_reached(self) -> list[int]:
+        """Items completed since the last call."""
+        reached, self.commander.mission_reached = self.commander.mission_reached, []
+        return reached
+
+    def gcs_heartbeat(self) -> None:
+        """A ground station is alive."""
+        self.commander.gcs_heartbeat()
+
+    def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
+        """GPS off / back on (PX4's failure injection; needs SYS_FAILURE_EN = 1)."""
+        if int(self.params.get("SYS_FAILURE_EN")) != 1:
+            return mavlink2.MAV_RESULT_DENIED
+        if unit != _FAILURE_UNIT_GPS or failure_type not in (_FAILURE_OK, _FAILURE_OFF):
+            return mavlink2.MAV_RESULT_UNSUPPORTED
+        failed = failure_type == _FAILURE_OFF
+        self.fleet.gps_failed[self.index] = failed
+        self.commander.status_texts.append(
+            (mavlink2.MAV_SEVERITY_WARNING, "Failure injected: GPS off" if failed else "GPS ok")
+        )
+        return mavlink2.MAV_RESULT_ACCEPTED
+
     # -- telemetry ------------------------------------------------------------------------------
     def telemetry(self) -> TelemetrySnapshot:
         """Snapshot of this vehicle's estimate and state."""
@@ -422,6 +476,10 @@ class FleetVehicle:
             health &= ~(mavlink2.MAV_SYS_STATUS_SENSOR_GPS | mavlink2.MAV_SYS_STATUS_PREARM_CHECK)
         if not est.attitude_ok[i]:
             health &= ~mavlink2.MAV_SYS_STATUS_AHRS
+        # Geofence as MAVProxy reads it: healthy unless breached; present only when configured.
+        present = _SENSORS | (_GEOFENCE if cmd.fence_enabled else 0)
+        if not cmd.fence_breached:
+            health |= _GEOFENCE
         gps = f.last_gps[i]
         if gps is not None:
             gps_fields = dict(
@@ -446,6 +504,7 @@ class FleetVehicle:
                 gps_velocity_ned_m_s=(0.0, 0.0, 0.0),
             )
         bat = f.battery
+        mission_seq, mission_total, mission_state = cmd.mission_status()
         return TelemetrySnapshot(
             time_usec=f.time_usec,
             armed=cmd.armed,
@@ -453,7 +512,7 @@ class FleetVehicle:
             sub_mode=int(cmd.sub_mode),
             landed_state=int(cmd.landed_state),
             system_status=4 if cmd.armed else 3,
-            sensors_present=_SENSORS,
+            sensors_present=present,
             sensors_health=health,
             lat_deg=lat,
             lon_deg=lon,
@@ -470,5 +529,8 @@ class FleetVehicle:
             battery_remaining_pct=round(100 * float(bat.remaining[i])),
             battery_consumed_mah=float(bat.consumed_mah[i]),
             home=home,
+            mission_seq=mission_seq,
+            mission_total=mission_total,
+            mission_state=int(mission_state),
             **gps_fields,
         )

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from autopilot_emu.commander import ACCEPTED, DENIED, Commander, NavInput
+from autopilot_emu.commander import ACCEPTED, DENIED, TEMPORARILY_REJECTED, Commander, NavInput
 from autopilot_emu.modes import AutoSubMode, LandedState, MainMode
 from autopilot_emu.params import ParamStore
 
@@ -65,7 +65,7 @@ def test_land_detection_then_auto_disarm_after_com_disarm_land(cmd):
 
 def test_unavailable_modes_are_denied(cmd):
     assert cmd.set_mode(MainMode.OFFBOARD, 0) == DENIED
-    assert cmd.set_mode(MainMode.AUTO, AutoSubMode.MISSION) == DENIED
+    assert cmd.set_mode(MainMode.AUTO, AutoSubMode.MISSION) == TEMPORARILY_REJECTED  # no mission
     assert cmd.set_mode(MainMode.POSCTL, 0) == DENIED
     assert cmd.set_mode(99, 0) == DENIED
     assert cmd.set_mode(MainMode.AUTO, AutoSubMode.LOITER) == ACCEPTED

@@ -199,6 +199,8 @@ class CommandDispatcher:
             mavlink2.MAV_CMD_REQUEST_MESSAGE: self._request_message,
             mavlink2.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._request_autopilot_version,
             mavlink2.MAV_CMD_GET_HOME_POSITION: self._request_home,
+            mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT: self._set_mission_current,
+            mavlink2.MAV_CMD_INJECT_FAILURE: self._inject_failure,
         }
 
     def handle(self, request: CommandRequest) -> CommandReply:
@@ -328,6 +330,20 @@ class CommandDispatcher:
                 mavlink2.MAV_SEVERITY_WARNING, f"Autopilot {verb} requested: ignored in simulation"
             )
         return ACCEPTED
+
+    def _set_mission_current(self, request: CommandRequest) -> int:
+        seq = _required(request.params[0], "mission item")
+        if seq != int(seq) or not self._vehicle.set_mission_current(int(seq)):
+            raise _Rejected(DENIED, f"mission item {seq} does not exist")
+        return ACCEPTED
+
+    def _inject_failure(self, request: CommandRequest) -> int:
+        unit = _required(request.params[0], "failure unit")
+        kind = _required(request.params[1], "failure type")
+        instance = request.params[2] if _finite(request.params[2]) else 0.0
+        if not all(v == int(v) and 0 <= v <= 255 for v in (unit, kind, instance)):
+            raise _Rejected(DENIED, "failure unit, type and instance must be small integers")
+        return self._vehicle.inject_failure(int(unit), int(kind), int(instance))
 
     # --- endpoint commands -------------------------------------------------------------------
 

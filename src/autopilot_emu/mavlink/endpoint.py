@@ -34,6 +34,7 @@ from autopilot_emu.mavlink.commands import (
     CommandDispatcher,
     CommandRequest,
 )
+from autopilot_emu.mavlink.mission_protocol import MissionProtocol
 from autopilot_emu.mavlink.param_protocol import ParamProtocol
 from autopilot_emu.mavlink.streams import DEFAULT_STREAMS, StreamScheduler
 from autopilot_emu.mavlink.tlog import TlogWriter
@@ -157,7 +158,29 @@ class MavlinkEndpoint:
         )
         self._params = ParamProtocol(vehicle.params, self._send)
         self._commands = CommandDispatcher(vehicle, self)
+        self._missions = MissionProtocol(
+            vehicle, self._send, self.announce, lambda: vehicle.mission_status()[0]
+        )
+        self._mission_status: tuple[int, int, int] | None = None
         self._handlers: dict[int, Callable[[mavlink2.MAVLink_message], None]] = {
+            mavlink2.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
+            mavlink2.MAVLINK_MSG_ID_MISSION_COUNT: self._on_mission(self._missions.handle_count),
+            mavlink2.MAVLINK_MSG_ID_MISSION_ITEM_INT: self._on_mission(self._missions.handle_item),
+            mavlink2.MAVLINK_MSG_ID_MISSION_ITEM: self._on_mission(self._missions.handle_item),
+            mavlink2.MAVLINK_MSG_ID_MISSION_REQUEST_LIST: self._on_mission(
+                self._missions.handle_request_list
+            ),
+            mavlink2.MAVLINK_MSG_ID_MISSION_REQUEST_INT: self._on_mission(
+                self._missions.handle_request
+            ),
+            mavlink2.MAVLINK_MSG_ID_MISSION_REQUEST: self._on_mission(
+                self._missions.handle_request
+            ),
+            mavlink2.MAVLINK_MSG_ID_MISSION_CLEAR_ALL: self._on_mission(
+                self._missions.handle_clear_all
+            ),
+            mavlink2.MAVLINK_MSG_ID_MISSION_ACK: self._on_mission_ack,
+            mavlink2.MAVLINK_MSG_ID_MISSION_SET_CURRENT: self._on_mission_set_current,
             mavlink2.MAVLINK_MSG_ID_COMMAND_LONG: self._on_command,
             mavlink2.MAVLINK_MSG_ID_COMMAND_INT: self._on_command,
             mavlink2.MAVLINK_MSG_ID_PARAM_REQUEST_LIST: self._on_param_request_list,
@@ -280,8 +303,11 @@ class MavlinkEndpoint:
             self._next_statustext_us = now_us + STATUSTEXT_POLL_INTERVAL_US
             for severity, text in self._vehicle.pop_status_texts():
                 self.announce(severity, text)
+            self._mission_events()
         if self._params.list_pending:
             self._params.send_list_batch()
+        if self._missions.busy:
+            self._missions.tick()
         if self._tlog is not None and now_us >= self._next_flush_us:
             self._next_flush_us = now_us + TLOG_FLUSH_INTERVAL_US
             self._tlog.flush()
@@ -289,7 +315,7 @@ class MavlinkEndpoint:
 
     def _reschedule(self) -> None:
         """Compute the earliest simulation time at which :meth:`_work` has something to do."""
-        if self._params.list_pending:
+        if self._params.list_pending or self._missions.busy:
             self._next_work_s = -_NEVER
             return
         next_us = min(self._streams.next_due_us, self._next_statustext_us)
@@ -459,6 +485,40 @@ class MavlinkEndpoint:
     def _on_param_set(self, msg: mavlink2.MAVLink_message) -> None:
         if self._targets_us(msg.target_system, msg.target_component):
             self._params.handle_set(msg)
+
+    def _on_heartbeat(self, msg: mavlink2.MAVLink_message) -> None:
+        # PX4 counts only ground stations (type GCS) for the data-link-loss failsafe.
+        if msg.type == mavlink2.MAV_TYPE_GCS:
+            self._vehicle.gcs_heartbeat()
+
+    def _on_mission(
+        self, handler: Callable[[mavlink2.MAVLink_message, tuple[int, int]], None]
+    ) -> Callable[[mavlink2.MAVLink_message], None]:
+        """Wrap a MissionProtocol handler: check the target, pass the sender's ids."""
+
+        def handle(msg: mavlink2.MAVLink_message) -> None:
+            if self._targets_us(msg.target_system, msg.target_component):
+                handler(msg, (msg.get_srcSystem(), msg.get_srcComponent()))
+                self._reschedule()
+
+        return handle
+
+    def _on_mission_ack(self, msg: mavlink2.MAVLink_message) -> None:
+        """The partner's MISSION_ACK ends a download: nothing is pending on our side."""
+
+    def _on_mission_set_current(self, msg: mavlink2.MAVLink_message) -> None:
+        if self._targets_us(msg.target_system, msg.target_component):
+            self._missions.handle_set_current(msg)
+            self._mission_events(force_current=True)
+
+    def _mission_events(self, force_current: bool = False) -> None:
+        """MISSION_ITEM_REACHED for completed items; MISSION_CURRENT when it changed."""
+        for seq in self._vehicle.pop_mission_reached():
+            self._send(mavlink2.MAVLink_mission_item_reached_message(seq & 0xFFFF))
+        status = self._vehicle.mission_status()
+        if force_current or status != self._mission_status:
+            self._mission_status = status
+            self._emit(mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT)
 
     def _on_ping(self, msg: mavlink2.MAVLink_message) -> None:
         # As PX4: target 0/0 is a request to answer; a PING addressed to us is a reply to a

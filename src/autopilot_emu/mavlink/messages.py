@@ -414,6 +414,18 @@ def autopilot_version(snapshot: TelemetrySnapshot, context: MessageContext) -> M
     )
 
 
+def mission_current(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
+    """MISSION_CURRENT (42): current item, item count (65535: none) and MISSION_STATE."""
+    state = snapshot.mission_state
+    active = state == mavlink2.MISSION_STATE_ACTIVE
+    return mavlink2.MAVLink_mission_current_message(
+        seq=snapshot.mission_seq & 0xFFFF,
+        total=snapshot.mission_total & 0xFFFF,
+        mission_state=state & 0xFF,
+        mission_mode=1 if active else 2 if state != mavlink2.MISSION_STATE_NO_MISSION else 0,
+    )
+
+
 def message_interval(message_id: int, interval_us: int) -> Message:
     """MESSAGE_INTERVAL (244): -1 disabled, 0 not available, > 0 the interval in us."""
     return mavlink2.MAVLink_message_interval_message(message_id=message_id, interval_us=interval_us)
@@ -458,5 +470,6 @@ BUILDERS: dict[int, Builder] = {
     mavlink2.MAVLINK_MSG_ID_SYSTEM_TIME: system_time,
     mavlink2.MAVLINK_MSG_ID_FLIGHT_INFORMATION: flight_information,
     mavlink2.MAVLINK_MSG_ID_AUTOPILOT_VERSION: autopilot_version,
+    mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
 }
 """Message id -> builder, for streams and MAV_CMD_REQUEST_MESSAGE."""

@@ -46,6 +46,7 @@ DEFAULT_STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec("VFR_HUD", mavlink2.MAVLINK_MSG_ID_VFR_HUD, 4.0),
     StreamSpec("ALTITUDE", mavlink2.MAVLINK_MSG_ID_ALTITUDE, 5.0),
     StreamSpec("SYSTEM_TIME", mavlink2.MAVLINK_MSG_ID_SYSTEM_TIME, 1.0),
+    StreamSpec("MISSION_CURRENT", mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT, 1.0),
 )
 """Streams sent unprompted, in the order they go out when due together."""
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.params import ParamStore
 
 
@@ -83,6 +84,12 @@ class TelemetrySnapshot:
     home: HomeSnapshot | None
     """None until the vehicle has a home (before the first good position estimate)."""
     takeoff_alt_amsl_m: float = float("nan")
+    mission_seq: int = 0
+    """Current mission item (MISSION_CURRENT.seq)."""
+    mission_total: int = 0xFFFF
+    """Items in the mission; 65535 when there is none (MISSION_CURRENT.total, as PX4)."""
+    mission_state: int = 1
+    """MISSION_STATE: 1 no mission, 2 not started, 3 active, 4 paused, 5 complete."""
     extra: dict[str, float] = field(default_factory=dict)
     """Free-form extras for optional streams."""
 
@@ -137,4 +144,32 @@ class VehiclePort(Protocol):
 
     def pop_status_texts(self) -> list[tuple[int, str]]:
         """(MAV_SEVERITY, text) events raised since the last call, for STATUSTEXT."""
+        ...
+
+    def mission_items(self, kind: MissionType) -> tuple[MissionItem, ...]:
+        """The stored mission, geofence or rally plan."""
+        ...
+
+    def upload_mission(self, kind: MissionType, items: tuple[MissionItem, ...]) -> int:
+        """Replace a plan (empty: clear it); return the MAV_MISSION_RESULT for MISSION_ACK."""
+        ...
+
+    def set_mission_current(self, seq: int) -> bool:
+        """MISSION_SET_CURRENT; False if ``seq`` is not an item of the mission."""
+        ...
+
+    def mission_status(self) -> tuple[int, int, int]:
+        """(current seq, total, MISSION_STATE) for MISSION_CURRENT; cheap, read every poll."""
+        ...
+
+    def pop_mission_reached(self) -> list[int]:
+        """Mission items completed since the last call, for MISSION_ITEM_REACHED."""
+        ...
+
+    def gcs_heartbeat(self) -> None:
+        """A HEARTBEAT of a ground station arrived (data-link-loss failsafe)."""
+        ...
+
+    def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
+        """MAV_CMD_INJECT_FAILURE; MAV_RESULT (DENIED unless SYS_FAILURE_EN is 1)."""
         ...

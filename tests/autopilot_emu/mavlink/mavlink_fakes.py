@@ -67,6 +67,10 @@ class FakeVehicle:
     calls: list[tuple] = field(default_factory=list)
     status_texts: list[tuple[int, str]] = field(default_factory=list)
     telemetry_calls: int = 0
+    plans: dict[int, tuple] = field(default_factory=dict)
+    mission_result: int = mavlink2.MAV_MISSION_ACCEPTED
+    current_seq: int = 0
+    reached: list[int] = field(default_factory=list)
 
     def telemetry(self) -> TelemetrySnapshot:
         self.telemetry_calls += 1
@@ -108,6 +112,36 @@ class FakeVehicle:
     def pop_status_texts(self) -> list[tuple[int, str]]:
         texts, self.status_texts = self.status_texts, []
         return texts
+
+    def mission_items(self, kind: int) -> tuple:
+        return self.plans.get(int(kind), ())
+
+    def upload_mission(self, kind: int, items: tuple) -> int:
+        self.calls.append(("upload_mission", int(kind), items))
+        self.plans[int(kind)] = items
+        return self.mission_result
+
+    def set_mission_current(self, seq: int) -> bool:
+        self.calls.append(("set_mission_current", seq))
+        items = self.plans.get(0, ())
+        if 0 <= seq < len(items):
+            self.current_seq = seq
+            return True
+        return False
+
+    def mission_status(self) -> tuple[int, int, int]:
+        items = self.plans.get(0, ())
+        return (self.current_seq, len(items) if items else 0xFFFF, 2 if items else 1)
+
+    def pop_mission_reached(self) -> list[int]:
+        reached, self.reached = self.reached, []
+        return reached
+
+    def gcs_heartbeat(self) -> None:
+        self.calls.append(("gcs_heartbeat",))
+
+    def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
+        return self._record("inject_failure", unit, failure_type, instance)
 
 
 def make_endpoint(
