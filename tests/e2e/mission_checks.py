@@ -147,6 +147,8 @@ def check_geofence(data: dict) -> None:
     raw = data["raw_geofence"]
     assert data["raw_geofence_commands"] == FENCE_COMMANDS, data["raw_geofence_commands"]
     assert raw["diff"] == [], _show(raw)
+    global_frames = {mavlink2.MAV_FRAME_GLOBAL, mavlink2.MAV_FRAME_GLOBAL_INT}
+    assert set(data["raw_geofence_frames"]) <= global_frames, data["raw_geofence_frames"]
     assert data["plugin_geofence"]["diff"] == [], _show(data["plugin_geofence"])
     assert data["raw_geofence_count_after_clear"] == 0
     assert data["plugin_geofence_after_clear"] == {"polygons": 0, "circles": 0}

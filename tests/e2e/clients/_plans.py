@@ -338,7 +338,7 @@ async def raw_plans_flow(r: Report, mission_raw, item_cls, error_cls, ref) -> No
             await mission_raw.upload_mission(build(item_cls, items))
             rejections[name] = {"result": "SUCCESS", "error": None}
         except error_cls as exc:
-            rejections[name] = {"result": result_name(exc), "error": str(exc)}
+            rejections[name] = {"result": result_name(exc), "error": str(exc).split("; params")[0]}
     r.stage("download_after_rejections")
     kept = [raw_dict(i) for i in await mission_raw.download_mission()]
     r["mission_after_rejections_diff"] = diff(plans["mission"][0], kept)
@@ -415,7 +415,11 @@ async def geofence_flow(r: Report, geofence, mission_raw, types: SimpleNamespace
 
     r.stage("download_raw_geofence")
     got_raw = [raw_dict(i) for i in await mission_raw.download_geofence()]
-    r["raw_geofence"] = {"count": len(got_raw), "diff": diff(raw_fence(ref), got_raw)}
+    # The plugin's frame depends on the MAVSDK version: mavsdk_server 4.0.5 sends GLOBAL_INT (5),
+    # the native 4.1.0 library GLOBAL (0); both are AMSL global frames, checked by the test.
+    r["raw_geofence_frames"] = [i.pop("frame") for i in got_raw]
+    want_raw = [{k: v for k, v in i.items() if k != "frame"} for i in raw_fence(ref)]
+    r["raw_geofence"] = {"count": len(got_raw), "diff": diff(want_raw, got_raw)}
     r["raw_geofence_commands"] = [i["command"] for i in got_raw]
 
     r.stage("download_geofence")
