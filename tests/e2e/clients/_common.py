@@ -50,6 +50,37 @@ async def wait_for(stream, predicate, timeout_s: float, what: str):
         raise ClientError(f"timed out after {timeout_s:.0f} s (wall) waiting for {what}") from exc
 
 
+async def until(predicate, timeout_s: float, what: str) -> None:
+    """Poll ``predicate()`` every 50 ms until it is true, within ``timeout_s`` wall seconds."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout_s
+    while not predicate():
+        if loop.time() > deadline:
+            raise ClientError(f"timed out after {timeout_s:.0f} s (wall) waiting for {what}")
+        await asyncio.sleep(0.05)
+
+
+async def collect(stream, out: list, convert=lambda item: item) -> None:
+    """Append every item of ``stream`` (converted) to ``out``; run it as a task."""
+    async for item in stream:
+        out.append(convert(item))
+
+
+async def sim_sleep(epoch_stream, seconds: float) -> None:
+    """Sleep ``seconds`` of simulated time.
+
+    ``epoch_stream()`` opens a stream of the vehicle's SYSTEM_TIME in microseconds (classic
+    ``telemetry.unix_epoch_time``, native ``telemetry.subscribe_unix_epoch_time``; 1 Hz).
+    """
+    t0 = await asyncio.wait_for(first(epoch_stream()), 30)
+    await wait_for(
+        epoch_stream(),
+        lambda t: t >= t0 + seconds * 1e6,
+        30 + 10 * seconds,
+        f"{seconds} simulated seconds",
+    )
+
+
 async def connect_healthy(drone, url: str, report, timeout_s: float) -> None:
     """Connect, then wait until MAVSDK reports global position and home OK (stages recorded)."""
     report.stage("connect")
@@ -62,6 +93,25 @@ async def connect_healthy(drone, url: str, report, timeout_s: float) -> None:
         timeout_s,
         "global position and home",
     )
+
+
+async def native_autopilot(sdk, url: str, report, timeout_s: float):
+    """4.x native API: connect, wait for the autopilot and for global position and home OK."""
+    from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
+
+    report.stage("connect")
+    await sdk.add_any_connection(url)
+    system = await sdk.first_autopilot(timeout_s=timeout_s)
+    if system is None:
+        raise ClientError(f"no autopilot appeared within {timeout_s:.0f} s")
+    report.stage("health")
+    await wait_for(
+        TelemetryAsync(system).subscribe_health(),
+        lambda h: h.is_global_position_ok and h.is_home_position_ok,
+        timeout_s,
+        "global position and home",
+    )
+    return system
 
 
 def ned_of(lat: float, lon: float, alt: float, ref: tuple[float, float, float]):

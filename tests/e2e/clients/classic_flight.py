@@ -15,22 +15,21 @@ import math
 import statistics
 
 import pymap3d
-from _common import ClientError, Report, connect_healthy, first, horizontal, ned_of, run, wait_for
+from _common import (
+    ClientError,
+    Report,
+    connect_healthy,
+    first,
+    horizontal,
+    ned_of,
+    run,
+    sim_sleep,
+    wait_for,
+)
 
 TAKEOFF_ALT_M = 5.0
 RTL_ALT_M = 10.0
 GOTO_NORTH_M = 20.0
-
-
-async def sim_sleep(drone, seconds: float) -> None:
-    """Sleep ``seconds`` of simulated time (SYSTEM_TIME from the vehicle, 1 Hz)."""
-    t0 = await asyncio.wait_for(first(drone.telemetry.unix_epoch_time()), 30)
-    await wait_for(
-        drone.telemetry.unix_epoch_time(),
-        lambda t: t >= t0 + seconds * 1e6,
-        30 + 10 * seconds,
-        f"{seconds} simulated seconds",
-    )
 
 
 async def positions(drone, count: int):
@@ -130,7 +129,7 @@ async def fly(args, r: Report) -> None:
             60,
             "takeoff altitude",
         )
-        await sim_sleep(drone, 5.0)
+        await sim_sleep(drone.telemetry.unix_epoch_time, 5.0)
         samples = await positions(drone, 10)
         rel = [q.relative_altitude_m for q in samples]
         r["takeoff"] = {
@@ -150,7 +149,7 @@ async def fly(args, r: Report) -> None:
 
         await drone.action.goto_location(target[0], target[1], target[2], 0.0)
         await wait_for(drone.telemetry.position(), lambda q: dist(q) < 1.0, 90, "goto arrival")
-        await sim_sleep(drone, 3.0)
+        await sim_sleep(drone.telemetry.unix_epoch_time, 3.0)
         samples = await positions(drone, 10)
         r["goto"] = {
             "target": list(target),

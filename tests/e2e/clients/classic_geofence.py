@@ -1,0 +1,47 @@
+"""Classic MAVSDK-Python (mavsdk_grpc) geofence client, as MAVSDK's ``geofence.py`` example.
+
+    python classic_geofence.py --url udpin://0.0.0.0:PORT --grpc-port GRPC
+
+Uploads GeofenceData (an inclusion polygon and an exclusion circle), reads it back both raw
+(``mission_raw.download_geofence``, mission_type 1) and through ``geofence.download_geofence``,
+clears it and reads both again. See :func:`_plans.geofence_flow`.
+"""
+
+from __future__ import annotations
+
+import argparse
+from types import SimpleNamespace
+
+from _common import Report, connect_healthy, first, run
+from _plans import geofence_flow
+
+
+async def main_flow(args, r: Report) -> None:
+    from mavsdk_grpc import System
+    from mavsdk_grpc.geofence import Circle, FenceType, GeofenceData, Point, Polygon
+
+    types = SimpleNamespace(
+        Point=Point, Polygon=Polygon, Circle=Circle, GeofenceData=GeofenceData, FenceType=FenceType
+    )
+    drone = System(port=args.grpc_port)
+    try:
+        await connect_healthy(drone, args.url, r, 60)
+        home = await first(drone.telemetry.home())
+        ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
+        r["home"] = list(ref)
+        await geofence_flow(r, drone.geofence, drone.mission_raw, types, ref)
+        r.stage("done")
+    finally:
+        drone._stop_mavsdk_server()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--url", required=True)
+    ap.add_argument("--grpc-port", type=int, required=True)
+    args = ap.parse_args()
+    run(lambda report: main_flow(args, report), Report())
+
+
+if __name__ == "__main__":
+    main()

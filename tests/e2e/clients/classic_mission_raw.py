@@ -1,0 +1,45 @@
+"""Classic MAVSDK-Python (mavsdk_grpc) mission_raw client: mission, geofence and rally items.
+
+    python classic_mission_raw.py --url udpin://0.0.0.0:PORT --grpc-port GRPC
+
+Uploads a raw mission (MISSION_ITEM_INT fields as they go on the wire), a geofence (inclusion
+polygon + exclusion circle, mission_type 1) and rally points (mission_type 2); downloads each and
+compares field by field; tries missions PX4 refuses (unsupported frame, outside the fence, inside
+the exclusion circle) and records MAVSDK's result; finally clears the mission. See
+:func:`_plans.raw_plans_flow`.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from _common import Report, connect_healthy, first, run
+from _plans import raw_plans_flow
+
+
+async def main_flow(args, r: Report) -> None:
+    from mavsdk_grpc import System
+    from mavsdk_grpc.mission_raw import MissionItem, MissionRawError
+
+    drone = System(port=args.grpc_port)
+    try:
+        await connect_healthy(drone, args.url, r, 60)
+        home = await first(drone.telemetry.home())
+        ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
+        r["home"] = list(ref)
+        await raw_plans_flow(r, drone.mission_raw, MissionItem, MissionRawError, ref)
+        r.stage("done")
+    finally:
+        drone._stop_mavsdk_server()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--url", required=True)
+    ap.add_argument("--grpc-port", type=int, required=True)
+    args = ap.parse_args()
+    run(lambda report: main_flow(args, report), Report())
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,43 @@
+"""MAVSDK 4.x native (ctypes) asyncio mission_raw client: the flow of ``classic_mission_raw.py``.
+
+    python native_mission_raw.py --url udpin://0.0.0.0:PORT
+
+Uses ``mavsdk.asyncio.plugins.mission_raw.MissionRawAsync`` (same call names as the classic
+plugin, ``MissionRawError.result`` a ``MissionRawResult`` IntEnum). See
+:func:`_plans.raw_plans_flow`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+
+from _common import Report, first, native_autopilot, run
+from _plans import raw_plans_flow
+
+
+async def main_flow(args, r: Report) -> None:
+    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+    from mavsdk.asyncio.plugins.mission_raw import MissionItem, MissionRawAsync, MissionRawError
+    from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
+
+    config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
+    async with Mavsdk(config) as sdk:
+        r["mavsdk_version"] = await sdk.version()
+        system = await native_autopilot(sdk, args.url, r, 60)
+        home = await first(TelemetryAsync(system).subscribe_home())
+        ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
+        r["home"] = list(ref)
+        await raw_plans_flow(r, MissionRawAsync(system), MissionItem, MissionRawError, ref)
+        r.stage("done")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--url", required=True)
+    args = ap.parse_args()
+    run(lambda report: asyncio.wait_for(main_flow(args, report), 120), Report())
+
+
+if __name__ == "__main__":
+    main()
