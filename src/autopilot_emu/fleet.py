@@ -504,7 +504,6 @@ class FleetVehicle:
                 gps_velocity_ned_m_s=(0.0, 0.0, 0.0),
             )
         bat = f.battery
-        mission_seq, mission_total, mission_state = cmd.mission_status()
         return TelemetrySnapshot(
             time_usec=f.time_usec,
             armed=cmd.armed,
@@ -529,8 +528,5 @@ class FleetVehicle:
             battery_remaining_pct=round(100 * float(bat.remaining[i])),
             battery_consumed_mah=float(bat.consumed_mah[i]),
             home=home,
-            mission_seq=mission_seq,
-            mission_total=mission_total,
-            mission_state=int(mission_state),
             **gps_fields,
         )

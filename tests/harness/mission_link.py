@@ -163,7 +163,7 @@ class SimLink:
         )
 
     @property
-    def commander(self):  # noqa: ANN201 - test helper
+    def commander(self):
         return self.sim.fleet.commanders[0]
 
     def truth_ned(self) -> tuple[float, float, float]:

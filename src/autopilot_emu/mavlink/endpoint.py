@@ -138,13 +138,20 @@ class MavlinkEndpoint:
     Args:
         vehicle: the flight stack behind the endpoint.
         config: addresses, ids, tlog and stream rates.
+        wall_clock_s: monotonic clock of the peers' retransmission timers (command duplicates,
+            mission-transfer retries and timeouts); injectable for tests.
 
     Raises:
         PortInUseError: ``config.listen_port`` is already bound.
         ValueError: a stream rate names an unknown message.
     """
 
-    def __init__(self, vehicle: VehiclePort, config: EndpointConfig) -> None:
+    def __init__(
+        self,
+        vehicle: VehiclePort,
+        config: EndpointConfig,
+        wall_clock_s: Callable[[], float] = time.monotonic,
+    ) -> None:
         self._vehicle = vehicle
         self._config = config
         self.stats = EndpointStats()
@@ -157,9 +164,9 @@ class MavlinkEndpoint:
             epoch_start_us=round(config.epoch_start_s * 1e6),
         )
         self._params = ParamProtocol(vehicle.params, self._send)
-        self._commands = CommandDispatcher(vehicle, self)
+        self._commands = CommandDispatcher(vehicle, self, wall_clock_s)
         self._missions = MissionProtocol(
-            vehicle, self._send, self.announce, lambda: vehicle.mission_status()[0]
+            vehicle, self._send, self.announce, lambda: vehicle.mission_status()[0], wall_clock_s
         )
         self._mission_status: tuple[int, int, int] | None = None
         self._handlers: dict[int, Callable[[mavlink2.MAVLink_message], None]] = {
@@ -358,6 +365,8 @@ class MavlinkEndpoint:
         An exception from ``vehicle.telemetry()`` propagates (a flight-stack bug); one from
         building the message is counted in ``stats.encode_errors`` and logged.
         """
+        if msg_id == mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT:
+            return messages.mission_current(*self._vehicle.mission_status())
         snapshot = self._telemetry()
         try:
             return messages.BUILDERS[msg_id](snapshot, self._context)
@@ -537,7 +546,7 @@ class MavlinkEndpoint:
 
     def request_message(self, msg_id: int) -> int:
         """MAV_CMD_REQUEST_MESSAGE: build ``msg_id`` now, send it after the ACK."""
-        if msg_id not in messages.BUILDERS:
+        if msg_id not in messages.BUILDERS and msg_id != mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT:
             return DENIED
         message = self._build(msg_id)
         if message is None:

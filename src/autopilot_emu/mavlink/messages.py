@@ -414,15 +414,19 @@ def autopilot_version(snapshot: TelemetrySnapshot, context: MessageContext) -> M
     )
 
 
-def mission_current(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
-    """MISSION_CURRENT (42): current item, item count (65535: none) and MISSION_STATE."""
-    state = snapshot.mission_state
-    active = state == mavlink2.MISSION_STATE_ACTIVE
+def mission_current(seq: int, total: int, state: int) -> Message:
+    """MISSION_CURRENT (42): current item, item count (65535: none), MISSION_STATE and mode.
+
+    Built from the vehicle's live mission status, not the per-poll snapshot, so a reply to
+    MISSION_SET_CURRENT carries the new item.
+    """
+    mode = (
+        0
+        if state == mavlink2.MISSION_STATE_NO_MISSION
+        else (1 if state == mavlink2.MISSION_STATE_ACTIVE else 2)
+    )
     return mavlink2.MAVLink_mission_current_message(
-        seq=snapshot.mission_seq & 0xFFFF,
-        total=snapshot.mission_total & 0xFFFF,
-        mission_state=state & 0xFF,
-        mission_mode=1 if active else 2 if state != mavlink2.MISSION_STATE_NO_MISSION else 0,
+        seq=seq & 0xFFFF, total=total & 0xFFFF, mission_state=state & 0xFF, mission_mode=mode
     )
 
 
@@ -470,6 +474,5 @@ BUILDERS: dict[int, Builder] = {
     mavlink2.MAVLINK_MSG_ID_SYSTEM_TIME: system_time,
     mavlink2.MAVLINK_MSG_ID_FLIGHT_INFORMATION: flight_information,
     mavlink2.MAVLINK_MSG_ID_AUTOPILOT_VERSION: autopilot_version,
-    mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
 }
 """Message id -> builder, for streams and MAV_CMD_REQUEST_MESSAGE."""

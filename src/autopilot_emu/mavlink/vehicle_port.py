@@ -84,12 +84,6 @@ class TelemetrySnapshot:
     home: HomeSnapshot | None
     """None until the vehicle has a home (before the first good position estimate)."""
     takeoff_alt_amsl_m: float = float("nan")
-    mission_seq: int = 0
-    """Current mission item (MISSION_CURRENT.seq)."""
-    mission_total: int = 0xFFFF
-    """Items in the mission; 65535 when there is none (MISSION_CURRENT.total, as PX4)."""
-    mission_state: int = 1
-    """MISSION_STATE: 1 no mission, 2 not started, 3 active, 4 paused, 5 complete."""
     extra: dict[str, float] = field(default_factory=dict)
     """Free-form extras for optional streams."""
 

@@ -145,12 +145,16 @@ class FakeVehicle:
 
 
 def make_endpoint(
-    vehicle: FakeVehicle, peers: tuple[tuple[str, int], ...] = (), **config: object
+    vehicle: FakeVehicle,
+    peers: tuple[tuple[str, int], ...] = (),
+    wall_clock_s: Callable[[], float] = time.monotonic,
+    **config: object,
 ) -> MavlinkEndpoint:
     """An endpoint on a free loopback port that sends only to ``peers`` and learned addresses."""
     return MavlinkEndpoint(
         vehicle,
         EndpointConfig(listen_port=0, peers=peers, epoch_start_s=EPOCH_START_S, **config),
+        wall_clock_s,
     )
 
 
