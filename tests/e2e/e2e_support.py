@@ -5,7 +5,9 @@
 * :func:`start_client` runs a script of ``tests/e2e/clients`` in its own process (own session,
   hard timeout); :meth:`ClientProcess.result` parses the JSON line it prints and makes sure no
   ``mavsdk_server`` of that client's gRPC port survives (MAVSDK_CONTRACT.md section 14).
-* :class:`RawLink` is a raw pymavlink client on a plain UDP socket.
+* :class:`RawLink` is a raw pymavlink client on a plain UDP socket; :func:`download_items`
+  reads a mission, geofence or rally list back with it (mission protocol, as PX4 serves it).
+* :class:`MavProxy` runs MAVProxy as the ground station, driven line by line through its stdin.
 
 Each test module gets its own block of ports from :func:`module_ports`, so modules never
 collide with each other nor with a developer's ``swarmsitl up`` on the default ports
@@ -18,6 +20,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -65,6 +68,11 @@ class Ports:
 
     def url(self, i: int = 0) -> str:
         return f"udpin://0.0.0.0:{self.sdk + i}"
+
+    @property
+    def gcs(self) -> int:
+        """Ground-station port: the block's last sdk port (free while a module runs <5 vehicles)."""
+        return self.sdk + PORT_BLOCK // 2 - 1
 
 
 def module_ports(slot: int) -> Ports:
@@ -306,8 +314,14 @@ def check_tlog(path: Path, sysid: int) -> int:
     return heartbeats
 
 
-def start_swarm(vehicles: int, ports: Ports, out: Path, extra: tuple = ()) -> Swarm:
-    """Start ``swarmsitl up`` and return once it printed its endpoint table."""
+def start_swarm(
+    vehicles: int, ports: Ports, out: Path, extra: tuple = (), gcs_port: int = 0
+) -> Swarm:
+    """Start ``swarmsitl up`` and return once it printed its endpoint table.
+
+    ``gcs_port`` is passed as ``--gcs-port``: 0 (no ground-station stream) unless a test runs
+    a ground station there.
+    """
     out.mkdir(parents=True, exist_ok=True)
     log_path = out.parent / f"{out.name}-swarmsitl.log"
     cmd = cli_command(
@@ -316,7 +330,7 @@ def start_swarm(vehicles: int, ports: Ports, out: Path, extra: tuple = ()) -> Sw
         "--speed", SPEED,
         "--sdk-port", ports.sdk,
         "--listen-port", ports.listen,
-        "--gcs-port", 0,
+        "--gcs-port", gcs_port,
         "--out", out,
         *extra,
     )  # fmt: skip
@@ -344,6 +358,8 @@ def start_swarm(vehicles: int, ports: Ports, out: Path, extra: tuple = ()) -> Sw
     for i in range(vehicles):
         assert f"127.0.0.1:{ports.listen + i}" in table, table
         assert f"udpin://0.0.0.0:{ports.sdk + i}" in table, table
+    if gcs_port:
+        assert f"127.0.0.1:{gcs_port}" in table, table
     return swarm
 
 
@@ -365,12 +381,14 @@ def stop_swarm(swarm: Swarm) -> None:
 
 
 @contextlib.contextmanager
-def running_swarm(vehicles: int, ports: Ports, out: Path) -> Iterator[Swarm]:
+def running_swarm(vehicles: int, ports: Ports, out: Path, gcs_port: int = 0) -> Iterator[Swarm]:
     """``swarmsitl up`` for the duration of the block, checked on the way out."""
     require_free_udp(
-        [ports.listen + i for i in range(vehicles)] + [ports.sdk + i for i in range(vehicles)]
+        [ports.listen + i for i in range(vehicles)]
+        + [ports.sdk + i for i in range(vehicles)]
+        + ([gcs_port] if gcs_port else [])
     )
-    swarm = start_swarm(vehicles, ports, out)
+    swarm = start_swarm(vehicles, ports, out, gcs_port=gcs_port)
     try:
         yield swarm
     finally:
@@ -475,3 +493,136 @@ def command_long(
     """COMMAND_LONG with params 1..7 (missing ones NaN, as MAVSDK sends them)."""
     p = list(params) + [math.nan] * (7 - len(params))
     return mavlink2.MAVLink_command_long_message(target_system, target_component, command, 0, *p)
+
+
+def download_items(lk: RawLink, mission_type: int, timeout_s: float = 5.0) -> list:
+    """Read the vehicle's mission, geofence or rally list (MISSION_ITEM_INTs) as a GCS would.
+
+    MISSION_REQUEST_LIST -> MISSION_COUNT, then one MISSION_REQUEST_INT per item, each re-sent
+    up to three times, then MISSION_ACK ACCEPTED (MAVSDK_CONTRACT.md section 7, download).
+    Fails the test, naming the step, when the vehicle does not answer.
+    """
+
+    def ask(request, predicate, what: str):
+        for _ in range(3):
+            lk.send(request)
+            reply = lk.wait_for(predicate, timeout_s)
+            if reply is not None:
+                return reply
+        pytest.fail(f"mission download (type {mission_type}): no {what} within 3 x {timeout_s} s")
+
+    def ours(m, name: str) -> bool:
+        return (
+            m.get_type() == name
+            and m.mission_type == mission_type
+            and (m.target_system, m.target_component) == (lk.mav.srcSystem, lk.mav.srcComponent)
+        )
+
+    count = ask(
+        mavlink2.MAVLink_mission_request_list_message(1, 1, mission_type),
+        lambda m: ours(m, "MISSION_COUNT"),
+        "MISSION_COUNT",
+    ).count
+    items = []
+    for seq in range(count):
+        items.append(
+            ask(
+                mavlink2.MAVLink_mission_request_int_message(1, 1, seq, mission_type),
+                lambda m, seq=seq: ours(m, "MISSION_ITEM_INT") and m.seq == seq,
+                f"MISSION_ITEM_INT {seq} of {count}",
+            )
+        )
+    lk.send(mavlink2.MAVLink_mission_ack_message(1, 1, mavlink2.MAV_MISSION_ACCEPTED, mission_type))
+    return items
+
+
+# --- MAVProxy ----------------------------------------------------------------------------------
+
+
+MAVPROXY_MODULES = "wp,fence,rally,param,arm,mode,cmdlong"
+"""MAVProxy modules loaded instead of its defaults: no console, map, GUI, ftp or terrain."""
+
+
+class MavProxy:
+    """MAVProxy as the ground station, in its own process group, driven through its stdin.
+
+    Commands are written to MAVProxy's prompt one line at a time (its interactive shell reads
+    plain ``input()`` lines from a pipe); its output goes to ``<log_dir>/mavproxy.out``, which
+    :meth:`wait_for` polls for acknowledgements. ``HOME`` is ``log_dir``, so no personal
+    ``~/.mavinit.scr`` runs; logs and the tlog stay in ``log_dir``. Every wait is bounded by the
+    hard ``timeout_s`` of the whole session; :meth:`close` always kills the process group.
+    """
+
+    def __init__(self, gcs_port: int, log_dir: Path, timeout_s: float = 180.0) -> None:
+        script = Path(sys.executable).with_name("mavproxy.py")
+        if not script.is_file():
+            pytest.fail(f"{script} not found: install the test extras (MAVProxy)")
+        log_dir.mkdir(parents=True, exist_ok=True)
+        self.out_path = log_dir / "mavproxy.out"
+        self.deadline = time.monotonic() + timeout_s
+        cmd = [
+            sys.executable, str(script),
+            f"--master=udpin:127.0.0.1:{gcs_port}",
+            "--target-system=1", "--target-component=1",
+            f"--default-modules={MAVPROXY_MODULES}",
+            f"--state-basedir={log_dir}",
+            f"--logfile={log_dir / 'mavproxy.tlog'}",
+        ]  # fmt: skip
+        env = os.environ | {"PYTHONUNBUFFERED": "1", "HOME": str(log_dir), "TERM": "dumb"}
+        with self.out_path.open("w") as out:
+            self.proc = subprocess.Popen(
+                cmd,
+                stdin=subprocess.PIPE,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+                cwd=log_dir,
+                env=env,
+                text=True,
+                start_new_session=True,
+            )
+
+    def output(self, since: int = 0) -> str:
+        """MAVProxy's output from character ``since`` on."""
+        return self.out_path.read_text(errors="replace")[since:]
+
+    def mark(self) -> int:
+        """A position in the output: pass it as ``since`` to look only at what follows."""
+        return len(self.output())
+
+    def tail(self, lines: int = 40) -> str:
+        return "\n".join(self.output().splitlines()[-lines:])
+
+    def fail(self, why: str) -> None:
+        pytest.fail(f"MAVProxy: {why}\n--- MAVProxy output (tail) ---\n{self.tail()}")
+
+    def send(self, line: str) -> int:
+        """Type ``line`` at MAVProxy's prompt; return the output mark from just before."""
+        if self.proc.poll() is not None:
+            self.fail(f"exited with {self.proc.returncode} before {line!r}")
+        mark = self.mark()
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+        return mark
+
+    def wait_for(self, pattern: str, since: int = 0, timeout_s: float = 20.0) -> re.Match:
+        """First match of regex ``pattern`` in the output after ``since``; fail after timeout."""
+        end = min(time.monotonic() + timeout_s, self.deadline)
+        while True:
+            found = re.search(pattern, self.output(since))
+            if found is not None:
+                return found
+            if self.proc.poll() is not None:
+                self.fail(f"exited with {self.proc.returncode} while waiting for {pattern!r}")
+            if time.monotonic() > end:
+                self.fail(f"no {pattern!r} within {timeout_s} s")
+            time.sleep(0.05)
+
+    def close(self) -> None:
+        """EOF on stdin (MAVProxy's way to quit), then SIGKILL the whole process group."""
+        with contextlib.suppress(OSError):
+            self.proc.stdin.close()
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self.proc.wait(timeout=5.0)
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        self.proc.wait()

@@ -1,0 +1,356 @@
+"""MAVProxy (``mavproxy.py`` from PyPI) as the ground station on the vehicle's GCS port.
+
+One MAVProxy session for the module, typed into through its stdin: mode changes, ``arm
+throttle``, ``takeoff``, ``wp load`` (QGC WPL 110), ``fence load`` and ``rally load``. Every step
+waits on MAVProxy's own acknowledgement lines ("Got COMMAND_ACK: ...", "Sent all N ...", "Got
+MISSION_ACK: ...") and on the vehicle's state seen by a raw pymavlink client listening in
+parallel (HEARTBEAT custom_mode and armed flag, GLOBAL_POSITION_INT, EXTENDED_SYS_STATE, and the
+uploaded lists read back with MISSION_REQUEST_LIST). The tests run in file order on one vehicle.
+
+MAVProxy talks to a PX4 autopilot the way it does to PX4 SITL: the vehicle streams to
+``--gcs-port`` and MAVProxy (``--master=udpin:127.0.0.1:<port>``) answers to where the stream
+comes from, the vehicle's listen port.
+"""
+
+from __future__ import annotations
+
+import pytest
+from e2e_support import (
+    SPEED,
+    MavProxy,
+    RawLink,
+    download_items,
+    module_ports,
+    running_swarm,
+)
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import common as mavlink2
+
+pytestmark = pytest.mark.e2e
+
+PORTS = module_ports(7)
+ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
+ACK_WAIT_S = 10.0
+"""Wall seconds for an acknowledgement (40 simulated seconds at SPEED 4)."""
+HOME_LAT, HOME_LON = 47.397742, 8.545594
+"""Vehicle 1's home (PX4 SITL's, as ``swarmsitl up`` spawns it)."""
+
+
+def px4_custom_mode(name: str) -> int:
+    """HEARTBEAT.custom_mode of PX4 mode ``name`` as MAVProxy maps it (pymavlink ``px4_map``)."""
+    _, main, sub = mavutil.px4_map[name]
+    return (main << 16) | (sub << 24)
+
+
+# --- fixtures --------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def swarm(tmp_path_factory):
+    out = tmp_path_factory.mktemp("mavproxy") / "run"
+    with running_swarm(1, PORTS, out, gcs_port=PORTS.gcs) as s:
+        yield s
+
+
+@pytest.fixture(scope="module")
+def link(swarm):
+    """A raw observer on the vehicle's listen port (sysid 245, as MAVSDK)."""
+    lk = RawLink(PORTS.listen)
+    lk.send(mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))  # makes the vehicle stream to us
+    yield lk
+    lk.close()
+
+
+@pytest.fixture(scope="module")
+def mavproxy(swarm, link, tmp_path_factory):
+    """MAVProxy connected to vehicle 1, parameters downloaded, vehicle ready to arm."""
+    mp = MavProxy(PORTS.gcs, tmp_path_factory.mktemp("mavproxy-logs"))
+    try:
+        mp.wait_for(r"Detected vehicle 1:1", timeout_s=30)
+        mp.wait_for(r"Received \d+ parameters", timeout_s=30)
+        wait_ready(link)
+        yield mp
+    finally:
+        mp.close()
+
+
+# --- vehicle state through the raw observer --------------------------------------------------
+
+
+def heartbeat(lk: RawLink):
+    lk.drain()
+    return lk.heartbeats(1)[0]
+
+
+def wait_ready(lk: RawLink) -> None:
+    """SYS_STATUS reports GPS and pre-arm checks healthy."""
+    ready = mavlink2.MAV_SYS_STATUS_SENSOR_GPS | mavlink2.MAV_SYS_STATUS_PREARM_CHECK
+    msg = lk.wait_for(
+        lambda m: (
+            m.get_type() == "SYS_STATUS" and m.onboard_control_sensors_health & ready == ready
+        ),
+        timeout_s=60,
+    )
+    assert msg is not None, "vehicle never became ready to arm"
+
+
+def wait_heartbeat(lk: RawLink, mp: MavProxy, predicate, what: str, timeout_s: float = ACK_WAIT_S):
+    lk.drain()
+    hb = lk.wait_for(
+        lambda m: m.get_type() == "HEARTBEAT" and m.get_srcComponent() == 1 and predicate(m),
+        timeout_s,
+    )
+    if hb is None:
+        mp.fail(f"vehicle HEARTBEAT never showed {what} within {timeout_s} s")
+    return hb
+
+
+def wait_relative_alt(lk: RawLink, mp: MavProxy, above_m: float, timeout_s: float):
+    """First GLOBAL_POSITION_INT more than ``above_m`` above home."""
+    lk.drain()
+    best = -1e9
+
+    def climbed(m) -> bool:
+        nonlocal best
+        if m.get_type() != "GLOBAL_POSITION_INT":
+            return False
+        best = max(best, m.relative_alt / 1000.0)
+        return m.relative_alt / 1000.0 > above_m
+
+    msg = lk.wait_for(climbed, timeout_s)
+    if msg is None:
+        mp.fail(f"vehicle did not climb above {above_m} m in {timeout_s} s (highest {best:.2f} m)")
+    return msg
+
+
+def home_amsl_m(lk: RawLink) -> float:
+    lk.drain()
+    gpi = lk.wait_for(lambda m: m.get_type() == "GLOBAL_POSITION_INT", 10)
+    assert gpi is not None, "no GLOBAL_POSITION_INT"
+    return (gpi.alt - gpi.relative_alt) / 1000.0
+
+
+# --- driving MAVProxy ------------------------------------------------------------------------
+
+
+def command_ack(mp: MavProxy, command: str, since: int) -> str:
+    """The result MAVProxy printed for the next COMMAND_ACK of ``command`` (e.g. DO_SET_MODE)."""
+    return mp.wait_for(rf"Got COMMAND_ACK: {command}: (\w+)", since, ACK_WAIT_S).group(1)
+
+
+def set_mode(mp: MavProxy, name: str) -> str:
+    """``mode NAME``; returns the DO_SET_MODE result MAVProxy printed.
+
+    With MAVProxy 1.8.75 / pymavlink 2.4.50 ``mode NAME`` cannot reach a PX4 vehicle: ModeModule
+    hands the ``px4_map`` tuple to ``set_mode_px4``, which expects a name, and MAVProxy prints
+    "ERROR in command [...]: required argument is not a float". Then the same DO_SET_MODE
+    (base mode, PX4 main mode, sub mode from ``px4_map``) goes out through MAVProxy's ``long``.
+    """
+    mark = mp.send(f"mode {name}")
+    found = mp.wait_for(r"Got COMMAND_ACK: DO_SET_MODE: (\w+)|ERROR in command", mark, ACK_WAIT_S)
+    if found.group(1) is not None:
+        return found.group(1)
+    base, main, sub = mavutil.px4_map[name]
+    mark = mp.send(f"long DO_SET_MODE {base} {main} {sub}")
+    return command_ack(mp, "DO_SET_MODE", mark)
+
+
+def arm(mp: MavProxy, lk: RawLink) -> None:
+    mark = mp.send("arm throttle")
+    assert command_ack(mp, "COMPONENT_ARM_DISARM", mark) == "ACCEPTED", mp.tail()
+    mp.wait_for(r"\bARMED\b", mark, ACK_WAIT_S)
+    wait_heartbeat(lk, mp, lambda m: m.base_mode & ARMED_FLAG, "armed")
+
+
+def land_and_disarm(mp: MavProxy, lk: RawLink) -> None:
+    """``mode LAND``, wait for the landing auto-disarm; ``disarm force`` if it never comes."""
+    if not heartbeat(lk).base_mode & ARMED_FLAG:
+        return
+    set_mode(mp, "LAND")
+    lk.drain()
+    disarmed = lk.wait_for(
+        lambda m: m.get_type() == "HEARTBEAT" and not m.base_mode & ARMED_FLAG, 60 / SPEED + 15
+    )
+    if disarmed is None:
+        mp.send("disarm force")
+        wait_heartbeat(lk, mp, lambda m: not m.base_mode & ARMED_FLAG, "disarmed after force")
+        mp.fail("vehicle still armed 60 simulated s after LAND (disarmed with 'disarm force')")
+
+
+def upload(mp: MavProxy, kind: str, path, count: int, plural: str, mission_type: str) -> None:
+    """``<kind> load <path>``: MAVProxy sends ``count`` items and the vehicle ACKs them."""
+    mark = mp.send(f"{kind} load {path}")
+    mp.wait_for(rf"Loaded {count} {plural} from", mark, ACK_WAIT_S)
+    mp.wait_for(rf"Sent all {count} {plural}", mark, ACK_WAIT_S)
+    result = mp.wait_for(rf"Got MISSION_ACK: {mission_type}: (\w+)", mark, ACK_WAIT_S).group(1)
+    assert result == "ACCEPTED", mp.tail()
+
+
+def same_position(item, lat: float, lon: float) -> bool:
+    """``item`` (degE7) is at lat/lon: MAVProxy truncates degrees * 1e7 to an int."""
+    return abs(item.x - lat * 1e7) <= 1 and abs(item.y - lon * 1e7) <= 1
+
+
+def qgc_wpl(items: list[tuple]) -> str:
+    """A QGC WPL 110 file: (seq, current, frame, command, p1..p4, lat, lon, alt, autocontinue)."""
+    lines = ["QGC WPL 110"] + ["\t".join(str(v) for v in item) for item in items]
+    return "\n".join(lines) + "\n"
+
+
+# --- the tests, in flight order --------------------------------------------------------------
+
+
+def test_connect_does_not_report_a_fence_breach(mavproxy, link):
+    """With no fence loaded, MAVProxy's fence module stays silent (no "fence breach").
+
+    MAVProxy says "fence breach" when a SYS_STATUS lacks MAV_SYS_STATUS_GEOFENCE in
+    onboard_control_sensors_health (its fence module starts out "healthy"); PX4 reports the
+    geofence healthy unless the geofence check has an error, whether or not a fence exists.
+    """
+    link.drain()
+    statuses = [link.wait_for(lambda m: m.get_type() == "SYS_STATUS", 10) for _ in range(3)]
+    assert all(statuses), "no SYS_STATUS"
+    health = statuses[-1].onboard_control_sensors_health
+    if "fence breach" in mavproxy.output():
+        mavproxy.fail(
+            "said 'fence breach' without a fence: SYS_STATUS health "
+            f"0x{health:08x} lacks MAV_SYS_STATUS_GEOFENCE (0x{mavlink2.MAV_SYS_STATUS_GEOFENCE:x})"
+        )
+
+
+def test_mode_changes_show_in_heartbeat(mavproxy, link):
+    """RTL and back to LOITER (Hold) on the ground are ACCEPTED and show in HEARTBEAT.custom_mode;
+    POSCTL without RC is DENIED and leaves the mode unchanged."""
+    for name in ("RTL", "LOITER"):
+        assert set_mode(mavproxy, name) == "ACCEPTED", mavproxy.tail()
+        wait_heartbeat(
+            link, mavproxy, lambda m, name=name: m.custom_mode == px4_custom_mode(name), name
+        )
+    assert set_mode(mavproxy, "POSCTL") == "DENIED", mavproxy.tail()
+    beats = [heartbeat(link) for _ in range(2)]
+    assert [b.custom_mode for b in beats] == [px4_custom_mode("LOITER")] * 2
+
+
+def test_arm_takeoff_to_amsl_altitude_and_land(mavproxy, link):
+    """``arm throttle``; ``takeoff <home AMSL + 10>`` climbs to 10 m and holds; LAND disarms.
+
+    MAVProxy's ``takeoff ALT`` puts ALT into param7 of NAV_TAKEOFF, which PX4 reads as AMSL.
+    """
+    target = home_amsl_m(link) + 10.0
+    arm(mavproxy, link)
+    try:
+        mark = mavproxy.send(f"takeoff {target:.1f}")
+        assert command_ack(mavproxy, "NAV_TAKEOFF", mark) == "ACCEPTED", mavproxy.tail()
+        wait_relative_alt(link, mavproxy, 8.0, timeout_s=60 / SPEED + 10)
+        ext = link.wait_for(lambda m: m.get_type() == "EXTENDED_SYS_STATE", 10)
+        assert ext is not None and ext.landed_state == mavlink2.MAV_LANDED_STATE_IN_AIR
+        # Takeoff complete: PX4 switches to Hold (AUTO.LOITER) by itself.
+        wait_heartbeat(
+            link, mavproxy, lambda m: m.custom_mode == px4_custom_mode("LOITER"), "LOITER", 20
+        )
+    finally:
+        land_and_disarm(mavproxy, link)
+    assert heartbeat(link).custom_mode == px4_custom_mode("LAND")
+
+
+def test_takeoff_below_home_climbs_to_the_minimum_takeoff_altitude(mavproxy, link):
+    """``takeoff 10`` (param7 = 10 m AMSL, below the 488 m home) still takes off.
+
+    PX4 raises a takeoff altitude below home + MIS_TAKEOFF_ALT to that minimum ("Using minimum
+    takeoff altitude"); the vehicle must climb (> 1.5 m) and not stay on the ground.
+    """
+    arm(mavproxy, link)
+    try:
+        mark = mavproxy.send("takeoff 10")
+        assert command_ack(mavproxy, "NAV_TAKEOFF", mark) == "ACCEPTED", mavproxy.tail()
+        wait_relative_alt(link, mavproxy, 1.5, timeout_s=40 / SPEED + 5)
+    finally:
+        land_and_disarm(mavproxy, link)
+
+
+def test_wp_load_uploads_two_waypoints(mavproxy, link, tmp_path):
+    """``wp load`` of a two-waypoint QGC WPL 110 file: 2 items sent, MISSION_ACK ACCEPTED, and the
+    vehicle's mission reads back as those 2 waypoints.
+
+    The file has no home line: MAVProxy sends a WPL file verbatim (an ArduPilot-style file's
+    seq 0 home line would become PX4's first waypoint).
+    """
+    wps = [(HOME_LAT + 0.00018, HOME_LON, 10.0), (HOME_LAT + 0.00018, HOME_LON + 0.00027, 12.0)]
+    path = tmp_path / "mission.txt"
+    relative = mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT
+    waypoint = mavlink2.MAV_CMD_NAV_WAYPOINT
+    path.write_text(
+        qgc_wpl(
+            [
+                (seq, int(seq == 0), relative, waypoint, 0, 2, 0, 0, lat, lon, alt, 1)
+                for seq, (lat, lon, alt) in enumerate(wps)
+            ]
+        )
+    )
+    upload(mavproxy, "wp", path, 2, "waypoints", "TYPE_MISSION")
+    items = download_items(link, mavlink2.MAV_MISSION_TYPE_MISSION)
+    assert len(items) == 2, [str(i) for i in items]
+    for item, (lat, lon, alt) in zip(items, wps, strict=True):
+        assert item.command == mavlink2.MAV_CMD_NAV_WAYPOINT
+        # PX4 answers MISSION_ITEM_INT with the *_INT twin of the uploaded frame.
+        assert item.frame in (relative, mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
+        assert same_position(item, lat, lon), str(item)
+        assert item.z == pytest.approx(alt)
+        assert item.param2 == pytest.approx(2.0)
+
+
+def test_fence_load_is_acked_and_reads_back(mavproxy, link, tmp_path):
+    """``fence load`` of MAVProxy's plain "lat lon" fence file: return point + 4-vertex inclusion
+    polygon (5 items, mission_type 1) ACKed and read back; no "fence breach" while inside."""
+    d_lat, d_lon = 0.0009, 0.00134  # about 100 m each way
+    corners = [
+        (HOME_LAT + d_lat, HOME_LON - d_lon),
+        (HOME_LAT + d_lat, HOME_LON + d_lon),
+        (HOME_LAT - d_lat, HOME_LON + d_lon),
+        (HOME_LAT - d_lat, HOME_LON - d_lon),
+    ]
+    # First line: the return point; last line closes the polygon (MAVProxy drops it).
+    points = [(HOME_LAT, HOME_LON), *corners, corners[0]]
+    path = tmp_path / "fence.txt"
+    path.write_text("".join(f"{lat:.7f} {lon:.7f}\n" for lat, lon in points))
+    mark = mavproxy.mark()
+    upload(mavproxy, "fence", path, 5, "fence items", "TYPE_FENCE")
+    items = download_items(link, mavlink2.MAV_MISSION_TYPE_FENCE)
+    assert [i.command for i in items] == [
+        mavlink2.MAV_CMD_NAV_FENCE_RETURN_POINT,
+        *[mavlink2.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION] * 4,
+    ], [str(i) for i in items]
+    assert [i.param1 for i in items[1:]] == [4] * 4  # vertex count of the polygon
+    for item, (lat, lon) in zip(items, points[:-1], strict=True):
+        assert same_position(item, lat, lon), str(item)
+    for _ in range(3):  # MAVProxy has seen SYS_STATUS with the fence loaded
+        assert link.wait_for(lambda m: m.get_type() == "SYS_STATUS", 10) is not None
+    if "fence breach" in mavproxy.output(mark):
+        mavproxy.fail("said 'fence breach' on the ground inside the fence")
+
+
+def test_rally_load_is_acked_and_reads_back(mavproxy, link, tmp_path):
+    """``rally load`` of a QGC WPL 110 file of two NAV_RALLY_POINTs (mission_type 2): ACKed and
+    read back.
+
+    Not MAVProxy's legacy "RALLY lat lon alt ..." format: its loader stores alt * 1e3 in z.
+    """
+    points = [(HOME_LAT + 0.00045, HOME_LON, 30.0), (HOME_LAT, HOME_LON + 0.00067, 35.0)]
+    relative = mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT
+    path = tmp_path / "rally.txt"
+    path.write_text(
+        qgc_wpl(
+            [
+                (seq, 0, relative, mavlink2.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, lat, lon, alt, 0)
+                for seq, (lat, lon, alt) in enumerate(points)
+            ]
+        )
+    )
+    upload(mavproxy, "rally", path, 2, "rally items", "TYPE_RALLY")
+    items = download_items(link, mavlink2.MAV_MISSION_TYPE_RALLY)
+    assert [i.command for i in items] == [mavlink2.MAV_CMD_NAV_RALLY_POINT] * 2, [
+        str(i) for i in items
+    ]
+    for item, (lat, lon, alt) in zip(items, points, strict=True):
+        assert same_position(item, lat, lon), str(item)
+        assert item.z == pytest.approx(alt)
