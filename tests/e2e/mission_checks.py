@@ -137,6 +137,10 @@ def check_raw_plans(data: dict) -> None:
         assert down["diff"] == [], f"{name}: {_show(down)}"
     for name, rejection in data["rejections"].items():
         assert rejection["result"] not in NOT_A_REJECTION, f"{name}: {_show(rejection)}"
+        # PX4: a bad frame fails the transfer; a mission outside the fence transfers, is found
+        # infeasible and Mission mode is refused.
+        expected_stage = "upload" if name == "unsupported_frame" else "start"
+        assert rejection["stage"] == expected_stage, f"{name}: {_show(rejection)}"
     assert data["mission_after_rejections_diff"] == [], _show(data["mission_after_rejections_diff"])
     assert data["mission_count_after_clear"] == 0
     assert data["geofence_count_after_mission_clear"] == len(FENCE_COMMANDS)

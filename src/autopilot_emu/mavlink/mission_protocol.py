@@ -314,7 +314,7 @@ class MissionProtocol:
             )
             return
         as_int = msg.get_msgId() == mavlink2.MAVLINK_MSG_ID_MISSION_REQUEST_INT
-        current = kind == MissionType.MISSION and msg.seq == self._current_seq()
+        current = msg.seq == self._current_seq()  # PX4 flags the mission's current seq, any type
         self._send(item_message(items[msg.seq], msg.seq, kind, partner, current, as_int))
 
     # --- clear and set current -------------------------------------------------------------

@@ -122,6 +122,7 @@ async def fly(args, r: Report) -> None:
         }
 
         r.stage("clear")
+        r["progress"] = list(progress)  # a clear legitimately resets progress to 0
         await drone.mission.clear_mission()
         r["items_after_clear"] = len((await drone.mission.download_mission()).mission_items)
         r.stage("done")
