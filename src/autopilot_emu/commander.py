@@ -261,7 +261,7 @@ class Commander:
         self._rtl_dest_ned, rally = self._rtl_destination()
         above_home = self._last.origin_alt_amsl_m - self._rtl_alt_ned_z - self.home.alt_amsl_m
         where = f"rally point {rally + 1}" if rally is not None else "home"
-        self._say(SEVERITY_INFO, f"RTL: climbing to {above_home:.1f} m above home, then to {where}")
+        self._say(SEVERITY_INFO, f"RTL: return to {where} at {above_home:.0f} m")
         return ACCEPTED
 
     def _rtl_destination(self) -> tuple[np.ndarray, int | None]:
@@ -458,6 +458,8 @@ class Commander:
             return out
         grounded = self.landed_state == LandedState.ON_GROUND
         if grounded and self.sub_mode != AutoSubMode.TAKEOFF:
+            if self.sub_mode == AutoSubMode.MISSION and self.mission.landing:
+                self._mission_setpoint(nav, NavOutput())  # the landing item is complete
             self._check_preflight_disarm(nav)
             return out
         out.active = True
@@ -643,7 +645,8 @@ class Commander:
         hover = float(self.params.get("MPC_THR_HOVER"))
         descending = self._descending
         low_thrust = (not self.armed) or nav.thrust < 0.6 * hover
-        still = vz < 0.3 and vxy < 0.5
+        # Without a position fix the horizontal velocity estimate drifts: judge by vertical only.
+        still = vz < 0.3 and (vxy < 0.5 or not nav.position_ok)
         if still and (low_thrust or (descending and vz < 0.1)):
             if self._landed_candidate_s is None:
                 self._landed_candidate_s = nav.time_s

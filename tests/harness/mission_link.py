@@ -10,6 +10,7 @@ import math
 import socket
 from collections.abc import Callable
 
+import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
@@ -81,10 +82,18 @@ class SimLink:
         return new
 
     def run(self, seconds: float) -> None:
-        """Advance the simulation by ``seconds`` of simulated time."""
+        """Advance the simulation by ``seconds`` of simulated time, reading replies as they come.
+
+        Reading every 50 steps keeps the socket's receive buffer from overflowing (lockstep
+        produces telemetry far faster than real time).
+        """
         end = self.sim.time_s + seconds
+        steps = 0
         while self.sim.time_s < end:
             self.sim.step()
+            steps += 1
+            if steps % 50 == 0:
+                self._drain()
         self._drain()
 
     def wait(
@@ -169,6 +178,16 @@ class SimLink:
     def truth_ned(self) -> tuple[float, float, float]:
         """Estimated NED position of the vehicle, m (the autopilot's own estimate)."""
         return tuple(float(v) for v in self.sim.fleet.estimator.position_ned_m[0])
+
+    def ned_of(self, north_m: float, east_m: float) -> tuple[float, float]:
+        """Where the point ``north_m``/``east_m`` of the default home lies in the vehicle's
+        own NED frame (its EKF origin is its first, noisy, GPS fix)."""
+        from autopilot_emu import geodesy
+
+        lat, lon = offset_deg(north_m, east_m)
+        origin = self.sim.fleet.estimator.origin_lla[0]
+        ned = geodesy.geodetic_to_ned(np.array([lat, lon, origin[2]]), origin)
+        return float(ned[0]), float(ned[1])
 
 
 def waypoint(

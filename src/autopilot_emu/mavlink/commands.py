@@ -3,9 +3,10 @@
 :class:`CommandRequest` normalises both messages. :class:`CommandDispatcher` validates the
 parameters (a NaN or infinity where a number is required -> DENIED), calls the vehicle or the
 endpoint services, and turns exceptions into FAILED so every command is answered. Retransmissions
-are idempotent: a command identical to the previous one from the same source within
+are idempotent: a command identical to the previous *accepted* one from the same source within
 :data:`DUPLICATE_WINDOW_S` of wall time is answered with the cached result and not executed again
-(MAVSDK retries on a wall-clock timer, whatever the simulation speed). Pure requests
+(MAVSDK retries on a wall-clock timer, whatever the simulation speed); a refused command has no
+side effect and is simply executed again, since the vehicle may have become ready. Pure requests
 (REQUEST_MESSAGE and its legacy forms, GET_MESSAGE_INTERVAL) are always executed, since repeating
 them has no side effect and a retry usually means the reply was lost.
 
@@ -217,7 +218,12 @@ class CommandDispatcher:
         ):
             return CommandReply(previous.result, duplicate=True)
         result = self._execute(request)
-        self._last_by_source[request.source] = _Handled(identity, result, now_s, self._state())
+        if result == ACCEPTED:
+            self._last_by_source[request.source] = _Handled(identity, result, now_s, self._state())
+        else:
+            # A refusal has no side effect: a repeat is executed again, since the vehicle may
+            # have become ready in between (a mission uploaded, a position fix).
+            self._last_by_source.pop(request.source, None)
         return CommandReply(result, duplicate=False)
 
     def _state(self) -> tuple[bool, int, int]:

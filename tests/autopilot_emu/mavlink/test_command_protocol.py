@@ -74,13 +74,22 @@ def test_duplicate_detection_ignores_confirmation_but_not_params_or_source(
     assert endpoint.stats.commands_duplicate == 1
 
 
-def test_cached_result_is_replayed_for_a_duplicate(client, endpoint, vehicle):
+def test_accepted_result_is_replayed_for_a_duplicate(client, endpoint, vehicle):
+    arm = command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+    assert _command(client, endpoint, arm).result == ACCEPTED
+    vehicle.result = DENIED
+    assert _command(client, endpoint, arm).result == ACCEPTED
+    assert vehicle.calls == [("arm", False)]
+
+
+def test_refused_command_is_executed_again_when_repeated(client, endpoint, vehicle):
+    """A refusal has no side effect, and the vehicle may have become ready since."""
     vehicle.result = DENIED
     disarm = command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, 0)
     assert _command(client, endpoint, disarm).result == DENIED
     vehicle.result = ACCEPTED
-    assert _command(client, endpoint, disarm).result == DENIED
-    assert vehicle.calls == [("disarm", False)]
+    assert _command(client, endpoint, disarm).result == ACCEPTED
+    assert vehicle.calls == [("disarm", False), ("disarm", False)]
 
 
 def test_unknown_command_is_unsupported(client, endpoint, vehicle):
