@@ -157,7 +157,7 @@ def _check_params(item: MissionItem, seq: int) -> None:
     command = item.command
     bad_param1 = (
         (command in (POLYGON_INCLUSION, POLYGON_EXCLUSION) and not (_whole(p1) and p1 >= 3))
-        or (command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION) and not (p1 > 0))
+        or (command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION) and not (p1 >= 0))
         or (command == mavlink2.MAV_CMD_DO_JUMP and not (_whole(p1) and p1 >= 0))
         # NAV_DELAY param1 = -1 selects a time of day (params 2-4): no UTC clock is emulated.
         or (command == mavlink2.MAV_CMD_NAV_DELAY and not (math.isfinite(p1) and p1 >= 0))

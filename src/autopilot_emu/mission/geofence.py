@@ -2,7 +2,8 @@
 
 A fence plan (mission_type 1) holds MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION/EXCLUSION items
 (param1 = the polygon's vertex count, one item per vertex, consecutive), CIRCLE_INCLUSION/
-EXCLUSION items (param1 = radius, m) and an optional NAV_FENCE_RETURN_POINT. As in PX4's
+EXCLUSION items (param1 = radius, m; a zero radius, which MAVSDK's geofence example sends as a
+placeholder, encloses nothing and is ignored) and an optional NAV_FENCE_RETURN_POINT. As in PX4's
 geofence (navigator/geofence.cpp): a position is inside the fence when it lies in none of the
 exclusion areas and, if there are inclusion areas, in at least one of them. The shapes are
 projected onto a local plane around the first vertex (metres), where shapely tests polygons.
@@ -88,10 +89,12 @@ def build_fence(items: tuple[MissionItem, ...]) -> Fence:
             seq += 1
         elif item.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION):
             radius = item.params[0]
-            if not (math.isfinite(radius) and radius > 0):
-                raise FenceError(seq, f"circle radius {radius} must be positive")
-            area = fence._point(item.lat_deg, item.lon_deg).buffer(radius, quad_segs=32)
-            (fence.inclusion if item.command == CIRCLE_INCLUSION else fence.exclusion).append(area)
+            if not (math.isfinite(radius) and radius >= 0):
+                raise FenceError(seq, f"circle radius {radius} must not be negative")
+            if radius > 0:  # a zero radius encloses nothing (MAVSDK's "no circle" placeholder)
+                area = fence._point(item.lat_deg, item.lon_deg).buffer(radius, quad_segs=32)
+                areas = fence.inclusion if item.command == CIRCLE_INCLUSION else fence.exclusion
+                areas.append(area)
             seq += 1
         else:
             seq += _add_polygon(fence, items, seq)
