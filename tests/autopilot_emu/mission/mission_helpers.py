@@ -1,9 +1,9 @@
 """Plans and geometry shared by the mission tests, independent of autopilot_emu.geodesy.
 
 Positions are placed with a spherical small-offset projection (111195 m per degree of latitude,
-times cos(latitude) per degree of longitude): over tens of metres it differs from the
-ellipsoidal projection of the code under test by millimetres, so a point put 10 m inside an
-area is inside it by any reasonable projection.
+times cos(latitude) per degree of longitude). It differs from the code's ellipsoidal tangent
+plane by under 0.3 % (6 cm over 20 m), so a point put 10 m inside an area is inside it by any
+reasonable projection, and distances agree to within 0.3 %.
 """
 
 from __future__ import annotations
