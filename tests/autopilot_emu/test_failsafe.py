@@ -184,6 +184,16 @@ def test_position_loss_lands_only_in_air():
     assert texts(m) == ["Global position regained"]
 
 
+def test_landing_without_position_does_not_claim_it_was_regained():
+    """Lost in the air, then landed (or disarmed) still without GPS: no "regained" text."""
+    m = monitor()
+    assert m.update(inp(0.0, position_ok=False)) == Action.LAND
+    texts(m)
+    assert m.update(inp(5.0, in_air=False, position_ok=False)) == Action.NONE
+    assert m.update(inp(6.0, armed=False, in_air=False, position_ok=False)) == Action.NONE
+    assert texts(m) == []
+
+
 # -- geofence --------------------------------------------------------------------------------
 
 
