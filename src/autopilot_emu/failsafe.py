@@ -175,7 +175,8 @@ class FailsafeMonitor:
             return Action.NONE
         self.position_lost = lost
         if not lost:
-            self.texts.append((SEVERITY_INFO, "Global position regained"))
+            if inp.position_ok:  # not merely landed or disarmed without it
+                self.texts.append((SEVERITY_INFO, "Global position regained"))
             return Action.NONE
         self.texts.append((SEVERITY_CRITICAL, "No global position: GPS lost"))
         return Action.LAND
