@@ -211,12 +211,15 @@ class Commander:
         nav = self._last
         here_amsl = nav.origin_alt_amsl_m - float(nav.position_ned_m[2])
         default_height = max(float(self.params.get("MIS_TAKEOFF_ALT")), MIN_TAKEOFF_HEIGHT_M)
-        if alt_amsl_m is None or not math.isfinite(alt_amsl_m):
-            alt_amsl_m = max(self.home.alt_amsl_m, here_amsl if not self.in_air else -math.inf)
-            alt_amsl_m += default_height
-        elif not self.in_air and alt_amsl_m < here_amsl + default_height:
+        explicit = alt_amsl_m is not None and math.isfinite(alt_amsl_m)
+        if not explicit:
+            alt_amsl_m = self.home.alt_amsl_m + default_height
+        if not self.in_air and alt_amsl_m < here_amsl + default_height:
+            if explicit:
+                self._say(
+                    SEVERITY_WARNING, f"Using minimum takeoff altitude: {default_height:.2f} m"
+                )
             alt_amsl_m = here_amsl + default_height
-            self._say(SEVERITY_WARNING, f"Using minimum takeoff altitude: {default_height:.2f} m")
         elif self.in_air and alt_amsl_m < here_amsl:
             alt_amsl_m = here_amsl
             self._say(SEVERITY_INFO, "Already higher than takeoff altitude")

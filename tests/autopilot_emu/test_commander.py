@@ -210,12 +210,6 @@ def test_takeoff_in_the_air_to_a_lower_altitude_keeps_the_current_one():
     assert "Already higher than takeoff altitude" in texts(c)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="commander.takeoff(None/NaN) in the air targets home + MIS_TAKEOFF_ALT and descends; "
-    "PX4 (navigator/takeoff.cpp) applies 'Already higher than takeoff altitude' to that "
-    "default target too and keeps the current altitude",
-)
 @pytest.mark.parametrize("alt_amsl_m", [None, math.nan])
 def test_takeoff_without_altitude_in_the_air_does_not_descend(alt_amsl_m):
     c = hovering_at_20_m()

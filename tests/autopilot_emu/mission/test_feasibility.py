@@ -183,8 +183,8 @@ def test_fence_polygon_with_fewer_than_three_vertices_is_a_mission_error(count):
     assert rejection(MissionType.FENCE, it) == M.MAV_MISSION_ERROR
 
 
-def test_fence_circle_needs_a_positive_radius():
-    assert rejection(MissionType.FENCE, circle(CIRCLE_INCLUSION, 0.0, 1.0, 1.0)) == (
+def test_fence_circle_radius_must_not_be_negative():
+    assert rejection(MissionType.FENCE, circle(CIRCLE_INCLUSION, -1.0, 1.0, 1.0)) == (
         M.MAV_MISSION_INVALID_PARAM1
     )
 

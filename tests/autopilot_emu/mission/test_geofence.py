@@ -139,13 +139,22 @@ def test_degenerate_polygon_is_rejected():
         build_fence(tuple(line))
 
 
-@pytest.mark.parametrize("radius", [0.0, -5.0, math.nan])
-def test_circle_needs_a_positive_radius(radius):
-    """Circle radius (param1) must be a positive number."""
+@pytest.mark.parametrize("radius", [-5.0, math.nan])
+def test_circle_radius_must_not_be_negative(radius):
+    """Circle radius (param1) must be a number >= 0."""
     plan = (*square(POLYGON_INCLUSION, 20.0), circle(CIRCLE_EXCLUSION, radius, 5.0, 5.0))
     with pytest.raises(FenceError) as error:
         build_fence(plan)
     assert error.value.seq == 4
+
+
+def test_zero_radius_circle_is_a_placeholder_that_encloses_nothing():
+    """MAVSDK's geofence example sends Circle(Point(0, 0), 0, INCLUSION) for "no circle"."""
+    plan = (*square(POLYGON_INCLUSION, 20.0), circle(CIRCLE_INCLUSION, 0.0, 0.0, 0.0))
+    fence = build_fence(plan)
+    assert len(fence.inclusion) == 1
+    assert fence.contains(*offset(5.0, 5.0))
+    assert not fence.contains(*offset(30.0, 0.0))
 
 
 def test_non_fence_command_is_rejected():
