@@ -446,3 +446,42 @@ def test_message_interval_commands_deny_ids_above_uint16_without_encode_errors(c
     assert (interval.message_id, interval.interval_us) == (0xFFFF, 0)
     assert endpoint.stats.encode_errors == 0
     assert endpoint.stats.handler_errors == 0
+
+
+def test_command_for_an_absent_component_gets_no_ack_as_px4(client, endpoint, vehicle):
+    """A command for component 100 (a camera nobody connected) stays unanswered, as in PX4.
+
+    PX4's mavlink_receiver.cpp logs "Ignore command" and sends nothing (PR #23870); the ACK
+    of the later command proves the earlier ones were processed.
+    """
+    for command in (mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, mavlink2.MAV_CMD_REQUEST_MESSAGE):
+        client.send(endpoint, command_long(command, 1, target_component=100))
+        client.send(endpoint, command_long(command, 1, target_system=0, target_component=100))
+    client.send(endpoint, command_long(31000, target_component=0))
+    acks = _acks(client.exchange(endpoint, 0.0, has("COMMAND_ACK")))
+    assert [a.command for a in acks] == [31000]
+    assert vehicle.calls == []
+    assert endpoint.stats.commands_ignored == 4
+
+
+@pytest.mark.parametrize("target", [(1, 100), (0, 100), (1, 1), (0, 0)])
+def test_autopilot_capabilities_request_is_answered_for_any_component(client, endpoint, target):
+    """PX4's evaluate_target_ok ignores the component of REQUEST_AUTOPILOT_CAPABILITIES."""
+    msg = command_long(
+        mavlink2.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+        1,
+        target_system=target[0],
+        target_component=target[1],
+    )
+    client.send(endpoint, msg)
+    inbox = client.exchange(endpoint, 0.0, has("AUTOPILOT_VERSION"))
+    assert _acks(inbox)[0].result == ACCEPTED
+
+
+def test_capabilities_request_for_another_system_is_ignored(client, endpoint):
+    msg = command_long(mavlink2.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1, target_system=2)
+    client.send(endpoint, msg)
+    client.send(endpoint, command_long(31000))
+    inbox = client.exchange(endpoint, 0.0, has("COMMAND_ACK"))
+    assert [a.command for a in _acks(inbox)] == [31000]
+    assert "AUTOPILOT_VERSION" not in {m.get_type() for m in inbox}
