@@ -87,7 +87,8 @@ class EndpointConfig:
     peers: tuple[tuple[str, int], ...] = (("127.0.0.1", 14540), ("127.0.0.1", 14550))
     """Addresses every frame is sent to, besides addresses learned from received traffic."""
     tlog_path: Path | None = None
-    """Where to append a .tlog of every frame sent and received; None: no log."""
+    """Where to append a .tlog of every frame sent and every valid frame received (CRC checked,
+    known message id); None: no log."""
     epoch_start_s: float = field(default_factory=time.time)
     """Unix time at simulation t = 0, s (tlog timestamps, SYSTEM_TIME)."""
     stream_rates_hz: Mapping[str, float] = field(default_factory=dict)
@@ -383,11 +384,12 @@ class MavlinkEndpoint:
                 logger.debug("bad data from %s: %s", address, getattr(msg, "reason", ""))
                 continue
             self.stats.frames_received += 1
-            if self._tlog is not None:
-                self._tlog.write(self._now_s, bytes(msg.get_msgbuf()))
             if msg_id == mavlink2.MAVLINK_MSG_ID_UNKNOWN:
+                # Not logged: without the dialect's CRC extra its checksum cannot be verified.
                 self.stats.unknown_messages += 1
                 continue
+            if self._tlog is not None:
+                self._tlog.write(self._now_s, bytes(msg.get_msgbuf()))
             if not learned:
                 self._learn_peer(address)
                 learned = True

@@ -375,3 +375,31 @@ def test_any_negative_interval_stops_a_stream_and_tiny_ones_restore_the_default(
         assert _count(_drive(endpoint, client, 1000, 2000), "ATTITUDE") == 20
         assert _interval_ack(client, endpoint, 2.0, 30, 0.6) == 0  # rounds to 1 us: fastest
         assert _count(_drive(endpoint, client, 2000, 3000), "ATTITUDE") == MAX_STREAM_RATE_HZ
+
+
+def test_tlog_holds_only_valid_frames_of_known_messages(tmp_path, client, vehicle):
+    """Unknown message ids, bad CRCs, garbage and truncated frames never reach the .tlog."""
+    from pymavlink.dialects.v20 import ardupilotmega
+
+    path = tmp_path / "vehicle1.tlog"
+    foreign = ardupilotmega.MAVLink(None, 245, 190)
+    unknown = ardupilotmega.MAVLink_ahrs_message(0, 0, 0, 0, 0, 0, 0).pack(foreign)
+    good = command_long(mavlink2.MAV_CMD_REQUEST_MESSAGE, 148).pack(client.mav)
+    bad_crc = bytearray(good)
+    bad_crc[-1] ^= 0xFF
+    with make_endpoint(vehicle, tlog_path=path, stream_rates_hz={"HEARTBEAT": 0}) as endpoint:
+        for junk in (unknown, bytes(bad_crc), good[:15], b"\xfd\x09\x00" + bytes(30), unknown):
+            client.send_raw(endpoint, junk)
+        client.send(endpoint, mavlink2.MAVLink_ping_message(1, 1, 0, 0))
+        client.exchange(endpoint, 0.0, has("PING"))
+        assert endpoint.stats.unknown_messages == 2
+        received, sent = endpoint.stats.frames_received, endpoint.stats.frames_sent
+    log = mavutil.mavlink_connection(str(path), dialect="common")
+    types = []
+    while (msg := log.recv_msg()) is not None:
+        types.append(msg.get_type())
+        assert msg.get_type() != "BAD_DATA"
+        assert msg.get_msgId() in mavlink2.mavlink_map  # not UNKNOWN_*: a known, CRC-checked id
+    log.close()
+    assert "PING" in types
+    assert len(types) == sent + (received - endpoint.stats.unknown_messages)
