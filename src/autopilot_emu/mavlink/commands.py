@@ -1,8 +1,14 @@
 """MAVLink command protocol: COMMAND_LONG / COMMAND_INT -> vehicle call -> MAV_RESULT.
 
 :class:`CommandRequest` normalises both messages. :class:`CommandDispatcher` validates the
-parameters (a NaN or infinity where a number is required -> DENIED), calls the vehicle or the
-endpoint services, and turns exceptions into FAILED so every command is answered. Retransmissions
+parameters, calls the vehicle or the endpoint services, and turns exceptions into FAILED so every
+command is answered. A parameter outside its MAVLink range (a NaN or infinity where a number is
+required, a latitude beyond +-90 deg, an arm flag other than 0/1, an unknown PX4 mode, a message
+id that does not fit the field it is reported in, ...) is answered with DENIED before the vehicle
+sees the command. The checks follow PX4 (``src/modules/mavlink/mavlink_receiver.cpp``,
+``src/modules/commander/Commander.cpp``, ``src/modules/navigator/navigator_main.cpp``); where
+PX4 accepts an out-of-range value and computes garbage with it (e.g. DO_SET_HOME latitude 1000),
+the emulator denies it instead. docs/autopilot.md lists the rules per command. Retransmissions
 are idempotent: a command identical to the previous *accepted* one from the same source within
 :data:`DUPLICATE_WINDOW_S` of wall time is answered with the cached result and not executed again
 (MAVSDK retries on a wall-clock timer, whatever the simulation speed); a refused command has no
@@ -26,6 +32,7 @@ from typing import Protocol
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.vehicle_port import VehiclePort
+from autopilot_emu.modes import AutoSubMode, MainMode
 
 logger = logging.getLogger(__name__)
 
@@ -41,6 +48,34 @@ UNSUPPORTED = mavlink2.MAV_RESULT_UNSUPPORTED
 FAILED = mavlink2.MAV_RESULT_FAILED
 
 _INT32_MAX = 2**31 - 1
+_INT32_MIN = -(2**31)
+_COMMAND_INT_NAN = 0x7FF80000
+"""COMMAND_INT x and y both equal to this: a float NaN sent as int (PX4 denies the command)."""
+_FLOAT32_INT32_MAX = (math.nextafter(2.0**31, 0.0), math.nextafter(2.0**31, math.inf))
+"""float(INT32_MAX) rounded to float32 and its neighbours: param5/param6 of a COMMAND_LONG in
+this range look like COMMAND_INT's "unset" sent in the wrong message (PX4 denies the command)."""
+MAX_LATITUDE_DEG = 90.0
+MAX_LONGITUDE_DEG = 180.0
+MAX_MESSAGE_ID = 0xFFFFFF
+"""MAVLink 2 message ids are 24-bit."""
+MAX_STREAMED_MESSAGE_ID = 0xFFFF
+"""MESSAGE_INTERVAL.message_id is uint16: SET/GET_MESSAGE_INTERVAL only address ids up to this."""
+_MAIN_MODES = frozenset(int(m) for m in MainMode)
+_AUTO_SUB_MODES = frozenset(int(m) for m in AutoSubMode)
+_SPEED_TYPES = frozenset(
+    {
+        mavlink2.SPEED_TYPE_AIRSPEED,
+        mavlink2.SPEED_TYPE_GROUNDSPEED,
+        mavlink2.SPEED_TYPE_CLIMB_SPEED,
+        mavlink2.SPEED_TYPE_DESCENT_SPEED,
+    }
+)
+_SPEED_KEEP_OR_DEFAULT = (-1.0, -2.0)
+"""DO_CHANGE_SPEED speed/throttle -1 "no change" and -2 "back to default" (PX4: both default)."""
+_REPOSITION_FLAGS = (
+    mavlink2.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE | mavlink2.MAV_DO_REPOSITION_FLAGS_RELATIVE_YAW
+)
+_REBOOT_ACTIONS = {1: "reboot", 2: "shutdown", 3: "reboot to bootloader"}
 _AMSL_FRAMES = frozenset({mavlink2.MAV_FRAME_GLOBAL, mavlink2.MAV_FRAME_GLOBAL_INT})
 _RELATIVE_FRAMES = frozenset(
     {mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT}
@@ -166,6 +201,44 @@ def _optional(value: float, what: str) -> float:
     return value
 
 
+def _choice(value: float, allowed: frozenset[int] | range, what: str) -> int:
+    """``value`` rounded to the nearest integer if that is one of ``allowed``, else DENIED."""
+    number = round(_required(value, what))
+    if number not in allowed:
+        raise _Rejected(DENIED, f"{what} {value} is not one of the allowed values")
+    return number
+
+
+def _zero_or_unset(value: float, what: str) -> None:
+    """DENIED unless ``value`` is NaN or rounds to 0 (a PX4 "not supported" option)."""
+    if not math.isnan(value) and (math.isinf(value) or round(value) != 0):
+        raise _Rejected(DENIED, f"{what} {value} is not supported")
+
+
+def _check_lat_lon(lat: float, lon: float) -> None:
+    """DENIED if a given (non-NaN) latitude or longitude is outside the WGS-84 ranges."""
+    if abs(lat) > MAX_LATITUDE_DEG:
+        raise _Rejected(DENIED, f"latitude {lat} outside [-90, 90] deg")
+    if abs(lon) > MAX_LONGITUDE_DEG:
+        raise _Rejected(DENIED, f"longitude {lon} outside [-180, 180] deg")
+
+
+def _malformed(request: CommandRequest) -> str | None:
+    """Why PX4's receiver denies ``request`` before looking at the command, or None.
+
+    mavlink_receiver.cpp handle_message_command_long: param5 and param6 both INT32_MAX as
+    float (COMMAND_INT's "unset" sent in a COMMAND_LONG); handle_message_command_int: x and y
+    both 0x7ff80000 (a float NaN sent as an int).
+    """
+    if request.frame is None:
+        low, high = _FLOAT32_INT32_MAX
+        if low <= request.x <= high and low <= request.y <= high:
+            return "param5/param6 look like INT32_MAX"
+    elif request.x == _COMMAND_INT_NAN and request.y == _COMMAND_INT_NAN:
+        return "x/y look like a NaN sent as int"
+    return None
+
+
 class CommandDispatcher:
     """Executes commands on one vehicle.
 
@@ -231,6 +304,10 @@ class CommandDispatcher:
         return (snap.armed, snap.main_mode, snap.sub_mode)
 
     def _execute(self, request: CommandRequest) -> int:
+        malformed = _malformed(request)
+        if malformed is not None:
+            logger.info("command %d denied: %s", request.command, malformed)
+            return DENIED
         handler = self._handlers.get(request.command)
         if handler is None:
             return UNSUPPORTED
@@ -246,12 +323,19 @@ class CommandDispatcher:
     # --- position helpers --------------------------------------------------------------------
 
     def _lat_lon_deg(self, request: CommandRequest) -> tuple[float, float]:
-        """Target latitude/longitude in degrees, NaN where the sender left them unset."""
+        """Target latitude/longitude in degrees, NaN where the sender left them unset.
+
+        COMMAND_INT leaves the position unset with x = y = INT32_MAX (both, as PX4 reads it);
+        a given latitude or longitude outside the WGS-84 range is DENIED.
+        """
         if request.frame is None:
-            return _optional(request.x, "latitude"), _optional(request.y, "longitude")
-        self._check_global_frame(request.frame)
-        lat = math.nan if request.x == _INT32_MAX else request.x / 1e7
-        lon = math.nan if request.y == _INT32_MAX else request.y / 1e7
+            lat, lon = _optional(request.x, "latitude"), _optional(request.y, "longitude")
+        else:
+            self._check_global_frame(request.frame)
+            if request.x == _INT32_MAX and request.y == _INT32_MAX:
+                return math.nan, math.nan
+            lat, lon = request.x / 1e7, request.y / 1e7
+        _check_lat_lon(lat, lon)
         return lat, lon
 
     def _alt_amsl_m(self, request: CommandRequest) -> float:
@@ -275,48 +359,83 @@ class CommandDispatcher:
     # --- vehicle commands --------------------------------------------------------------------
 
     def _set_mode(self, request: CommandRequest) -> int:
-        base = int(_required(request.params[0], "base mode"))
+        """DO_SET_MODE: base mode (uint8) with CUSTOM_MODE_ENABLED, a PX4 main mode, a sub mode.
+
+        PX4 (Commander.cpp) casts the params to uint8 and ignores unknown main modes; here a
+        main mode outside px4_custom_mode.h's table, or an AUTO sub mode outside it, is DENIED.
+        The sub mode of a non-AUTO mode is ignored by PX4; it must still fit its uint8 byte.
+        """
+        base = _choice(request.params[0], range(256), "base mode")
         if not base & mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             raise _Rejected(DENIED, "only PX4 custom modes are supported")
-        main_mode = round(_required(request.params[1], "main mode"))
+        main_mode = _choice(request.params[1], _MAIN_MODES, "main mode")
         sub = request.params[2]
-        sub_mode = round(sub) if _finite(sub) else 0
-        if not 0 < main_mode < 256 or not 0 <= sub_mode < 256:
-            raise _Rejected(DENIED, f"mode {main_mode}/{sub_mode} out of range")
+        sub_modes = _AUTO_SUB_MODES if main_mode == MainMode.AUTO else range(256)
+        sub_mode = 0 if math.isnan(sub) else _choice(sub, sub_modes, "sub mode")
         return self._vehicle.set_mode(main_mode, sub_mode)
 
     def _arm_disarm(self, request: CommandRequest) -> int:
-        action = round(_required(request.params[0], "arm flag"))
-        force = request.params[1] == FORCE_MAGIC
+        """ARM_DISARM: param1 rounds to 0 or 1; param2 rounding to 21196 forces (as PX4)."""
+        action = _choice(request.params[0], range(2), "arm flag")
+        force = _finite(request.params[1]) and round(request.params[1]) == FORCE_MAGIC
         if action == 1:
             return self._vehicle.arm(force)
-        if action == 0:
-            return self._vehicle.disarm(force)
-        raise _Rejected(DENIED, f"param1 must be 0 or 1, got {request.params[0]}")
+        return self._vehicle.disarm(force)
+
+    def _check_yaw(self, request: CommandRequest) -> float:
+        """param4 yaw: finite or NaN (keep the current heading)."""
+        return _optional(request.params[3], "yaw")
 
     def _takeoff(self, request: CommandRequest) -> int:
+        """NAV_TAKEOFF: yaw, lat/lon (in range or unset) and altitude checked; takes off here."""
+        self._check_yaw(request)
+        self._lat_lon_deg(request)
         alt = self._alt_amsl_m(request)
         return self._vehicle.takeoff(None if math.isnan(alt) else alt)
 
     def _land(self, request: CommandRequest) -> int:
+        """NAV_LAND: yaw, lat/lon (in range or unset) and altitude checked; lands here."""
+        self._check_yaw(request)
+        self._lat_lon_deg(request)
+        _optional(request.z, "altitude")
         return self._vehicle.land()
 
     def _reposition(self, request: CommandRequest) -> int:
+        """DO_REPOSITION: speed (< 0: default), MAV_DO_REPOSITION_FLAGS, yaw, position."""
         speed = _optional(request.params[0], "speed")
         if speed < 0.0:
             speed = math.nan
-        yaw = _optional(request.params[3], "yaw")
+        flags = request.params[1]
+        if not math.isnan(flags):
+            _choice(flags, range(_REPOSITION_FLAGS + 1), "reposition flags")
+        yaw = self._check_yaw(request)
         lat, lon = self._lat_lon_deg(request)
         alt = self._alt_amsl_m(request)
         return self._vehicle.reposition(lat, lon, alt, yaw, speed)
 
     def _change_speed(self, request: CommandRequest) -> int:
-        return self._vehicle.change_speed(_optional(request.params[1], "speed"))
+        """DO_CHANGE_SPEED: SPEED_TYPE, speed >= 0 / -1 / -2 / NaN, throttle 0..100 / -1 / -2.
+
+        PX4's multicopter navigator applies the speed whatever its type ("not differentiating
+        ground and airspeed yet") and treats a speed <= 0 as "back to the default".
+        """
+        _choice(request.params[0], _SPEED_TYPES, "speed type")
+        speed = _optional(request.params[1], "speed")
+        if speed < 0.0 and speed not in _SPEED_KEEP_OR_DEFAULT:
+            raise _Rejected(DENIED, f"speed {speed} is negative")
+        throttle = _optional(request.params[2], "throttle")
+        if not (
+            math.isnan(throttle) or throttle in _SPEED_KEEP_OR_DEFAULT or 0.0 <= throttle <= 100.0
+        ):
+            raise _Rejected(DENIED, f"throttle {throttle} outside 0..100 %")
+        return self._vehicle.change_speed(speed)
 
     def _set_home(self, request: CommandRequest) -> int:
-        use_current = round(_required(request.params[0], "use-current flag")) == 1
+        """DO_SET_HOME: param1 0/1; a given home needs lat/lon in range and a finite altitude."""
+        use_current = _choice(request.params[0], range(2), "use-current flag") == 1
         if use_current:
             return self._vehicle.set_home(True, math.nan, math.nan, math.nan)
+        self._check_yaw(request)
         lat, lon = self._lat_lon_deg(request)
         alt = self._alt_amsl_m(request)
         for value, what in ((lat, "latitude"), (lon, "longitude"), (alt, "altitude")):
@@ -324,17 +443,22 @@ class CommandDispatcher:
         return self._vehicle.set_home(False, lat, lon, alt)
 
     def _terminate(self, request: CommandRequest) -> int:
-        if _required(request.params[0], "terminate flag") >= 0.5:
+        """DO_FLIGHTTERMINATION: param1 > 0.5 terminates; anything else is DENIED (as PX4)."""
+        if _required(request.params[0], "terminate flag") > 0.5:
             return self._vehicle.terminate()
-        return ACCEPTED
+        raise _Rejected(DENIED, "flight termination not requested (param1 <= 0.5)")
 
     def _reboot(self, request: CommandRequest) -> int:
-        action = round(_required(request.params[0], "autopilot action"))
-        if action != 0:
-            verb = {1: "reboot", 2: "shutdown", 3: "reboot to bootloader"}.get(action, "action")
-            self._services.announce(
-                mavlink2.MAV_SEVERITY_WARNING, f"Autopilot {verb} requested: ignored in simulation"
-            )
+        """PREFLIGHT_REBOOT_SHUTDOWN: param1 0..3; 1..3 are DENIED while armed (as PX4)."""
+        action = _choice(request.params[0], range(4), "autopilot action")
+        if action == 0:
+            return ACCEPTED
+        if self._vehicle.telemetry().armed:
+            raise _Rejected(DENIED, "reboot/shutdown while armed")
+        self._services.announce(
+            mavlink2.MAV_SEVERITY_WARNING,
+            f"Autopilot {_REBOOT_ACTIONS[action]} requested: ignored in simulation",
+        )
         return ACCEPTED
 
     def _set_mission_current(self, request: CommandRequest) -> int:
@@ -354,19 +478,41 @@ class CommandDispatcher:
     # --- endpoint commands -------------------------------------------------------------------
 
     @staticmethod
-    def _message_id(value: float) -> int:
+    def _message_id(value: float, highest: int = MAX_MESSAGE_ID) -> int:
         msg_id = round(_required(value, "message id"))
-        if not 0 <= msg_id <= 0xFFFFFF:
-            raise _Rejected(DENIED, f"message id {msg_id} out of range")
+        if not 0 <= msg_id <= highest:
+            raise _Rejected(DENIED, f"message id {msg_id} out of range 0..{highest}")
         return msg_id
 
     def _set_message_interval(self, request: CommandRequest) -> int:
-        msg_id = self._message_id(request.params[0])
-        interval_us = round(_required(request.params[1], "interval"))
+        """SET_MESSAGE_INTERVAL as PX4's MavlinkReceiver::set_message_interval reads it.
+
+        HEARTBEAT's rate cannot be changed; req_param3/4 and the response target (param7) are
+        not supported unless NaN or 0. The interval must be finite and fit the int32 interval_us
+        of MESSAGE_INTERVAL: |interval| <= 1e-5 us means the default rate, any negative one
+        stops the stream, a positive one is rounded to whole microseconds (at least 1; the
+        stream table then caps the rate at streams.MAX_STREAM_RATE_HZ).
+        """
+        msg_id = self._message_id(request.params[0], MAX_STREAMED_MESSAGE_ID)
+        if msg_id == mavlink2.MAVLINK_MSG_ID_HEARTBEAT:
+            raise _Rejected(DENIED, "the HEARTBEAT rate cannot be changed")
+        interval = _required(request.params[1], "interval")
+        if not _INT32_MIN <= interval <= _INT32_MAX:
+            raise _Rejected(DENIED, f"interval {interval} us does not fit an int32")
+        _zero_or_unset(request.params[2], "req_param3")
+        _zero_or_unset(request.params[3], "req_param4")
+        _zero_or_unset(request.z, "response target")
+        if abs(interval) <= 1e-5:
+            interval_us = 0
+        elif interval < 0.0:
+            interval_us = -1
+        else:
+            interval_us = max(1, round(interval))
         return self._services.set_message_interval(msg_id, interval_us)
 
     def _get_message_interval(self, request: CommandRequest) -> int:
-        return self._services.report_message_interval(self._message_id(request.params[0]))
+        msg_id = self._message_id(request.params[0], MAX_STREAMED_MESSAGE_ID)
+        return self._services.report_message_interval(msg_id)
 
     def _request_message(self, request: CommandRequest) -> int:
         return self._services.request_message(self._message_id(request.params[0]))

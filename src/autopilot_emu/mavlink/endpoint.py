@@ -55,6 +55,10 @@ STATUSTEXT_POLL_INTERVAL_US = 20_000
 TLOG_FLUSH_INTERVAL_US = 1_000_000
 """How often the .tlog buffer is flushed, simulation microseconds."""
 _NEVER = math.inf
+_ANY_COMPONENT_COMMANDS = frozenset(
+    {mavlink2.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, mavlink2.MAV_CMD_REQUEST_PROTOCOL_VERSION}
+)
+"""Commands PX4 answers whatever their target component (evaluate_target_ok)."""
 
 
 class PortInUseError(OSError):
@@ -84,7 +88,8 @@ class EndpointConfig:
     peers: tuple[tuple[str, int], ...] = (("127.0.0.1", 14540), ("127.0.0.1", 14550))
     """Addresses every frame is sent to, besides addresses learned from received traffic."""
     tlog_path: Path | None = None
-    """Where to append a .tlog of every frame sent and received; None: no log."""
+    """Where to append a .tlog of every frame sent and every valid frame received (CRC checked,
+    known message id); None: no log."""
     epoch_start_s: float = field(default_factory=time.time)
     """Unix time at simulation t = 0, s (tlog timestamps, SYSTEM_TIME)."""
     stream_rates_hz: Mapping[str, float] = field(default_factory=dict)
@@ -118,7 +123,7 @@ class EndpointStats:
     commands_duplicate: int = 0
     """Retransmissions re-ACKed from the cache without executing."""
     commands_ignored: int = 0
-    """Commands addressed to another system or component (no ACK)."""
+    """Commands addressed to another system or component (no ACK, as PX4)."""
     handler_errors: int = 0
     """Exceptions raised while handling a received message."""
     encode_errors: int = 0
@@ -414,11 +419,12 @@ class MavlinkEndpoint:
                 logger.debug("bad data from %s: %s", address, getattr(msg, "reason", ""))
                 continue
             self.stats.frames_received += 1
-            if self._tlog is not None:
-                self._tlog.write(self._now_s, bytes(msg.get_msgbuf()))
             if msg_id == mavlink2.MAVLINK_MSG_ID_UNKNOWN:
+                # Not logged: without the dialect's CRC extra its checksum cannot be verified.
                 self.stats.unknown_messages += 1
                 continue
+            if self._tlog is not None:
+                self._tlog.write(self._now_s, bytes(msg.get_msgbuf()))
             if not learned:
                 self._learn_peer(address)
                 learned = True
@@ -458,8 +464,28 @@ class MavlinkEndpoint:
             self._config.compid,
         )
 
+    def _command_targets_us(self, msg: mavlink2.MAVLink_message) -> bool:
+        """Whether to execute and ACK a COMMAND_LONG/INT, after PX4's evaluate_target_ok.
+
+        PX4 (mavlink_receiver.cpp) answers the autopilot-capabilities and protocol-version
+        requests for any component of its system, every other command only when addressed to
+        its own component or to all (0). A command for another component that PX4 has never
+        seen (e.g. a camera, compid 100, where none is connected) is logged ("Ignore command")
+        and left unanswered, never ACKed: PX4 PR #23870 (2024-11) removed the FAILED ACK that
+        v1.15 and earlier sent, since the addressed component may answer itself. An ACK from
+        us would not help a client anyway: MAVSDK only accepts an ACK whose sender is the
+        command's target. Unlike PX4, target_system 0 (broadcast) is accepted, as before.
+        Commands for another system are ignored.
+        """
+        if msg.target_system not in (0, self._config.sysid):
+            return False
+        return msg.command in _ANY_COMPONENT_COMMANDS or msg.target_component in (
+            0,
+            self._config.compid,
+        )
+
     def _on_command(self, msg: mavlink2.MAVLink_message) -> None:
-        if not self._targets_us(msg.target_system, msg.target_component):
+        if not self._command_targets_us(msg):
             self.stats.commands_ignored += 1
             return
         self._replies.clear()

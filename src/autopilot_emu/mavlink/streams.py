@@ -17,6 +17,18 @@ INTERVAL_DEFAULT = 0
 """SET_MESSAGE_INTERVAL interval_us meaning "back to the default rate"."""
 INTERVAL_DISABLED = -1
 """SET_MESSAGE_INTERVAL interval_us meaning "stop this stream"."""
+MAX_STREAM_RATE_HZ = 100.0
+"""Fastest rate a SET_MESSAGE_INTERVAL request can give a stream, Hz of simulation time.
+
+PX4 never sends a stream faster than its MAVLink loop runs, whatever the request: it accepts the
+interval and each stream goes out at most once per loop iteration (mavlink_main.cpp). Its fastest
+default stream is ATTITUDE at 100 Hz in the onboard profile (configure_streams_to_default,
+MAVLINK_MODE_ONBOARD), the profile the companion link uses. The endpoint's loop is the
+simulation's MAVLink poll (250 Hz by default, SimulationConfig.mavlink_poll_hz), so 100 Hz is
+both what PX4 serves a companion at most and safely below the poll rate: shorter intervals are
+accepted and clamped to :data:`MIN_INTERVAL_US`, as PX4 effectively does."""
+MIN_INTERVAL_US = round(1e6 / MAX_STREAM_RATE_HZ)
+"""Shortest interval a SET_MESSAGE_INTERVAL request can set, microseconds."""
 _NEVER_US = 2**63 - 1
 
 
@@ -110,6 +122,8 @@ class StreamScheduler:
     def set_interval(self, msg_id: int, interval_us: int, now_us: int) -> bool:
         """Apply SET_MESSAGE_INTERVAL semantics (0 default, -1 stop, > 0 interval).
 
+        A positive interval shorter than :data:`MIN_INTERVAL_US` is clamped to it.
+
         Returns:
             False if ``msg_id`` is not a stream or ``interval_us`` is below -1.
         """
@@ -118,6 +132,8 @@ class StreamScheduler:
             return False
         if interval_us == INTERVAL_DEFAULT:
             interval_us = stream.default_interval_us
+        elif interval_us > 0:
+            interval_us = max(interval_us, MIN_INTERVAL_US)
         stream.interval_us = interval_us
         stream.next_due_us = now_us + interval_us if interval_us > 0 else _NEVER_US
         self.next_due_us = self._earliest()

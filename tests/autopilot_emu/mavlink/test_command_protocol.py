@@ -321,3 +321,176 @@ def test_retransmission_window_uses_the_wall_clock():
     wall[0] += DUPLICATE_WINDOW_S + 0.1
     assert not dispatcher.handle(land).duplicate
     assert vehicle.calls == [("land",), ("land",)]
+
+
+def _long_at(command, lat, lon, alt, *params):
+    """COMMAND_LONG with param1..4 (NaN-padded) and a position in param5..7."""
+    padded = list(params) + [math.nan] * (4 - len(params))
+    return command_long(command, *padded, lat, lon, alt)
+
+
+_INT32_MAX = 2**31 - 1
+
+
+@pytest.mark.parametrize(
+    "msg",
+    [
+        # DO_SET_HOME: the fuzz finding, then each bound and the use-current flag.
+        _long_at(mavlink2.MAV_CMD_DO_SET_HOME, 1000, 2000, 500, 0),
+        _long_at(mavlink2.MAV_CMD_DO_SET_HOME, 90.001, 8.5, 500, 0),
+        _long_at(mavlink2.MAV_CMD_DO_SET_HOME, 47.4, -180.001, 500, 0),
+        _long_at(mavlink2.MAV_CMD_DO_SET_HOME, 47.4, 8.5, math.inf, 0),
+        _long_at(mavlink2.MAV_CMD_DO_SET_HOME, 47.4, 8.5, 500, 2),
+        _command_int(
+            mavlink2.MAV_CMD_DO_SET_HOME, mavlink2.MAV_FRAME_GLOBAL_INT, 950_000_000, 0, 500, 0
+        ),
+        # ARM_DISARM flag.
+        command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, -1),
+        command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, 2),
+        # DO_SET_MODE: base mode byte, PX4 main modes, AUTO sub modes, sub mode byte.
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, 257, 4, 3),
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, -1, 4, 3),
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, 1, 0, 0),
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, 1, 9, 0),
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, 1, 1e9, 0),
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, 1, 4, 7),  # AUTO_RTGS: reserved
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, 1, 4, 11),
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, 1, 6, 256),
+        command_long(mavlink2.MAV_CMD_DO_SET_MODE, 1, 4, math.inf),
+        # DO_CHANGE_SPEED: SPEED_TYPE, speed, throttle.
+        command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 4, 5, -1, 0),
+        command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, math.nan, 5, -1, 0),
+        command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 1, -3, -1, 0),
+        command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 1, math.inf, -1, 0),
+        command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 1, 5, 101, 0),
+        # DO_REPOSITION: position range (both message kinds), flags, yaw.
+        _long_at(mavlink2.MAV_CMD_DO_REPOSITION, 1000, 8.5, 500),
+        _long_at(mavlink2.MAV_CMD_DO_REPOSITION, 47.4, 2000, 500),
+        _command_int(
+            mavlink2.MAV_CMD_DO_REPOSITION,
+            mavlink2.MAV_FRAME_GLOBAL_INT,
+            473978000,
+            -1_900_000_000,
+            500.0,
+        ),
+        _command_int(
+            mavlink2.MAV_CMD_DO_REPOSITION,
+            mavlink2.MAV_FRAME_GLOBAL_INT,
+            _INT32_MAX,
+            85457000,
+            500.0,
+        ),  # x alone "unset" is latitude 214.7 deg
+        _long_at(mavlink2.MAV_CMD_DO_REPOSITION, 47.4, 8.5, 500, -1, 8),
+        _long_at(mavlink2.MAV_CMD_DO_REPOSITION, 47.4, 8.5, 500, -1, 1, 0, math.inf),
+        # NAV_TAKEOFF / NAV_LAND: coordinates and yaw.
+        _long_at(mavlink2.MAV_CMD_NAV_TAKEOFF, 91, 8.5, math.nan),
+        _long_at(mavlink2.MAV_CMD_NAV_TAKEOFF, math.nan, math.nan, math.nan, 0, 0, 0, math.inf),
+        _long_at(mavlink2.MAV_CMD_NAV_LAND, 47.4, 181, math.nan),
+        _long_at(mavlink2.MAV_CMD_NAV_LAND, math.nan, math.nan, -math.inf),
+        _command_int(mavlink2.MAV_CMD_NAV_LAND, mavlink2.MAV_FRAME_LOCAL_NED, 0, 0, 0.0),
+        # Termination and reboot actions.
+        command_long(mavlink2.MAV_CMD_DO_FLIGHTTERMINATION, 0),
+        command_long(mavlink2.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 4),
+        command_long(mavlink2.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, -1),
+        # Message ids: 24-bit for REQUEST_MESSAGE, 16-bit where MESSAGE_INTERVAL reports them.
+        command_long(mavlink2.MAV_CMD_REQUEST_MESSAGE, 0x1000000),
+        command_long(mavlink2.MAV_CMD_REQUEST_MESSAGE, -1),
+        command_long(mavlink2.MAV_CMD_GET_MESSAGE_INTERVAL, 0x10000),
+        command_long(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 0x10000 + 30, 1000),
+        # COMMAND_LONG param5/6 = INT32_MAX, COMMAND_INT x/y = NaN bits: denied by PX4's receiver.
+        _long_at(mavlink2.MAV_CMD_NAV_LAND, float(2**31), float(2**31), math.nan),
+        _command_int(
+            mavlink2.MAV_CMD_NAV_LAND, mavlink2.MAV_FRAME_GLOBAL_INT, 0x7FF80000, 0x7FF80000, 0.0
+        ),
+    ],
+)
+def test_out_of_range_parameters_are_denied(client, endpoint, vehicle, msg):
+    """Every parameter outside its MAVLink/PX4 range is DENIED before the vehicle is called."""
+    assert _command(client, endpoint, msg).result == DENIED
+    assert vehicle.calls == []
+    assert endpoint.stats.encode_errors == 0
+
+
+@pytest.mark.parametrize(
+    ("msg", "call"),
+    [
+        (_long_at(mavlink2.MAV_CMD_DO_SET_HOME, -90, 180, -400, 0), ("set_home", False, -90, 180)),
+        (_long_at(mavlink2.MAV_CMD_DO_SET_HOME, 90, -180, 9000, 0), ("set_home", False, 90, -180)),
+        (command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 0, 3, -1, 0), ("change_speed", 3)),
+        (command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 3, -2, -2, 0), ("change_speed", -2)),
+        (command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 1, 5, 50), ("change_speed", 5)),
+        (command_long(mavlink2.MAV_CMD_DO_SET_MODE, 1.2, 3.9, 0.4), ("set_mode", 4, 0)),
+        (command_long(mavlink2.MAV_CMD_DO_SET_MODE, 129, 4, 9), ("set_mode", 4, 9)),
+        (command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, 0.6, 21195.7), ("arm", True)),
+        (_long_at(mavlink2.MAV_CMD_NAV_LAND, 47.4, 8.5, 0), ("land",)),
+        (_long_at(mavlink2.MAV_CMD_NAV_TAKEOFF, 47.4, 8.5, math.nan, 0, 0, 0, 1.0), ("takeoff",)),
+        (command_long(mavlink2.MAV_CMD_DO_FLIGHTTERMINATION, 0.51), ("terminate",)),
+    ],
+)
+def test_parameters_at_the_edge_of_their_range_are_accepted(client, endpoint, vehicle, msg, call):
+    """Bounds are inclusive; rounding follows PX4 (lroundf); speed type 3 is applied like 1."""
+    assert _command(client, endpoint, msg).result == ACCEPTED
+    assert vehicle.calls[0][: len(call)] == call
+
+
+def test_reboot_is_denied_while_armed(client, endpoint, vehicle):
+    """PX4 refuses to reboot or shut down an armed vehicle; action 0 is always accepted."""
+    vehicle.snapshot = replace(vehicle.snapshot, armed=True)
+    reboot = command_long(mavlink2.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1)
+    assert _command(client, endpoint, reboot).result == DENIED
+    nothing = command_long(mavlink2.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0)
+    assert _command(client, endpoint, nothing).result == ACCEPTED
+
+
+def test_message_interval_commands_deny_ids_above_uint16_without_encode_errors(client, endpoint):
+    """GET_MESSAGE_INTERVAL 0x10000 used to ACK and then fail packing MESSAGE_INTERVAL."""
+    for msg_id in (0x10000, 0xFFFFFF):
+        ack = _command(
+            client, endpoint, command_long(mavlink2.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)
+        )
+        assert ack.result == DENIED
+    client.send(endpoint, command_long(mavlink2.MAV_CMD_GET_MESSAGE_INTERVAL, 0xFFFF))
+    inbox = client.exchange(endpoint, 0.0, has("MESSAGE_INTERVAL"))
+    interval = next(m for m in inbox if m.get_type() == "MESSAGE_INTERVAL")
+    assert (interval.message_id, interval.interval_us) == (0xFFFF, 0)
+    assert endpoint.stats.encode_errors == 0
+    assert endpoint.stats.handler_errors == 0
+
+
+def test_command_for_an_absent_component_gets_no_ack_as_px4(client, endpoint, vehicle):
+    """A command for component 100 (a camera nobody connected) stays unanswered, as in PX4.
+
+    PX4's mavlink_receiver.cpp logs "Ignore command" and sends nothing (PR #23870); the ACK
+    of the later command proves the earlier ones were processed.
+    """
+    for command in (mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, mavlink2.MAV_CMD_REQUEST_MESSAGE):
+        client.send(endpoint, command_long(command, 1, target_component=100))
+        client.send(endpoint, command_long(command, 1, target_system=0, target_component=100))
+    client.send(endpoint, command_long(31000, target_component=0))
+    acks = _acks(client.exchange(endpoint, 0.0, has("COMMAND_ACK")))
+    assert [a.command for a in acks] == [31000]
+    assert vehicle.calls == []
+    assert endpoint.stats.commands_ignored == 4
+
+
+@pytest.mark.parametrize("target", [(1, 100), (0, 100), (1, 1), (0, 0)])
+def test_autopilot_capabilities_request_is_answered_for_any_component(client, endpoint, target):
+    """PX4's evaluate_target_ok ignores the component of REQUEST_AUTOPILOT_CAPABILITIES."""
+    msg = command_long(
+        mavlink2.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+        1,
+        target_system=target[0],
+        target_component=target[1],
+    )
+    client.send(endpoint, msg)
+    inbox = client.exchange(endpoint, 0.0, has("AUTOPILOT_VERSION"))
+    assert _acks(inbox)[0].result == ACCEPTED
+
+
+def test_capabilities_request_for_another_system_is_ignored(client, endpoint):
+    msg = command_long(mavlink2.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1, target_system=2)
+    client.send(endpoint, msg)
+    client.send(endpoint, command_long(31000))
+    inbox = client.exchange(endpoint, 0.0, has("COMMAND_ACK"))
+    assert [a.command for a in _acks(inbox)] == [31000]
+    assert "AUTOPILOT_VERSION" not in {m.get_type() for m in inbox}

@@ -19,7 +19,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint, PortInUseError
-from autopilot_emu.mavlink.streams import DEFAULT_STREAMS
+from autopilot_emu.mavlink.streams import DEFAULT_STREAMS, MAX_STREAM_RATE_HZ, MIN_INTERVAL_US
 
 
 def _drive(endpoint, client, start_ms, stop_ms):
@@ -313,3 +313,93 @@ def test_time_going_backwards_restarts_the_streams(client, vehicle):
 def test_config_validation(kwargs):
     with pytest.raises(ValueError):
         EndpointConfig(**kwargs)
+
+
+def _interval_ack(client, endpoint, now_s, msg_id, interval_us, *more):
+    client.send(
+        endpoint, command_long(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, interval_us, *more)
+    )
+    inbox = client.exchange(endpoint, now_s, has("COMMAND_ACK"))
+    return next(m for m in inbox if m.get_type() == "COMMAND_ACK").result
+
+
+def test_set_message_interval_never_drives_a_stream_past_the_max_rate(client, vehicle):
+    """1 us is accepted (as PX4) but ATTITUDE then goes out at MAX_STREAM_RATE_HZ, no faster."""
+    with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
+        endpoint.poll(0.0)
+        assert _interval_ack(client, endpoint, 0.0, 30, 1) == 0
+        received = _drive(endpoint, client, 0, 1000)
+        assert _count(received, "ATTITUDE") == MAX_STREAM_RATE_HZ
+        client.send(endpoint, command_long(mavlink2.MAV_CMD_GET_MESSAGE_INTERVAL, 30))
+        inbox = client.exchange(endpoint, 1.0, has("MESSAGE_INTERVAL"))
+    interval = next(m for m in inbox if m.get_type() == "MESSAGE_INTERVAL")
+    assert interval.interval_us == MIN_INTERVAL_US
+
+
+def test_heartbeat_rate_cannot_be_changed(client, vehicle):
+    """PX4 refuses SET_MESSAGE_INTERVAL for HEARTBEAT: the fuzzed 250 Hz heartbeat stays 1 Hz."""
+    with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
+        endpoint.poll(0.0)
+        assert _interval_ack(client, endpoint, 0.0, 0, 1) == 2
+        assert _interval_ack(client, endpoint, 0.0, 0, -1) == 2
+        received = _drive(endpoint, client, 0, 3000)
+    assert _count(received, "HEARTBEAT") == 3
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        (30, 1e30),  # the fuzz finding: beyond int32 microseconds
+        (30, -1e30),
+        (30, 2.0**31),
+        (30, math.inf),
+        (30, 100_000, 1),  # req_param3: not supported by PX4
+        (30, 100_000, math.nan, 2),  # req_param4
+        (30, 100_000, math.nan, math.nan, math.nan, math.nan, 2),  # response target: broadcast
+    ],
+)
+def test_unrepresentable_or_unsupported_intervals_are_denied(client, vehicle, params):
+    with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
+        endpoint.poll(0.0)
+        assert _interval_ack(client, endpoint, 0.0, *params) == 2
+        assert _count(_drive(endpoint, client, 0, 1000), "ATTITUDE") == 20  # unchanged
+
+
+def test_any_negative_interval_stops_a_stream_and_tiny_ones_restore_the_default(client, vehicle):
+    """PX4: interval < -1e-5 us stops the stream, |interval| <= 1e-5 us means the default."""
+    with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
+        endpoint.poll(0.0)
+        assert _interval_ack(client, endpoint, 0.0, 30, -5) == 0
+        assert _count(_drive(endpoint, client, 0, 1000), "ATTITUDE") == 0
+        assert _interval_ack(client, endpoint, 1.0, 30, 1e-6) == 0
+        assert _count(_drive(endpoint, client, 1000, 2000), "ATTITUDE") == 20
+        assert _interval_ack(client, endpoint, 2.0, 30, 0.6) == 0  # rounds to 1 us: fastest
+        assert _count(_drive(endpoint, client, 2000, 3000), "ATTITUDE") == MAX_STREAM_RATE_HZ
+
+
+def test_tlog_holds_only_valid_frames_of_known_messages(tmp_path, client, vehicle):
+    """Unknown message ids, bad CRCs, garbage and truncated frames never reach the .tlog."""
+    from pymavlink.dialects.v20 import ardupilotmega
+
+    path = tmp_path / "vehicle1.tlog"
+    foreign = ardupilotmega.MAVLink(None, 245, 190)
+    unknown = ardupilotmega.MAVLink_ahrs_message(0, 0, 0, 0, 0, 0, 0).pack(foreign)
+    good = command_long(mavlink2.MAV_CMD_REQUEST_MESSAGE, 148).pack(client.mav)
+    bad_crc = bytearray(good)
+    bad_crc[-1] ^= 0xFF
+    with make_endpoint(vehicle, tlog_path=path, stream_rates_hz={"HEARTBEAT": 0}) as endpoint:
+        for junk in (unknown, bytes(bad_crc), good[:15], b"\xfd\x09\x00" + bytes(30), unknown):
+            client.send_raw(endpoint, junk)
+        client.send(endpoint, mavlink2.MAVLink_ping_message(1, 1, 0, 0))
+        client.exchange(endpoint, 0.0, has("PING"))
+        assert endpoint.stats.unknown_messages == 2
+        received, sent = endpoint.stats.frames_received, endpoint.stats.frames_sent
+    log = mavutil.mavlink_connection(str(path), dialect="common")
+    types = []
+    while (msg := log.recv_msg()) is not None:
+        types.append(msg.get_type())
+        assert msg.get_type() != "BAD_DATA"
+        assert msg.get_msgId() in mavlink2.mavlink_map  # not UNKNOWN_*: a known, CRC-checked id
+    log.close()
+    assert "PING" in types
+    assert len(types) == sent + (received - endpoint.stats.unknown_messages)

@@ -6,6 +6,8 @@ import pytest
 
 from autopilot_emu.mavlink.streams import (
     DEFAULT_STREAMS,
+    MAX_STREAM_RATE_HZ,
+    MIN_INTERVAL_US,
     StreamScheduler,
     StreamSpec,
     rate_to_interval_us,
@@ -79,3 +81,26 @@ def test_default_table_starts_with_heartbeat_at_1_hz():
     assert DEFAULT_STREAMS[0].name == "HEARTBEAT"
     assert DEFAULT_STREAMS[0].default_rate_hz == 1.0
     assert len({s.msg_id for s in DEFAULT_STREAMS}) == len(DEFAULT_STREAMS)
+
+
+@pytest.mark.parametrize("requested_us", [1, 5_000, MIN_INTERVAL_US - 1])
+def test_requested_interval_is_clamped_to_the_max_stream_rate(requested_us):
+    """A request for 1 us (or anything faster than MAX_STREAM_RATE_HZ) gets the fastest rate."""
+    scheduler = StreamScheduler(SPECS)
+    scheduler.pop_due(0)
+    assert scheduler.set_interval(1, requested_us, 0)
+    assert scheduler.interval_us(1) == MIN_INTERVAL_US
+    sent = sum(
+        spec.name == "A"
+        for now_us in range(1000, 1_000_001, 1000)
+        for spec in scheduler.pop_due(now_us)
+    )
+    assert sent == MAX_STREAM_RATE_HZ  # one simulated second
+
+
+def test_max_stream_rate_is_within_the_default_poll_rate():
+    """The cap is PX4's fastest onboard stream and the endpoint poll can serve it."""
+    from harness.simulation import SimulationConfig
+
+    assert SimulationConfig().mavlink_poll_hz >= MAX_STREAM_RATE_HZ
+    assert max(spec.default_rate_hz for spec in DEFAULT_STREAMS) <= MAX_STREAM_RATE_HZ
