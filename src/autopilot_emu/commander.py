@@ -449,6 +449,8 @@ class Commander:
         if self.home is None and nav.position_ok:
             self.set_home_here()
         self._detect_landing(nav)
+        if self.landed_state == LandedState.LANDING and not self._descending:
+            self.landed_state = LandedState.IN_AIR  # Land (or RTL's descent) was left in the air
         self._check_failsafes(nav)
         out = NavOutput(yaw_rad=self._yaw_sp)
         cruise = self._speed_override_m_s

@@ -298,3 +298,15 @@ def test_mission_outside_the_fence_is_stored_but_mission_mode_refused(geo_cmd, f
     assert c.set_mode(MainMode.AUTO, AutoSubMode.MISSION) == TEMPORARILY_REJECTED
     assert c.upload_mission(MissionType.FENCE, ()) == 0  # fence cleared: the mission is valid
     assert c.set_mode(MainMode.AUTO, AutoSubMode.MISSION) == ACCEPTED
+
+
+def test_leaving_land_mode_in_the_air_reports_in_air_again():
+    """Found by the protocol fuzz: Hold after Land kept reporting LANDING while hovering."""
+    c = hovering_at_20_m()
+    assert c.land() == ACCEPTED
+    c.update(nav(2.1, z=-19.9, vz=0.5, thrust=0.2))
+    assert c.landed_state == LandedState.LANDING
+    assert c.set_mode(MainMode.AUTO, AutoSubMode.LOITER) == ACCEPTED
+    c.update(nav(2.2, z=-19.9, vz=0.0, thrust=0.25))
+    assert c.landed_state == LandedState.IN_AIR
+    assert c.takeoff(None) == ACCEPTED and c.in_air
