@@ -529,10 +529,9 @@ class Commander:
             out.yaw_rad = leg.yaw_rad
         out.position_ned_m = target.copy()
         if leg.kind == LegKind.LAND:
+            # Fly over the landing point at the leg's altitude, then descend.
             offset = float(np.hypot(*(target[:2] - nav.position_ned_m[:2])))
-            if offset > float(p.get("NAV_ACC_RAD")):
-                out.position_ned_m[2] = nav.position_ned_m[2] if self.in_air else target[2]
-            else:
+            if offset <= float(p.get("NAV_ACC_RAD")):
                 self._land_setpoint(nav, out)
 
     # -- failsafes -------------------------------------------------------------------------------
@@ -545,7 +544,7 @@ class Commander:
                 time_s=nav.time_s,
                 armed=self.armed,
                 in_air=self.in_air and self.landed_state != LandedState.TAKEOFF,
-                landing=self.sub_mode == AutoSubMode.LAND or self._descending,
+                landing=self._descending,
                 battery_remaining=nav.battery_remaining,
                 position_ok=nav.position_ok,
                 fence_breached=self.fence_breached,

@@ -9,7 +9,8 @@ Each navigation tick the commander hands in the vehicle's position and gets back
   param4 is the yaw in degrees (NaN: face the direction of travel).
 * NAV_TAKEOFF: climb to the item's altitude over the current position.
 * NAV_LOITER_TIME (hold param1 s), NAV_LOITER_UNLIM (hold until the mission is changed).
-* NAV_LAND: fly to the item's position (0/0: here), descend and land; done once landed.
+* NAV_LAND: fly to the item's position (0/0: here) at the current altitude, descend and land;
+  done once landed.
 * NAV_RETURN_TO_LAUNCH: reported complete when it starts (MAVSDK_CONTRACT.md section 14),
   then the commander flies RTL.
 * NAV_DELAY (param1 s, holding), DO_JUMP (param1 target, param2 repeats, -1 forever),
@@ -247,6 +248,8 @@ class MissionExecutor:
                 target[2] = inp.to_ned(0.0, 0.0, alt)[2]
             if command == NAV_TAKEOFF:
                 target[:2] = pos[:2]
+            if command == NAV_LAND:  # approach at the current altitude; the descent follows
+                target[2] = self._target[2] if np.isfinite(self._target[2]) else pos[2]
             self._target = target
             yaw_deg = item.params[3]
             self._yaw = math.radians(yaw_deg) if math.isfinite(yaw_deg) else math.nan
