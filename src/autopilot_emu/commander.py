@@ -339,6 +339,24 @@ class Commander:
                 self.landed_state = LandedState.TAKEOFF
         return ACCEPTED
 
+    def start_mission(self, first_seq: int) -> int:
+        """MAV_CMD_MISSION_START as PX4: arm if needed, fly from ``first_seq`` (-1: current).
+
+        On the ground the mission takes off: this, not a plain arm, is how PX4 starts a mission
+        from the ground with one command.
+        """
+        if not self.mission.valid:
+            self._say(SEVERITY_CRITICAL, "Mission start denied! No valid mission")
+            return DENIED
+        if first_seq >= len(self.mission.items):
+            return DENIED
+        if not self.armed and self.arm(force=False) != ACCEPTED:
+            self._say(SEVERITY_CRITICAL, "Mission start denied")
+            return TEMPORARILY_REJECTED
+        if first_seq >= 0:
+            self.mission.set_current(first_seq)
+        return self._start_mission()
+
     # -- missions, geofence, rally -------------------------------------------------------------
     def upload_mission(self, kind: MissionType, items: tuple[MissionItem, ...]) -> int:
         """Store a plan (upload or clear), rebuild the fence, re-check the mission."""

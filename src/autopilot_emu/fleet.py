@@ -427,6 +427,10 @@ class FleetVehicle:
         """Continue the mission at ``seq``."""
         return self.commander.set_mission_current(seq)
 
+    def start_mission(self, first_seq: int) -> int:
+        """Arm and start the mission (MAV_CMD_MISSION_START)."""
+        return self._sync(self.commander.start_mission(first_seq))
+
     def mission_status(self) -> tuple[int, int, int]:
         """(seq, total, MISSION_STATE)."""
         return self.commander.mission_status()

@@ -312,3 +312,19 @@ def test_data_link_loss_is_off_by_default(link):
     link.run(15.0)
     assert "Connection to ground station lost" in link.texts
     assert link.commander.sub_mode == AutoSubMode.LOITER and link.commander.in_air
+
+
+def test_mission_start_command_arms_and_flies_from_the_ground(link):
+    """MAV_CMD_MISSION_START (PX4): arms, takes off and flies from the requested item."""
+    assert link.upload([waypoint(20, 0, 5), waypoint(6, 6, 5)]) == 0
+    assert link.command(mavlink2.MAV_CMD_MISSION_START, 1, 1) == 0
+    assert link.commander.armed
+    link.until(lambda: 1 in reached(link), 60)
+    assert reached(link) == [1]  # started at item 1, item 0 skipped
+    n, e, _ = link.truth_ned()
+    assert math.hypot(*np.subtract((n, e), link.ned_of(6, 6))) < 1.5
+
+
+def test_mission_start_without_a_mission_is_denied(link):
+    assert link.command(mavlink2.MAV_CMD_MISSION_START, 0, 0) == mavlink2.MAV_RESULT_DENIED
+    assert not link.commander.armed

@@ -274,6 +274,7 @@ class CommandDispatcher:
             mavlink2.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._request_autopilot_version,
             mavlink2.MAV_CMD_GET_HOME_POSITION: self._request_home,
             mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT: self._set_mission_current,
+            mavlink2.MAV_CMD_MISSION_START: self._mission_start,
             mavlink2.MAV_CMD_INJECT_FAILURE: self._inject_failure,
         }
 
@@ -466,6 +467,14 @@ class CommandDispatcher:
         if seq != int(seq) or not self._vehicle.set_mission_current(int(seq)):
             raise _Rejected(DENIED, f"mission item {seq} does not exist")
         return ACCEPTED
+
+    def _mission_start(self, request: CommandRequest) -> int:
+        first = request.params[0]
+        if math.isnan(first):
+            first = -1.0  # MAVSDK-style "unset": continue at the current item
+        if not (math.isfinite(first) and first == int(first) and first >= -1):
+            raise _Rejected(DENIED, f"first mission item {first} is not an item index or -1")
+        return self._vehicle.start_mission(int(first))
 
     def _inject_failure(self, request: CommandRequest) -> int:
         unit = _required(request.params[0], "failure unit")

@@ -164,6 +164,10 @@ class VehiclePort(Protocol):
         """A HEARTBEAT of a ground station arrived (data-link-loss failsafe)."""
         ...
 
+    def start_mission(self, first_seq: int) -> int:
+        """MAV_CMD_MISSION_START: arm and fly the mission from ``first_seq`` (-1: current)."""
+        ...
+
     def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
         """MAV_CMD_INJECT_FAILURE; MAV_RESULT (DENIED unless SYS_FAILURE_EN is 1)."""
         ...

@@ -140,6 +140,9 @@ class FakeVehicle:
     def gcs_heartbeat(self) -> None:
         self.calls.append(("gcs_heartbeat",))
 
+    def start_mission(self, first_seq: int) -> int:
+        return self._record("start_mission", first_seq)
+
     def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
         return self._record("inject_failure", unit, failure_type, instance)
 

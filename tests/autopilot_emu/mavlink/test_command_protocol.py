@@ -494,3 +494,17 @@ def test_capabilities_request_for_another_system_is_ignored(client, endpoint):
     inbox = client.exchange(endpoint, 0.0, has("COMMAND_ACK"))
     assert [a.command for a in _acks(inbox)] == [31000]
     assert "AUTOPILOT_VERSION" not in {m.get_type() for m in inbox}
+
+
+@pytest.mark.parametrize(("param1", "expected"), [(0.0, 0), (3.0, 3), (-1.0, -1), (math.nan, -1)])
+def test_mission_start_passes_the_first_item(client, endpoint, vehicle, param1, expected):
+    ack = _command(client, endpoint, command_long(mavlink2.MAV_CMD_MISSION_START, param1, 0))
+    assert ack.result == ACCEPTED
+    assert vehicle.calls == [("start_mission", expected)]
+
+
+@pytest.mark.parametrize("param1", [-2.0, 1.5, math.inf])
+def test_mission_start_with_a_bad_first_item_is_denied(client, endpoint, vehicle, param1):
+    ack = _command(client, endpoint, command_long(mavlink2.MAV_CMD_MISSION_START, param1, 0))
+    assert ack.result == DENIED
+    assert vehicle.calls == []
