@@ -170,9 +170,7 @@ class MavlinkEndpoint:
         )
         self._params = ParamProtocol(vehicle.params, self._send)
         self._commands = CommandDispatcher(vehicle, self, wall_clock_s)
-        self._missions = MissionProtocol(
-            vehicle, self._send, self.announce, lambda: vehicle.mission_status()[0], wall_clock_s
-        )
+        self._missions = MissionProtocol(vehicle, self._send, self.announce, wall_clock_s)
         self._mission_status: tuple[int, int, int] | None = None
         self._handlers: dict[int, Callable[[mavlink2.MAVLink_message], None]] = {
             mavlink2.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
@@ -191,7 +189,6 @@ class MavlinkEndpoint:
             mavlink2.MAVLINK_MSG_ID_MISSION_CLEAR_ALL: self._on_mission(
                 self._missions.handle_clear_all
             ),
-            mavlink2.MAVLINK_MSG_ID_MISSION_ACK: self._on_mission_ack,
             mavlink2.MAVLINK_MSG_ID_MISSION_SET_CURRENT: self._on_mission_set_current,
             mavlink2.MAVLINK_MSG_ID_COMMAND_LONG: self._on_command,
             mavlink2.MAVLINK_MSG_ID_COMMAND_INT: self._on_command,
@@ -537,9 +534,6 @@ class MavlinkEndpoint:
                 self._reschedule()
 
         return handle
-
-    def _on_mission_ack(self, msg: mavlink2.MAVLink_message) -> None:
-        """The partner's MISSION_ACK ends a download: nothing is pending on our side."""
 
     def _on_mission_set_current(self, msg: mavlink2.MAVLink_message) -> None:
         if self._targets_us(msg.target_system, msg.target_component):

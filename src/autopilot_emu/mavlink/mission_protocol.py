@@ -61,6 +61,10 @@ class MissionServer(Protocol):
         """Make ``seq`` the current mission item; False if it is out of range."""
         ...
 
+    def mission_status(self) -> tuple[int, int, int]:
+        """(current seq, total, MISSION_STATE)."""
+        ...
+
 
 def item_from_message(msg: mavlink2.MAVLink_message) -> MissionItem:
     """MISSION_ITEM_INT or MISSION_ITEM -> MissionItem (float lat/lon rounded to degE7)."""
@@ -132,7 +136,6 @@ class MissionProtocol:
         vehicle: stores, checks and executes the plans.
         send: sends one message to every peer.
         announce: sends a STATUSTEXT (severity, text).
-        current_seq: the current mission item, for the ``current`` flag of downloaded items.
         wall_clock_s: monotonic clock for transfer timeouts.
     """
 
@@ -141,13 +144,11 @@ class MissionProtocol:
         vehicle: MissionServer,
         send: Send,
         announce: Announce,
-        current_seq: Callable[[], int],
         wall_clock_s: Callable[[], float] = time.monotonic,
     ) -> None:
         self._vehicle = vehicle
         self._send = send
         self._announce = announce
-        self._current_seq = current_seq
         self._clock = wall_clock_s
         self._upload: _Upload | None = None
         self._finished: _Upload | None = None
@@ -314,7 +315,9 @@ class MissionProtocol:
             )
             return
         as_int = msg.get_msgId() == mavlink2.MAVLINK_MSG_ID_MISSION_REQUEST_INT
-        current = msg.seq == self._current_seq()  # PX4 flags the mission's current seq, any type
+        current = (
+            msg.seq == self._vehicle.mission_status()[0]
+        )  # PX4 flags the mission's current seq, any type
         self._send(item_message(items[msg.seq], msg.seq, kind, partner, current, as_int))
 
     # --- clear and set current -------------------------------------------------------------
@@ -336,12 +339,9 @@ class MissionProtocol:
         failed = [r for r in results if r != mavlink2.MAV_MISSION_ACCEPTED]
         self._ack(partner, msg.mission_type, failed[0] if failed else results[0])
 
-    def handle_set_current(self, msg: mavlink2.MAVLink_message) -> bool:
+    def handle_set_current(self, msg: mavlink2.MAVLink_message) -> None:
         """MISSION_SET_CURRENT; out of range: STATUSTEXT only (PX4 sends no MISSION_ACK)."""
         if self._upload is not None:
             self._announce(mavlink2.MAV_SEVERITY_CRITICAL, "WPM: IGN WP CURR CMD: Busy")
-            return False
-        if self._vehicle.set_mission_current(msg.seq):
-            return True
-        self._announce(mavlink2.MAV_SEVERITY_CRITICAL, "WPM: WP CURR CMD: Not in list")
-        return False
+        elif not self._vehicle.set_mission_current(msg.seq):
+            self._announce(mavlink2.MAV_SEVERITY_CRITICAL, "WPM: WP CURR CMD: Not in list")

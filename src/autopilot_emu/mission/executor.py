@@ -188,22 +188,22 @@ class MissionExecutor:
             item = self.items[self.current]
             if item.command == DO_JUMP:
                 if self._jump(item):
-                    self._complete_item(inp)
+                    self._complete_item()
                 continue
             if self._started_item != self.current:
                 self._start(item, inp)
             if item.command == NAV_RTL:
-                self._complete_item(inp, last_is_rtl=True)
+                self._complete_item(last_is_rtl=True)
                 return Leg(LegKind.RTL, pos.copy())
             if not self._item_done(item, inp):
                 kind = LegKind.LAND if item.command == NAV_LAND else LegKind.FLY
                 return Leg(kind, self._target.copy(), self._heading(inp))
             if not item.autocontinue:
                 self.texts.append(f"Mission item {self.current} reached, waiting (no autocontinue)")
-                self._complete_item(inp)
+                self._complete_item()
                 self.state = MissionState.PAUSED
                 return Leg(LegKind.FLY, self._target.copy(), self._yaw)
-            self._complete_item(inp)
+            self._complete_item()
         return Leg(LegKind.FLY, self._hold_target(pos), self._yaw)
 
     def _hold_target(self, pos: np.ndarray) -> np.ndarray:
@@ -309,7 +309,7 @@ class MissionExecutor:
         self._started_item = None
         return False
 
-    def _complete_item(self, inp: StepInput, last_is_rtl: bool = False) -> None:
+    def _complete_item(self, last_is_rtl: bool = False) -> None:
         self.reached.append(self.current)
         if last_is_rtl:
             self.state = MissionState.COMPLETE
