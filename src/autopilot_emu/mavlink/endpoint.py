@@ -36,9 +36,16 @@ from autopilot_emu.mavlink.commands import (
 )
 from autopilot_emu.mavlink.mission_protocol import MissionProtocol
 from autopilot_emu.mavlink.param_protocol import ParamProtocol
+from autopilot_emu.mavlink.setpoints import (
+    SetpointError,
+    decode_attitude,
+    decode_global,
+    decode_local,
+)
 from autopilot_emu.mavlink.streams import DEFAULT_STREAMS, StreamScheduler
 from autopilot_emu.mavlink.tlog import TlogWriter
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
+from autopilot_emu.modes.offboard import LocalFrame
 from autopilot_emu.params import ParamError
 
 logger = logging.getLogger(__name__)
@@ -124,6 +131,10 @@ class EndpointStats:
     """Retransmissions re-ACKed from the cache without executing."""
     commands_ignored: int = 0
     """Commands addressed to another system or component (no ACK, as PX4)."""
+    setpoints_received: int = 0
+    """Offboard setpoints addressed to us and passed to the vehicle."""
+    setpoints_ignored: int = 0
+    """Offboard setpoints addressed to us that could not be flown (logged once per reason)."""
     handler_errors: int = 0
     """Exceptions raised while handling a received message."""
     encode_errors: int = 0
@@ -196,7 +207,11 @@ class MavlinkEndpoint:
             mavlink2.MAVLINK_MSG_ID_PARAM_REQUEST_READ: self._on_param_request_read,
             mavlink2.MAVLINK_MSG_ID_PARAM_SET: self._on_param_set,
             mavlink2.MAVLINK_MSG_ID_PING: self._on_ping,
+            mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED: self._on_setpoint,
+            mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self._on_setpoint,
+            mavlink2.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self._on_setpoint,
         }
+        self._setpoint_problems: set[str] = set()
         self._configured_peers = list(
             dict.fromkeys(_resolve(host, port) for host, port in config.peers)
         )
@@ -548,6 +563,33 @@ class MavlinkEndpoint:
         if force_current or status != self._mission_status:
             self._mission_status = status
             self._emit(mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT)
+
+    def _on_setpoint(self, msg: mavlink2.MAVLink_message) -> None:
+        """SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT, SET_ATTITUDE_TARGET -> the vehicle."""
+        if not self._targets_us(msg.target_system, msg.target_component):
+            return
+        vehicle = self._vehicle
+        try:
+            msg_id = msg.get_msgId()
+            if msg_id == mavlink2.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET:
+                taken = vehicle.offboard_setpoint(decode_attitude(msg), LocalFrame.LOCAL_NED)
+                reason = "a thrust alone without an attitude or rate setpoint"
+            elif msg_id == mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED:
+                taken = vehicle.offboard_setpoint(*decode_local(msg))
+                reason = ""
+            else:
+                taken = vehicle.offboard_setpoint_global(decode_global(msg))
+                reason = "no global origin or home yet"
+        except SetpointError as exc:
+            taken, reason = False, str(exc)
+        if taken:
+            self.stats.setpoints_received += 1
+            return
+        self.stats.setpoints_ignored += 1
+        key = f"{msg.get_type()}: {reason}"
+        if key not in self._setpoint_problems:
+            self._setpoint_problems.add(key)
+            logger.warning("ignoring %s (type_mask 0x%04x)", key, int(msg.type_mask))
 
     def _on_ping(self, msg: mavlink2.MAVLink_message) -> None:
         # As PX4: target 0/0 is a request to answer; a PING addressed to us is a reply to a
