@@ -107,7 +107,7 @@ def test_position_ned_takes_off_flies_and_turns(flying):
     start = lk.ned()
     hb = lk.wait_type("HEARTBEAT")
     assert (hb.custom_mode >> 16) & 0xFF == OFFBOARD
-    target = start + [8.0, -4.0, -2.0]
+    target = start + np.array([8.0, -4.0, -2.0])
     sp = local_ned(POSITION_NED, x=target[0], y=target[1], z=target[2], yaw=math.radians(90))
     lk.stream(lambda: sp, 15.0)
     assert np.linalg.norm(lk.ned() - target) < 0.5
@@ -151,7 +151,7 @@ def test_position_with_velocity_feed_forward_and_acceleration(flying):
     lag = start[1] + (lk.sim.time_s - t0) - lk.ned()[1]
     assert 0.0 < lag < 1.0  # following, and close behind
     lk.stream(moving, 6.0)
-    assert np.linalg.norm(lk.ned() - (start + [0, 6.0, 0])) < 0.5
+    assert np.linalg.norm(lk.ned() - (start + np.array([0.0, 6.0, 0.0]))) < 0.5
     # Horizontal acceleration, height held by a z position (axes mix, as in PX4), 1.5 m/s²
     # north: not drag-compensated (as in PX4), so the Typhoon's rotor drag (about 1.2 /s)
     # limits the speed to about 1.2 m/s; then the same south.
@@ -259,9 +259,7 @@ def test_unflyable_setpoints_are_ignored_and_logged_once(flying, caplog):
         local_ned(POSITION_NED, frame=mavlink2.MAV_FRAME_GLOBAL, x=here[0] + 50),
         local_ned(POSITION_NED, x=math.nan),
         attitude_target(0, 0, 0, 0.5, mask=0xC7),  # ignores attitude, rates and thrust
-        mavlink2.MAVLink_set_attitude_target_message(
-            0, 1, 1, ATTITUDE, [0, 0, 0, 0], 0, 0, 0, 0.5
-        ),
+        mavlink2.MAVLink_set_attitude_target_message(0, 1, 1, ATTITUDE, [0, 0, 0, 0], 0, 0, 0, 0.5),
     ]
     stats = lk.sim.endpoints[0].stats
     ignored0 = stats.setpoints_ignored
