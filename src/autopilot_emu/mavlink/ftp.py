@@ -25,8 +25,8 @@ Where this server differs, and why:
 
 * Paths are confined to the vehicle's root (:mod:`ftp_paths`); PX4 SITL lets ``..`` out.
 * The session number handed out is the one the client put in its open request, not always 0.
-  QGroundControl and MAVSDK ask for 0 and see PX4's behaviour; MAVProxy picks its own numbers
-  and routes replies by them (it could not download from PX4 otherwise).
+  MAVSDK asks for 0 and sees PX4's behaviour; MAVProxy picks its own numbers and matches
+  replies to operations by them (it could not download from PX4 otherwise).
 * A repeated request is recognised by seq_number, opcode and session, not seq_number alone, so
   that a client that restarts its numbering per operation (MAVProxy) never gets a stale reply.
 * The burst stream is paced: :data:`BURST_PACKETS_PER_TICK` per :meth:`FtpServer.tick` (one
