@@ -156,11 +156,6 @@ class FtpServer:
         }
 
     @property
-    def root(self) -> Path:
-        """The directory served (symbolic links resolved)."""
-        return self._root.path
-
-    @property
     def busy(self) -> bool:
         """True while :meth:`tick` has work: a burst to stream or a session to time out."""
         return self._session is not None or self._burst is not None
