@@ -11,6 +11,7 @@ step. The MAVLink endpoints are polled on the simulation clock. Two ways to run 
 from __future__ import annotations
 
 import logging
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -107,6 +108,10 @@ class Simulation:
             p.set("MAV_SYS_ID", i + 1)
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
+        self.ftp_roots: list[Path] = []
+        """Directory each vehicle serves over MAVLink FTP: ``<out_dir>/vehicle<N>/fs``, or a
+        temporary directory removed on close when there is no out_dir."""
+        self._scratch: tempfile.TemporaryDirectory | None = None
         if config.out_dir is not None:
             config.out_dir.mkdir(parents=True, exist_ok=True)
         try:
@@ -137,8 +142,21 @@ class Simulation:
                 peers=ports.peers(i),
                 tlog_path=(out / f"vehicle{i + 1}.tlog") if out is not None else None,
                 epoch_start_s=self.epoch_start_s,
+                ftp_root=self._ftp_root(i),
             ),
         )
+
+    def _ftp_root(self, i: int) -> Path:
+        """Create vehicle i's FTP root with an empty ``log/`` (PX4 SITL's rootfs has one)."""
+        base = self.config.out_dir
+        if base is None:
+            if self._scratch is None:
+                self._scratch = tempfile.TemporaryDirectory(prefix="swarmsitl-fs-")
+            base = Path(self._scratch.name)
+        root = base / f"vehicle{i + 1}" / "fs"
+        (root / "log").mkdir(parents=True, exist_ok=True)
+        self.ftp_roots.append(root)
+        return root
 
     @property
     def time_s(self) -> float:
@@ -253,6 +271,8 @@ class Simulation:
                 log.warning("closing endpoint failed: %s", exc)
         if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
             self.recorder.write_csv(self.config.out_dir / "truth.csv")
+        if self._scratch is not None:
+            self._scratch.cleanup()
         self.world.close()
 
     def __enter__(self) -> Simulation:

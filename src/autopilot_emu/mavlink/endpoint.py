@@ -34,6 +34,7 @@ from autopilot_emu.mavlink.commands import (
     CommandDispatcher,
     CommandRequest,
 )
+from autopilot_emu.mavlink.ftp import FtpServer
 from autopilot_emu.mavlink.mission_protocol import MissionProtocol
 from autopilot_emu.mavlink.param_protocol import ParamProtocol
 from autopilot_emu.mavlink.setpoints import (
@@ -101,6 +102,9 @@ class EndpointConfig:
     """Unix time at simulation t = 0, s (tlog timestamps, SYSTEM_TIME)."""
     stream_rates_hz: Mapping[str, float] = field(default_factory=dict)
     """Per-message overrides of the default stream rates, e.g. {"ATTITUDE": 50.0}; 0 = off."""
+    ftp_root: Path | None = None
+    """Directory served over MAVLink FTP (must exist); None: FILE_TRANSFER_PROTOCOL is not
+    answered, as PX4 with FTP off (``mavlink start`` without ``-x``)."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255 or not 1 <= self.compid <= 255:
@@ -183,6 +187,11 @@ class MavlinkEndpoint:
         self._commands = CommandDispatcher(vehicle, self, wall_clock_s)
         self._missions = MissionProtocol(vehicle, self._send, self.announce, wall_clock_s)
         self._mission_status: tuple[int, int, int] | None = None
+        self._ftp = (
+            FtpServer(config.ftp_root, self._send, wall_clock_s)
+            if config.ftp_root is not None
+            else None
+        )
         self._handlers: dict[int, Callable[[mavlink2.MAVLink_message], None]] = {
             mavlink2.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             mavlink2.MAVLINK_MSG_ID_MISSION_COUNT: self._on_mission(self._missions.handle_count),
@@ -210,6 +219,7 @@ class MavlinkEndpoint:
             mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED: self._on_setpoint,
             mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self._on_setpoint,
             mavlink2.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self._on_setpoint,
+            mavlink2.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL: self._on_ftp,
         }
         self._setpoint_problems: set[str] = set()
         self._configured_peers = list(
@@ -272,7 +282,9 @@ class MavlinkEndpoint:
         return tuple(self._peers)
 
     def close(self) -> None:
-        """Flush and close the tlog, close the socket. Safe to call twice."""
+        """Flush and close the tlog, close the socket and the FTP session. Safe to call twice."""
+        if self._ftp is not None:
+            self._ftp.close()
         if self._tlog is not None:
             self._tlog.close()
         if self._sock is not None:
@@ -309,6 +321,8 @@ class MavlinkEndpoint:
                 logger.debug("recvfrom failed: %s", exc)
                 break
             self._on_datagram(data, address)
+        if self._ftp is not None and self._ftp.busy:
+            self._ftp.tick()
         if now_s >= self._next_work_s or now_s < self._last_poll_s:
             self._work(now_s)
         self._last_poll_s = now_s
@@ -603,6 +617,10 @@ class MavlinkEndpoint:
                     target_component=msg.get_srcComponent(),
                 )
             )
+
+    def _on_ftp(self, msg: mavlink2.MAVLink_message) -> None:
+        if self._ftp is not None and self._targets_us(msg.target_system, msg.target_component):
+            self._ftp.handle(msg)
 
     # --- CommandServices (called by the dispatcher) ------------------------------------------
 
