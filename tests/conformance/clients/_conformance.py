@@ -18,6 +18,7 @@ them from here, which puts that folder on ``sys.path`` first.
 
 from __future__ import annotations
 
+import argparse
 import asyncio
 import contextlib
 import importlib
@@ -47,6 +48,7 @@ __all__ = [
     "Checks",
     "ClientError",
     "Report",
+    "client_main",
     "collect",
     "first",
     "horizontal",
@@ -71,6 +73,7 @@ class Api:
         self._handle = handle
         self._stack = stack
         self._plugins: dict[str, object] = {}
+        self._how: tuple[str, int, Report] | None = None
 
     @classmethod
     async def connect(cls, kind: str, url: str, grpc_port: int, r: Report) -> Api:
@@ -82,17 +85,27 @@ class Api:
             drone = System(port=grpc_port)
             stack.callback(drone._stop_mavsdk_server)
             await connect_healthy(drone, url, r, CONNECT_TIMEOUT_S)
-            return cls(kind, drone, stack)
+            api = cls(kind, drone, stack)
+            api._how = (url, grpc_port, r)
+            return api
         from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 
         config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
         sdk = await stack.enter_async_context(Mavsdk(config))
         r["mavsdk_version"] = await sdk.version()
         system = await native_autopilot(sdk, url, r, CONNECT_TIMEOUT_S)
-        return cls(kind, system, stack)
+        api = cls(kind, system, stack)
+        api._how = (url, grpc_port, r)
+        return api
 
     async def close(self) -> None:
         await self._stack.aclose()
+
+    async def reconnect(self) -> None:
+        """Disconnect and connect again, as a user restarting a script does."""
+        await self.close()
+        fresh = await Api.connect(self.kind, *self._how)
+        self.__dict__.update(fresh.__dict__)
 
     def plugin(self, name: str):
         """The plugin ``name`` (``action``, ``mission_raw``, ...) of this vehicle."""
@@ -179,3 +192,31 @@ async def outcome(call: Awaitable, timeout_s: float = 10.0) -> str:
     except Exception as exc:
         return result_name(exc)
     return "SUCCESS"
+
+
+def client_main(
+    flow: Callable[[Api, argparse.Namespace, Report], Awaitable[None]],
+    options: Callable[[argparse.ArgumentParser], None] = lambda ap: None,
+    timeout_s: float = 400.0,
+) -> None:
+    """Command line (``--api``, ``--url``, ``--grpc-port``, ``options``), connect, run ``flow``.
+
+    Prints the report as one JSON line and exits (see ``_common.run``).
+    """  # fmt: skip
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--api", choices=("classic", "native"), required=True)
+    ap.add_argument("--url", required=True)
+    ap.add_argument("--grpc-port", type=int, default=0)
+    options(ap)
+    args = ap.parse_args()
+
+    async def main_flow(r: Report) -> None:
+        api = await Api.connect(args.api, args.url, args.grpc_port, r)
+        r["api"] = api.kind
+        try:
+            await flow(api, args, r)
+            r.stage("done")
+        finally:
+            await api.close()
+
+    run(lambda report: asyncio.wait_for(main_flow(report), timeout_s), Report())

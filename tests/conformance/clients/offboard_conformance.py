@@ -15,7 +15,7 @@ import argparse
 import asyncio
 import statistics
 
-from _conformance import Api, Checks, Report, collect, outcome, run
+from _conformance import Api, Checks, Report, client_main, collect, outcome
 
 WINDOW_S = 8.0
 """Simulated seconds a position setpoint is held before the vehicle must be there."""
@@ -116,25 +116,10 @@ class Offboard:
         await run_check("offboard_stop_land", stop_and_land)
 
 
-async def main_flow(args, r: Report) -> None:
-    api = await Api.connect(args.api, args.url, args.grpc_port, r)
-    r["api"] = api.kind
-    try:
-        checks = Checks(r)
-        await checks.group("offboard", Offboard(api, checks).flow)
-        r.stage("done")
-    finally:
-        await api.close()
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--api", choices=("classic", "native"), required=True)
-    ap.add_argument("--url", required=True)
-    ap.add_argument("--grpc-port", type=int, default=0)
-    args = ap.parse_args()
-    run(lambda report: asyncio.wait_for(main_flow(args, report), 300), Report())
+async def flow(api: Api, args: argparse.Namespace, r: Report) -> None:
+    checks = Checks(r)
+    await checks.group("offboard", Offboard(api, checks).flow)
 
 
 if __name__ == "__main__":
-    main()
+    client_main(flow, timeout_s=300.0)

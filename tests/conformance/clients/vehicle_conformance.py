@@ -27,13 +27,13 @@ from _conformance import (
     Checks,
     ClientError,
     Report,
+    client_main,
     collect,
     first,
     horizontal,
     mission_items,
     ned_of,
     outcome,
-    run,
 )
 
 TAKEOFF_ALT_M = 5.0
@@ -128,14 +128,20 @@ class Flight:
     def __init__(self, api: Api, checks: Checks) -> None:
         self.api = api
         self.checks = checks
-        self.action = api.plugin("action")
-        self.param = api.plugin("param")
         self.modes: list[str] = []
         self.landed: list[str] = []
         self.texts: list[str] = []
         self.home = None
         self.ref: tuple[float, float, float] = (math.nan, math.nan, math.nan)
         self.ned0: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def action(self):
+        return self.api.plugin("action")
+
+    @property
+    def param(self):
+        return self.api.plugin("param")
 
     async def watch(self) -> list[asyncio.Task]:
         """Record flight modes, landed states and status texts for the whole run."""
@@ -683,47 +689,29 @@ class Flight:
         await run("plugins_not_served", probes)
 
 
-async def main_flow(args, r: Report) -> None:
-    api = await Api.connect(args.api, args.url, args.grpc_port, r)
-    r["api"] = api.kind
-    try:
-        checks = Checks(r)
-        flight = Flight(api, checks)
+async def flow(api: Api, args: argparse.Namespace, r: Report) -> None:
+    checks = Checks(r)
+    flight = Flight(api, checks)
+    watchers = await flight.watch()
+    await checks.group("telemetry", flight.telemetry_on_ground)
+    await checks.group("rates", flight.rates)
+    await checks.group("param", flight.params)
+    await checks.group("info", flight.info)
+    await checks.group("mission", flight.missions_on_ground)
+    await checks.group("action", flight.action_on_ground)
+    await checks.group("flight", flight.flight)
+    await checks.group("mission_import", flight.mission_import)
+    for task in watchers:
+        task.cancel()
+    if args.plugins:
+        await flight.param.set_param_int("SYS_FAILURE_EN", 1)
+        r.stage("reconnect")
+        await api.reconnect()
         watchers = await flight.watch()
-        await checks.group("telemetry", flight.telemetry_on_ground)
-        await checks.group("rates", flight.rates)
-        await checks.group("param", flight.params)
-        await checks.group("info", flight.info)
-        await checks.group("mission", flight.missions_on_ground)
-        await checks.group("action", flight.action_on_ground)
-        await checks.group("flight", flight.flight)
-        await checks.group("mission_import", flight.mission_import)
+        await checks.group("plugins", flight.plugins)
         for task in watchers:
             task.cancel()
-        if args.plugins:
-            await flight.param.set_param_int("SYS_FAILURE_EN", 1)
-            await api.close()
-            r.stage("reconnect")
-            api = await Api.connect(args.api, args.url, args.grpc_port, r)
-            flight = Flight(api, checks)
-            watchers = await flight.watch()
-            await checks.group("plugins", flight.plugins)
-            for task in watchers:
-                task.cancel()
-        r.stage("done")
-    finally:
-        await api.close()
-
-
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--api", choices=("classic", "native"), required=True)
-    ap.add_argument("--url", required=True)
-    ap.add_argument("--grpc-port", type=int, default=0)
-    ap.add_argument("--plugins", action="store_true")
-    args = ap.parse_args()
-    run(lambda report: asyncio.wait_for(main_flow(args, report), 400), Report())
 
 
 if __name__ == "__main__":
-    main()
+    client_main(flow, lambda ap: ap.add_argument("--plugins", action="store_true"))
