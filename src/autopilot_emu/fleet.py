@@ -237,6 +237,10 @@ class AutopilotFleet:
         override = self.active & np.isfinite(self._att_target_thrust)
         self._overridden = override
         if override.any():
+            # Not flying the position loop: it restarts from the vehicle's state afterwards,
+            # as PX4 initialises its position controller when a mode starts using it.
+            self.position_control.reset(override)
+            self.position_control.vel_sp[override] = vel[override]
             with_att = override & np.isfinite(self._att_target_q[:, 0])
             self.q_sp[with_att] = self._att_target_q[with_att]
             self.thrust[override] = np.clip(self._att_target_thrust[override], 0.0, 1.0)

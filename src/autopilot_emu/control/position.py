@@ -75,10 +75,8 @@ _G_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
 _ACC_Z_MAX = 0.8 * GRAVITY_M_S2
 """Vertical acceleration demand limit, m/s²."""
 _INT_MAX = np.array([GRAVITY_M_S2, GRAVITY_M_S2, 4.0])
-"""Velocity-integrator limits (north, east, down), m/s². Horizontally as much as a 45° tilt
-produces: the integrator must be able to cancel the rotor drag at cruise speed, or velocity
-setpoints (offboard, and every leg's last metres) are tracked with a steady error. PX4 bounds
-it only by tracking anti-windup against the tilt limit."""
+"""Velocity-integrator limits (north, east, down), m/s². Horizontally PX4 has no fixed cap (its
+anti-windup is the tilt limit, below); one g is as far as MPC_TILTMAX_AIR = 45 deg can go."""
 
 
 class PositionController:
@@ -153,7 +151,14 @@ class PositionController:
         thrust = gains.hover_thrust * (GRAVITY_M_S2 - acc[:, 2]) / (GRAVITY_M_S2 * body_z[:, 2])
         thrust_sat = np.minimum(np.maximum(thrust, 0.05), 0.95)
 
-        # Integrate with anti-windup: stop integrating the vertical axis while thrust saturates.
+        # Integrate with anti-windup: stop integrating the vertical axis while thrust saturates;
+        # horizontally, as PX4's PositionControl, feed back what the tilt limit cut off the
+        # acceleration demand (gain 2 / vel_p).
+        acc_xy = acc[:, :2]
+        acc_xy_done = -body_z[:, :2] * (thrust_sat * GRAVITY_M_S2 / gains.hover_thrust)[:, None]
+        cut = (acc_xy * acc_xy).sum(axis=1) > (acc_xy_done * acc_xy_done).sum(axis=1)
+        acc_xy_limited = np.where(cut[:, None], acc_xy_done, acc_xy)
+        verr[:, :2] -= (2.0 / np.maximum(gains.vel_p[:, :2], 1e-6)) * (acc_xy - acc_xy_limited)
         int_step = gains.vel_i * verr * dt_s
         int_step[:, 2] *= thrust == thrust_sat
         int_step *= active[:, None]

@@ -59,6 +59,8 @@ DEFAULT_STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec("ALTITUDE", mavlink2.MAVLINK_MSG_ID_ALTITUDE, 5.0),
     StreamSpec("SYSTEM_TIME", mavlink2.MAVLINK_MSG_ID_SYSTEM_TIME, 1.0),
     StreamSpec("MISSION_CURRENT", mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT, 1.0),
+    # Off until asked for, as PX4: MAVSDK's info.flight_information() sets it to 1 Hz.
+    StreamSpec("FLIGHT_INFORMATION", mavlink2.MAVLINK_MSG_ID_FLIGHT_INFORMATION, 0.0),
 )
 """Streams sent unprompted, in the order they go out when due together."""
 

@@ -102,6 +102,23 @@ def test_set_message_interval_for_unknown_message_is_denied(client, vehicle):
     assert next(m for m in inbox if m.get_type() == "COMMAND_ACK").result == 2
 
 
+def test_flight_information_streams_only_when_asked_for(client, vehicle):
+    """FLIGHT_INFORMATION is off by default and streams at the rate SET_MESSAGE_INTERVAL asks.
+
+    MAVSDK's ``info.flight_information()`` subscription asks for it at 1 Hz and gets nothing
+    else (found by tests/conformance).
+    """
+    msg_id = mavlink2.MAVLINK_MSG_ID_FLIGHT_INFORMATION
+    with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
+        endpoint.poll(0.0)
+        client.drain()
+        assert _count(_drive(endpoint, client, 0, 2000), "FLIGHT_INFORMATION") == 0
+        client.send(endpoint, command_long(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6))
+        inbox = client.exchange(endpoint, 2.0, has("COMMAND_ACK"))
+        assert next(m for m in inbox if m.get_type() == "COMMAND_ACK").result == 0
+        assert _count(_drive(endpoint, client, 2000, 5000), "FLIGHT_INFORMATION") == 3
+
+
 def test_stream_rate_overrides_from_config(client, vehicle):
     with make_endpoint(
         vehicle, peers=(client.address,), stream_rates_hz={"ATTITUDE": 50.0, "VFR_HUD": 0}
