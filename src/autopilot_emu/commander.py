@@ -151,7 +151,19 @@ class Commander:
         self.main_mode, self.sub_mode = main, sub
 
     def _hold_here(self) -> None:
+        """Hold at the braking point: the current position plus the distance it takes to stop.
+
+        As PX4's Loiter (Navigator::calculate_breaking_stop), so that a Hold commanded at speed
+        does not fly back to where it was asked; the distance is v²/(2 MPC_ACC_HOR), without
+        PX4's jerk term.
+        """
         self._target = self._position()
+        if self._last is not None and self.in_air:
+            vel = self._last.velocity_ned_m_s[:2]
+            speed = float(np.hypot(vel[0], vel[1]))
+            acc = float(self.params.get("MPC_ACC_HOR"))
+            if acc > 0:
+                self._target[:2] += vel * (speed / (2.0 * acc))
         self._yaw_sp = self._last.yaw_rad if self._last else 0.0
         self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
 

@@ -2,8 +2,7 @@
 
 One ``swarmsitl up`` and one ``clients/offboard_conformance.py`` run per API (classic port slot
 15, native slot 16), flown as MAVSDK-Python's offboard examples fly: a setpoint before start(),
-then setpoints held for windows of simulated time. Offboard mode is being implemented
-(issue 6); the flight checks are expected to fail until then.
+then setpoints held for windows of simulated time.
 """
 
 from __future__ import annotations
@@ -17,7 +16,6 @@ from e2e_support import module_ports, running_swarm
 pytestmark = [pytest.mark.e2e, pytest.mark.conformance]
 
 SLOTS = {"classic": 15, "native": 16}
-offboard_pending = pytest.mark.xfail(reason="offboard lands in issue 6", strict=False)
 
 
 @pytest.fixture(scope="module", params=list(SLOTS))
@@ -40,7 +38,6 @@ def test_start_without_a_setpoint_is_refused(run):
     assert run.check("offboard_start_without_setpoint")["start"] == "NO_SETPOINT_SET"
 
 
-@offboard_pending
 def test_start_on_the_ground_after_a_setpoint(run):
     """arm, set_position_ned(0, 0, 0, 0), start(): OFFBOARD in the HEARTBEAT."""
     c = run.check("offboard_start")
@@ -48,7 +45,6 @@ def test_start_on_the_ground_after_a_setpoint(run):
     assert c["is_active"] is True
 
 
-@offboard_pending
 def test_position_ned_climb(run):
     """set_position_ned(0, 0, -5, 0): 5 m above the start point within 0.5 m."""
     c = run.check("offboard_position_climb")
@@ -56,7 +52,6 @@ def test_position_ned_climb(run):
     assert c["flight_mode"] == "OFFBOARD"
 
 
-@offboard_pending
 def test_position_ned_move_and_turn(run):
     """set_position_ned(5, 0, -5, 90): there within 0.5 m, heading east within 5 deg."""
     c = run.check("offboard_position_move_turn")
@@ -64,7 +59,6 @@ def test_position_ned_move_and_turn(run):
     assert yaw_error(c["yaw_deg"], 90.0) < 5.0
 
 
-@offboard_pending
 def test_velocity_ned(run):
     """set_velocity_ned(1, 0, 0, 90): 1 m/s north (+-0.2), level, heading east."""
     c = run.check("offboard_velocity_ned")
@@ -74,7 +68,6 @@ def test_velocity_ned(run):
     assert yaw_error(c["yaw_deg"], 90.0) < 5.0
 
 
-@offboard_pending
 def test_velocity_body(run):
     """set_velocity_body(1, 0, 0, 0) heading east: 1 m/s east (forward), none north."""
     c = run.check("offboard_velocity_body")
@@ -83,7 +76,6 @@ def test_velocity_body(run):
     assert abs(north) < 0.2 and abs(down) < 0.3
 
 
-@offboard_pending
 def test_attitude(run):
     """set_attitude(roll 5, pitch 0, yaw 90, hover thrust): that attitude within 1.5 / 5 deg."""
     c = run.check("offboard_attitude")
@@ -92,7 +84,6 @@ def test_attitude(run):
     assert yaw_error(c["yaw_deg"], 90.0) < 5.0
 
 
-@offboard_pending
 def test_stop_holds_then_land(run):
     """stop(): HOLD, streaming ends; land() brings it down."""
     c = run.check("offboard_stop_land")
