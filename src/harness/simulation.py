@@ -11,6 +11,7 @@ step. The MAVLink endpoints are polled on the simulation clock. Two ways to run 
 from __future__ import annotations
 
 import logging
+import select
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -139,6 +140,10 @@ class Simulation:
         except BaseException:
             self.close()
             raise
+        self._readiness = select.poll()
+        self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
+        for _, fd in self._link_fds:
+            self._readiness.register(fd, select.POLLIN)
         self._poll_every = round(config.physics_hz / config.mavlink_poll_hz)
         self._step_count = 0
         self._actuators: list | None = None
@@ -196,11 +201,15 @@ class Simulation:
             self._actuators = self.fleet.handle_sensors(sensors)
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:
-            now = self.world.time_s
-            for ep in self.endpoints:
-                ep.poll(now)
+            self._poll_links(self.world.time_s)
         if self.recorder is not None:
             self.recorder.maybe_record()
+
+    def _poll_links(self, now_s: float) -> None:
+        """Poll every MAVLink link; only those whose socket has data read it."""
+        ready = {fd for fd, _ in self._readiness.poll(0)}
+        for ep, fd in self._link_fds:
+            ep.poll(now_s, fd in ready)
 
     def _step_timed(self) -> None:
         """``step`` with the wall time of each phase added to ``phase_seconds``."""
@@ -219,9 +228,7 @@ class Simulation:
         t3 = clock()
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:
-            now = self.world.time_s
-            for ep in self.endpoints:
-                ep.poll(now)
+            self._poll_links(self.world.time_s)
         t4 = clock()
         if self.recorder is not None:
             self.recorder.maybe_record()

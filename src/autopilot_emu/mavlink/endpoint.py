@@ -34,7 +34,7 @@ from types import TracebackType
 
 from pymavlink.dialects.v20 import common as mavlink2
 
-from autopilot_emu.mavlink import messages
+from autopilot_emu.mavlink import framing, messages
 from autopilot_emu.mavlink.commands import (
     ACCEPTED,
     DENIED,
@@ -187,7 +187,10 @@ class MavlinkEndpoint:
             profile_streams(config.profile, config.gps_rate_hz), config.stream_rates_hz
         )
         self._mav = mavlink2.MAVLink(None, srcSystem=config.sysid, srcComponent=config.compid)
+        """The parser of received frames."""
         self._mav.robust_parsing = True
+        self._seq = 0
+        """Sequence number of the next frame sent."""
         self._context = messages.MessageContext(
             sysid=config.sysid,
             params=vehicle.params,
@@ -303,14 +306,24 @@ class MavlinkEndpoint:
 
     # --- the loop ----------------------------------------------------------------------------
 
-    def poll(self, now_s: float) -> None:
-        """Handle received datagrams, then send whatever is due at simulation time ``now_s``."""
+    def fileno(self) -> int:
+        """File descriptor of the socket, for a readiness poll of many links at once."""
+        if self._sock is None:
+            raise RuntimeError("endpoint is closed")
+        return self._sock.fileno()
+
+    def poll(self, now_s: float, receive: bool = True) -> None:
+        """Handle received datagrams, then send whatever is due at simulation time ``now_s``.
+
+        ``receive=False`` skips reading the socket: for a caller that polled the readiness of
+        all its links at once (one syscall instead of one failing ``recvfrom`` per link).
+        """
         sock = self._sock
         if sock is None:
             raise RuntimeError("endpoint is closed")
         self._now_s = now_s
         self._now_us = round(now_s * 1e6)
-        for _ in range(MAX_DATAGRAMS_PER_POLL):
+        for _ in range(MAX_DATAGRAMS_PER_POLL if receive else 0):
             try:
                 data, address = sock.recvfrom(MAX_DATAGRAM_BYTES)
             except BlockingIOError:
@@ -367,14 +380,15 @@ class MavlinkEndpoint:
     # --- sending -----------------------------------------------------------------------------
 
     def _send(self, message: mavlink2.MAVLink_message) -> None:
-        """Pack ``message`` with our ids and the next sequence number; send it to every peer."""
+        """Frame ``message`` with our ids and the next sequence number; send it to every peer."""
+        config = self._config
         try:
-            frame = message.pack(self._mav)
+            frame = framing.encode(message, self._seq, config.sysid, config.compid)
         except Exception:
             self.stats.encode_errors += 1
             logger.exception("cannot pack %s", message.get_type())
             return
-        self._mav.seq = (self._mav.seq + 1) & 0xFF
+        self._seq = (self._seq + 1) & 0xFF
         self.stats.frames_sent += 1
         sock = self._sock
         if sock is not None:
