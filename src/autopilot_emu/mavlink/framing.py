@@ -5,24 +5,49 @@ intermediate byte arrays for every frame; at PX4's onboard rates (about 400 fram
 vehicle) that is a large share of the endpoint's cost. :func:`encode` produces the same bytes
 (unsigned MAVLink 2: header, payload with trailing zeros removed, CRC-16/MCRF4XX over header and
 payload plus the message's CRC extra) from the message's own field values and payload ``Struct``,
-with one precomputed field plan per message class.
+read with one precomputed ``attrgetter`` per message class.
 """
 
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
+from dataclasses import dataclass
+from operator import attrgetter
 
 from pymavlink.dialects.v20 import common as mavlink2
-from pymavlink.generator.mavcrc import x25crc
+from pymavlink.generator import mavcrc
 
 _HEADER = struct.Struct("<BBBBBBBHB")
 """magic, payload length, incompat flags, compat flags, seq, sysid, compid, msgid (24 bit)."""
+_MAGIC_V2 = 0xFD
 
-_plans: dict[type, tuple[tuple[str, int], ...]] = {}
+
+def _crc(data: bytes) -> int:
+    """CRC-16/MCRF4XX of ``data``: pymavlink's fastcrc binding when installed, else its own."""
+    fast = mavcrc.mcrf4xx
+    return fast(data, 0xFFFF) if fast is not None else mavcrc.x25crc(data).crc
 
 
-def _plan(cls: type) -> tuple[tuple[str, int], ...]:
-    """(field name, array length or 0) in wire order for a pymavlink message class.
+@dataclass(frozen=True)
+class _Plan:
+    """How to frame one pymavlink message class."""
+
+    values: Callable[[object], tuple]
+    """The field values in wire order (char arrays as their raw bytes)."""
+    has_arrays: bool
+    """Whether some values are lists that the payload struct takes element by element."""
+    payload: struct.Struct
+    crc_extra: bytes
+    msg_id_low: int
+    msg_id_high: int
+
+
+_plans: dict[type, _Plan] = {}
+
+
+def _plan(cls: type) -> _Plan:
+    """The framing plan of a pymavlink message class (built once per class).
 
     ``array_lengths`` follows the wire order; a char array packs as one ``bytes`` value, kept
     by pymavlink in ``_<name>_raw`` (the public attribute is the decoded text).
@@ -30,9 +55,22 @@ def _plan(cls: type) -> tuple[tuple[str, int], ...]:
     plan = _plans.get(cls)
     if plan is None:
         types = dict(zip(cls.fieldnames, cls.fieldtypes, strict=True))
-        plan = tuple(
-            (f"_{name}_raw", 0) if types[name] == "char" else (name, length)
-            for name, length in zip(cls.ordered_fieldnames, cls.array_lengths, strict=True)
+        names, has_arrays = [], False
+        for name, length in zip(cls.ordered_fieldnames, cls.array_lengths, strict=True):
+            if types[name] == "char":
+                names.append(f"_{name}_raw")
+            else:
+                names.append(name)
+                has_arrays = has_arrays or length > 0
+        getter = attrgetter(*names)
+        values = getter if len(names) > 1 else (lambda message: (getter(message),))
+        plan = _Plan(
+            values=values,
+            has_arrays=has_arrays,
+            payload=cls.unpacker,
+            crc_extra=bytes((cls.crc_extra,)),
+            msg_id_low=cls.id & 0xFFFF,
+            msg_id_high=cls.id >> 16,
         )
         _plans[cls] = plan
     return plan
@@ -44,21 +82,20 @@ def encode(message: mavlink2.MAVLink_message, seq: int, sysid: int, compid: int)
     Raises:
         struct.error: a field does not fit its wire type (as pymavlink's ``pack``).
     """
-    cls = type(message)
-    values: list[object] = []
-    for name, length in _plan(cls):
-        value = getattr(message, name)
-        if length:
-            values.extend(value)
-        else:
-            values.append(value)
-    payload = cls.unpacker.pack(*values)
-    end = len(payload)
-    while end > 1 and payload[end - 1] == 0:
-        end -= 1
-    payload = payload[:end]
-    msg_id = cls.id
-    header = _HEADER.pack(0xFD, end, 0, 0, seq, sysid, compid, msg_id & 0xFFFF, msg_id >> 16)
-    crc = x25crc(header[1:] + payload)
-    crc.accumulate(bytes((cls.crc_extra,)))
-    return header + payload + crc.crc.to_bytes(2, "little")
+    plan = _plan(type(message))
+    values = plan.values(message)
+    if plan.has_arrays:
+        flat: list[object] = []
+        for value in values:
+            if isinstance(value, list | tuple):
+                flat.extend(value)
+            else:
+                flat.append(value)
+        values = flat
+    payload = plan.payload.pack(*values)
+    payload = payload.rstrip(b"\x00") or payload[:1]  # MAVLink 2 truncation, >= 1 byte
+    header = _HEADER.pack(
+        _MAGIC_V2, len(payload), 0, 0, seq, sysid, compid, plan.msg_id_low, plan.msg_id_high
+    )
+    body = header[1:] + payload
+    return header[:1] + body + _crc(body + plan.crc_extra).to_bytes(2, "little")

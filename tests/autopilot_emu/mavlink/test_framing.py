@@ -28,6 +28,8 @@ def _every_message():
         messages.mission_current(2, 5, mavlink2.MISSION_STATE_ACTIVE),
         mavlink2.MAVLink_command_ack_message(400, 0, 0, 0, 245, 190),
         mavlink2.MAVLink_param_value_message(b"MPC_XY_CRUISE", 5.0, 9, 900, 12),
+        mavlink2.MAVLink_attitude_target_message(5, 0, (1.0, 0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 0.5),
+        mavlink2.MAVLink_heartbeat_message(0, 0, 0, 0, 0, 0),  # all-zero payload: one byte kept
     ]
     return built
 
