@@ -17,7 +17,7 @@ from enum import Enum
 import numpy as np
 
 from autopilot_emu import geodesy
-from autopilot_emu.failsafe import Action, FailsafeInput, FailsafeMonitor
+from autopilot_emu.failsafe import ACTION_NAMES, Action, FailsafeInput, FailsafeMonitor
 from autopilot_emu.mission.executor import LegKind, MissionExecutor, StepInput, Tolerances
 from autopilot_emu.mission.feasibility import (
     PlanContext,
@@ -26,6 +26,7 @@ from autopilot_emu.mission.feasibility import (
 from autopilot_emu.mission.geofence import Fence, build_fence
 from autopilot_emu.mission.items import MissionItem, MissionState, MissionStore, MissionType
 from autopilot_emu.modes import AutoSubMode, LandedState, MainMode
+from autopilot_emu.modes.offboard import OffboardControl, OffboardSetpoint, loss_action
 from autopilot_emu.params import ParamStore
 
 ACCEPTED, TEMPORARILY_REJECTED, DENIED = 0, 1, 2
@@ -70,12 +71,21 @@ class NavOutput:
 
     position_ned_m: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     velocity_ff_m_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    """Velocity feed-forward, or the velocity setpoint on an axis without position (NaN on an
+    axis without position either: acceleration control there)."""
+    acceleration_ff_m_s2: np.ndarray = field(default_factory=lambda: np.zeros(3))
     yaw_rad: float = 0.0
     max_speed_xy_m_s: float = 5.0
     max_speed_up_m_s: float = 3.0
     max_speed_down_m_s: float = 1.5
     active: bool = False
     """False while on the ground: motors idle, controllers reset."""
+    attitude_wxyz: np.ndarray | None = None
+    """Offboard attitude setpoint: replaces the position controller's attitude."""
+    body_rates_rad_s: np.ndarray | None = None
+    """Offboard body-rate setpoint (NaN per axis: from the attitude loop)."""
+    thrust: float = math.nan
+    """Offboard collective thrust 0..1 of an attitude or rate setpoint."""
 
 
 @dataclass
@@ -115,6 +125,10 @@ class Commander:
         self.failsafe = FailsafeMonitor(params)
         self._gcs_heard_s: float | None = None
         self._rtl_dest_ned = np.zeros(2)
+        self.offboard = OffboardControl()
+        self._offboard_fallback: tuple[MainMode, AutoSubMode] | None = None
+        """Mode the offboard-loss failsafe switched to; Offboard resumes from it when the
+        setpoint stream comes back (PX4's mode fallback clears with its condition)."""
 
     # -- helpers ------------------------------------------------------------------------------
     def _say(self, severity: int, text: str) -> None:
@@ -162,9 +176,10 @@ class Commander:
             return DENIED
         # Arming never takes off: only modes that stay on the ground are kept (MAVSDK's arm()
         # itself switches Mission and RTL to Hold first).
-        if self.main_mode != MainMode.AUTO or self.sub_mode not in (
-            AutoSubMode.LOITER,
-            AutoSubMode.LAND,
+        keep_offboard = self.main_mode == MainMode.OFFBOARD and self._offboard_fresh()
+        if not keep_offboard and (
+            self.main_mode != MainMode.AUTO
+            or self.sub_mode not in (AutoSubMode.LOITER, AutoSubMode.LAND)
         ):
             self._hold_here()
         self.armed = True
@@ -311,8 +326,7 @@ class Commander:
                 return self._start_mission()
             return DENIED
         if main == MainMode.OFFBOARD:
-            self._say(SEVERITY_CRITICAL, "Offboard mode denied: no setpoint stream")
-            return DENIED
+            return self._start_offboard()
         if main in (
             MainMode.POSCTL,
             MainMode.ALTCTL,
@@ -324,6 +338,71 @@ class Commander:
             self._say(SEVERITY_CRITICAL, "Manual modes denied: no RC or manual control input")
             return DENIED
         return DENIED
+
+    # -- offboard ------------------------------------------------------------------------------
+    def offboard_setpoint(self, setpoint: OffboardSetpoint) -> bool:
+        """A SET_POSITION_TARGET_* / SET_ATTITUDE_TARGET arrived (local NED, decoded).
+
+        Returns False if it was ignored (a thrust alone without an attitude setpoint).
+        """
+        return self.offboard.receive(setpoint, self._now())
+
+    def _offboard_fresh(self) -> bool:
+        return self.offboard.fresh(self._now(), float(self.params.get("COM_OF_LOSS_T")))
+
+    def _start_offboard(self) -> int:
+        """Enter Offboard: only with a fresh setpoint stream and what its setpoints need."""
+        if not self._offboard_fresh():
+            self._say(SEVERITY_CRITICAL, "Switching to Offboard denied: no offboard setpoints")
+            return DENIED
+        setpoint = self.offboard.setpoint
+        assert setpoint is not None
+        if setpoint.needs_position and not (self._last is not None and self._last.position_ok):
+            self._say(SEVERITY_CRITICAL, "Switching to Offboard denied: no local position")
+            return DENIED
+        self._set_mode(MainMode.OFFBOARD)
+        self._offboard_fallback = None
+        return ACCEPTED
+
+    def _check_offboard_signal(self, nav: NavInput) -> None:
+        """Offboard-loss failsafe (COM_OF_LOSS_T, COM_OBL_RC_ACT) and its recovery."""
+        if not self.armed:
+            self._offboard_fallback = None
+            return
+        fresh = self._offboard_fresh()
+        if self.main_mode == MainMode.OFFBOARD and not fresh:
+            action = loss_action(int(self.params.get("COM_OBL_RC_ACT")))
+            self._say(
+                SEVERITY_CRITICAL,
+                f"Offboard signal lost: switching to {ACTION_NAMES[action]}",
+            )
+            self._take_action(action)
+            self._offboard_fallback = (self.main_mode, self.sub_mode) if self.armed else None
+        elif (
+            fresh
+            and self._offboard_fallback is not None
+            and self._offboard_fallback == (self.main_mode, self.sub_mode)
+        ):
+            self._say(SEVERITY_INFO, "Offboard signal regained")
+            self._set_mode(MainMode.OFFBOARD)
+            self._offboard_fallback = None
+
+    def _offboard_output(self, nav: NavInput, out: NavOutput, dt_s: float) -> None:
+        """Offboard mode: the last setpoint becomes the controller target."""
+        p = self.params
+        target = self.offboard.target(
+            nav.position_ned_m, nav.yaw_rad, dt_s, float(p.get("MPC_THR_HOVER"))
+        )
+        out.position_ned_m = target.position_ned_m
+        out.velocity_ff_m_s = target.velocity_ff_m_s
+        out.acceleration_ff_m_s2 = target.acceleration_ff_m_s2
+        out.yaw_rad = target.yaw_rad
+        out.attitude_wxyz = target.attitude_wxyz
+        out.body_rates_rad_s = target.body_rates_rad_s
+        out.thrust = target.thrust
+        out.max_speed_xy_m_s = float(p.get("MPC_XY_VEL_MAX"))
+        self._target = self._position()
+        self._yaw_sp = target.yaw_rad if math.isfinite(target.yaw_rad) else nav.yaw_rad
 
     def _start_mission(self) -> int:
         """Mission mode: fly the stored mission from its current item (taking off if landed)."""
@@ -462,6 +541,7 @@ class Commander:
     # -- the 50 Hz tick --------------------------------------------------------------------------
     def update(self, nav: NavInput) -> NavOutput:
         """Advance land detection and the active mode; return the controller setpoint."""
+        dt_s = nav.time_s - self._last.time_s if self._last is not None else 0.0
         self._last = nav
         p = self.params
         if self.home is None and nav.position_ok:
@@ -470,6 +550,7 @@ class Commander:
         if self.landed_state == LandedState.LANDING and not self._descending:
             self.landed_state = LandedState.IN_AIR  # Land (or RTL's descent) was left in the air
         self._check_failsafes(nav)
+        self._check_offboard_signal(nav)
         out = NavOutput(yaw_rad=self._yaw_sp)
         cruise = self._speed_override_m_s
         if not math.isfinite(cruise):
@@ -479,6 +560,11 @@ class Commander:
         out.max_speed_down_m_s = float(p.get("MPC_Z_VEL_MAX_DN"))
         if not self.armed:
             return out
+        offboard = self.main_mode == MainMode.OFFBOARD
+        if offboard and self.landed_state in (LandedState.ON_GROUND, LandedState.TAKEOFF):
+            # Offboard takes off when its setpoint lifts the vehicle, and gives up if it stops.
+            climb = self.offboard.wants_climb(nav.position_ned_m, float(p.get("MPC_THR_HOVER")))
+            self.landed_state = LandedState.TAKEOFF if climb else LandedState.ON_GROUND
         grounded = self.landed_state == LandedState.ON_GROUND
         if grounded and self.sub_mode != AutoSubMode.TAKEOFF:
             if self.sub_mode == AutoSubMode.MISSION and self.mission.landing:
@@ -488,7 +574,9 @@ class Commander:
         out.active = True
         out.position_ned_m = self._target.copy()
         sub = self.sub_mode
-        if sub == AutoSubMode.TAKEOFF:
+        if offboard:
+            self._offboard_output(nav, out, dt_s)
+        elif sub == AutoSubMode.TAKEOFF:
             out.max_speed_up_m_s = float(p.get("MPC_TKO_SPEED"))
             if abs(nav.position_ned_m[2] - self._target[2]) < 0.3 and self.in_air:
                 self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
@@ -572,13 +660,22 @@ class Commander:
         for severity, text in monitor.texts:
             self._say(severity, text)
         monitor.texts.clear()
+        self._take_action(action)
+
+    def _take_action(self, action: Action) -> None:
+        """Carry out a failsafe action (on the ground: the mode only, auto-disarm follows)."""
         if action == Action.HOLD:
             self._hold_here()
         elif action == Action.RTL:
-            if self.return_to_launch() != ACCEPTED:
+            if not self.in_air:
+                self._accept_on_ground(AutoSubMode.RTL)
+            elif self.return_to_launch() != ACCEPTED:
                 self.land()
         elif action == Action.LAND:
-            self.land()
+            if self.in_air:
+                self.land()
+            else:
+                self._accept_on_ground(AutoSubMode.LAND)
         elif action == Action.DISARM:
             self.disarm(force=True)
         elif action == Action.TERMINATE:

@@ -26,6 +26,13 @@ from autopilot_emu.control.rate import RateController
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
 from autopilot_emu.mission.items import MissionItem, MissionType
+from autopilot_emu.modes.offboard import (
+    AltitudeReference,
+    GlobalSetpoint,
+    LocalFrame,
+    OffboardSetpoint,
+    to_local_ned,
+)
 from autopilot_emu.params import ParamStore
 from autopilot_emu.telemetry import FleetTelemetry
 
@@ -94,8 +101,13 @@ class AutopilotFleet:
         self._pressure_alt_m = np.zeros(n)
         self.metres_per_degree = np.ones((n, 2))
         """Local projection scale of each vehicle's EKF origin (lat, lon), m/deg."""
-        self._att_target_q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+        self._att_target_q = np.full((n, 4), np.nan)
+        """Offboard attitude setpoints (NaN rows: none)."""
+        self._overridden = np.zeros(n, dtype=bool)
         self._att_target_thrust = np.full(n, np.nan)
+        """Offboard collective thrust of attitude / rate setpoints (NaN: position control)."""
+        self._rate_target = np.full((n, 3), np.nan)
+        """Offboard body-rate setpoints, rad/s (NaN: from the attitude loop)."""
         self.telemetry = FleetTelemetry(self)
         """Per-vehicle telemetry snapshots, read from these arrays once per instant."""
 
@@ -199,6 +211,13 @@ class AutopilotFleet:
             sp.max_speed_xy_m_s[i] = out.max_speed_xy_m_s
             sp.max_speed_up_m_s[i] = out.max_speed_up_m_s
             sp.max_speed_down_m_s[i] = out.max_speed_down_m_s
+            sp.acceleration_ff_m_s2[i] = out.acceleration_ff_m_s2
+            self._att_target_thrust[i] = out.thrust
+            if math.isfinite(out.thrust):
+                att = out.attitude_wxyz
+                self._att_target_q[i] = att if att is not None else np.nan
+                rates = out.body_rates_rad_s
+                self._rate_target[i] = rates if rates is not None else np.nan
             self.active[i] = out.active
             self.armed[i] = cmd.armed
         idle = ~self.active
@@ -209,32 +228,22 @@ class AutopilotFleet:
             sp, gains.position, pos, vel, dt, self.active
         )
         self.thrust = np.where(self.active, thrust, 0.0)
+        # Offboard attitude / rate setpoints replace the position controller's output; the
+        # position loop keeps running underneath so that leaving Offboard is smooth.
         override = self.active & np.isfinite(self._att_target_thrust)
+        self._overridden = override
         if override.any():
-            self.q_sp[override] = self._att_target_q[override]
-            self.thrust[override] = self._att_target_thrust[override]
-
-    def set_attitude_target(self, i: int, q_wxyz: np.ndarray | None, thrust: float) -> None:
-        """Fly vehicle i at a fixed attitude and collective thrust (0..1) while airborne.
-
-        ``None`` hands control back to the position controller.
-
-        This is the attitude-setpoint entry of the stack (what SET_ATTITUDE_TARGET feeds in
-        PX4's offboard mode); the position loop keeps running underneath so that releasing the
-        target resumes the current mode smoothly.
-        """
-        if q_wxyz is None:
-            self._att_target_thrust[i] = np.nan
-            return
-        q = np.asarray(q_wxyz, dtype=float)
-        if q.shape != (4,) or not np.isfinite(q).all() or not np.isfinite(thrust):
-            raise ValueError("attitude target needs a finite quaternion [w, x, y, z] and thrust")
-        self._att_target_q[i] = q / np.linalg.norm(q)
-        self._att_target_thrust[i] = min(max(float(thrust), 0.0), 1.0)
+            with_att = override & np.isfinite(self._att_target_q[:, 0])
+            self.q_sp[with_att] = self._att_target_q[with_att]
+            self.thrust[override] = np.clip(self._att_target_thrust[override], 0.0, 1.0)
 
     def _control(self, dt: float, gains: _Gains) -> None:
         est = self.estimator
         rate_sp = attitude_rate_setpoint(est.q, self.q_sp, gains.att_p, gains.rate_max)
+        if self._overridden.any():
+            use = self._overridden[:, None] & np.isfinite(self._rate_target)
+            rates = np.where(use, self._rate_target, rate_sp)
+            rate_sp = np.minimum(np.maximum(rates, -gains.rate_max), gains.rate_max)
         self.rate_sp = rate_sp
         torque = self.rate_control.update(
             est.rates_rad_s, rate_sp, gains.rate_p, gains.rate_i, gains.rate_d, dt, self.active
@@ -438,6 +447,43 @@ class FleetVehicle:
     def gcs_heartbeat(self) -> None:
         """A ground station is alive."""
         self.commander.gcs_heartbeat()
+
+    # -- offboard ---------------------------------------------------------------------------------
+    def offboard_setpoint(self, setpoint: OffboardSetpoint, frame: LocalFrame) -> bool:
+        """A local or body-frame setpoint: converted to local NED at the current pose."""
+        if not setpoint.is_attitude and not setpoint.thrust_only:
+            est, i = self.fleet.estimator, self.index
+            yaw = float(quat.yaw_of(est.r[i : i + 1])[0])
+            setpoint = to_local_ned(setpoint, frame, est.position_ned_m[i], yaw)
+        return self.commander.offboard_setpoint(setpoint)
+
+    def offboard_setpoint_global(self, target: GlobalSetpoint) -> bool:
+        """A geodetic setpoint; ignored without an origin (or a home, for relative altitudes)."""
+        cmd = self.commander
+        if not self.fleet.estimator.origin_set[self.index]:
+            return False
+        alt = target.alt_m
+        if target.reference != AltitudeReference.AMSL and math.isfinite(alt):
+            if cmd.home is None:
+                return False
+            alt += cmd.home.alt_amsl_m
+        ned = self._to_ned(
+            np.nan_to_num(target.lat_deg), np.nan_to_num(target.lon_deg), np.nan_to_num(alt)
+        )
+        if not math.isfinite(target.lat_deg):
+            ned[:2] = np.nan
+        if not math.isfinite(alt):
+            ned[2] = np.nan
+        rest = target.setpoint
+        return cmd.offboard_setpoint(
+            OffboardSetpoint(
+                position_ned_m=ned,
+                velocity_ned_m_s=rest.velocity_ned_m_s,
+                acceleration_ned_m_s2=rest.acceleration_ned_m_s2,
+                yaw_rad=rest.yaw_rad,
+                yaw_rate_rad_s=rest.yaw_rate_rad_s,
+            )
+        )
 
     def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
         """GPS off / back on (PX4's failure injection; needs SYS_FAILURE_EN = 1)."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import select
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -131,6 +132,10 @@ class Simulation:
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
         """Every MAVLink link: vehicle 0's onboard link, its GCS link (if any), vehicle 1's ..."""
+        self.ftp_roots: list[Path] = []
+        """Directory each vehicle serves over MAVLink FTP: ``<out_dir>/vehicle<N>/fs``, or a
+        temporary directory removed on close when there is no out_dir."""
+        self._scratch: tempfile.TemporaryDirectory | None = None
         if config.out_dir is not None:
             config.out_dir.mkdir(parents=True, exist_ok=True)
         try:
@@ -158,6 +163,7 @@ class Simulation:
         out = self.config.out_dir
         vehicle = self.fleet.vehicle(i)
         hub = LinkHub(vehicle)
+        ftp_root = self._ftp_root(i)
         plan = [(StreamProfile.ONBOARD, ports.listen_port(i), ports.onboard_peers(i), "")]
         if ports.gcs_port:
             plan.append((StreamProfile.NORMAL, ports.gcs_listen_port(i), ports.gcs_peers(), "-gcs"))
@@ -174,6 +180,7 @@ class Simulation:
                     tlog_path=(out / f"vehicle{i + 1}{suffix}.tlog") if out is not None else None,
                     epoch_start_s=self.epoch_start_s,
                     gps_rate_hz=self.world.config.gps_hz,
+                    ftp_root=ftp_root,
                 )
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
         except BaseException:
@@ -181,6 +188,18 @@ class Simulation:
                 link.close()
             raise
         return links
+
+    def _ftp_root(self, i: int) -> Path:
+        """Create vehicle i's FTP root with an empty ``log/`` (PX4 SITL's rootfs has one)."""
+        base = self.config.out_dir
+        if base is None:
+            if self._scratch is None:
+                self._scratch = tempfile.TemporaryDirectory(prefix="swarmsitl-fs-")
+            base = Path(self._scratch.name)
+        root = base / f"vehicle{i + 1}" / "fs"
+        (root / "log").mkdir(parents=True, exist_ok=True)
+        self.ftp_roots.append(root)
+        return root
 
     @property
     def time_s(self) -> float:
@@ -297,6 +316,8 @@ class Simulation:
                 log.warning("closing endpoint failed: %s", exc)
         if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
             self.recorder.write_csv(self.config.out_dir / "truth.csv")
+        if self._scratch is not None:
+            self._scratch.cleanup()
         self.world.close()
 
     def __enter__(self) -> Simulation:

@@ -1,11 +1,12 @@
 """MAVProxy (``mavproxy.py`` from PyPI) as the ground station on the vehicle's GCS port.
 
 One MAVProxy session for the module, typed into through its stdin: mode changes, ``arm
-throttle``, ``takeoff``, ``wp load`` (QGC WPL 110), ``fence load`` and ``rally load``. Every step
-waits on MAVProxy's own acknowledgement lines ("Got COMMAND_ACK: ...", "Sent all N ...", "Got
-MISSION_ACK: ...") and on the vehicle's state seen by a raw pymavlink client listening in
-parallel (HEARTBEAT custom_mode and armed flag, GLOBAL_POSITION_INT, EXTENDED_SYS_STATE, and the
-uploaded lists read back with MISSION_REQUEST_LIST). The tests run in file order on one vehicle.
+throttle``, ``takeoff``, ``wp load`` (QGC WPL 110), ``fence load``, ``rally load``, ``ftp list``
+and ``ftp get``. Every step waits on MAVProxy's own acknowledgement lines ("Got COMMAND_ACK:
+...", "Sent all N ...", "Got MISSION_ACK: ...", "Wrote N bytes") and on the vehicle's state
+seen by a raw pymavlink client listening in parallel (HEARTBEAT custom_mode and armed flag,
+GLOBAL_POSITION_INT, EXTENDED_SYS_STATE, and the uploaded lists read back with
+MISSION_REQUEST_LIST). The tests run in file order on one vehicle.
 
 MAVProxy talks to a PX4 autopilot the way it does to PX4 SITL: the vehicle's ground-station
 link (PX4's normal stream profile) streams from ``--gcs-listen-port`` to ``--gcs-port``, and
@@ -15,6 +16,8 @@ MAVProxy changes must show there too.
 """
 
 from __future__ import annotations
+
+import re
 
 import pytest
 from e2e_support import (
@@ -356,3 +359,27 @@ def test_rally_load_is_acked_and_reads_back(mavproxy, link, tmp_path):
     for item, (lat, lon, alt) in zip(items, points, strict=True):
         assert same_position(item, lat, lon), str(item)
         assert item.z == pytest.approx(alt)
+
+
+def test_ftp_list_and_get(mavproxy, swarm, tmp_path):
+    """``module load ftp``; ``ftp list`` shows the vehicle's root and ``/log``; ``ftp get`` of a
+    file placed in ``<run dir>/vehicle1/fs`` arrives byte for byte (a burst download)."""
+    content = bytes(range(256)) * 40 + b"tail"
+    (swarm.out / "vehicle1" / "fs" / "log" / "notes.bin").write_bytes(content)
+    mark = mavproxy.send("module load ftp")
+    mavproxy.wait_for(r"Loaded module ftp", mark, ACK_WAIT_S)
+
+    mark = mavproxy.send("ftp list /")
+    mavproxy.wait_for(r"Total size", mark, ACK_WAIT_S)
+    assert re.search(r"^ D log$", mavproxy.output(mark), re.MULTILINE), mavproxy.tail()
+
+    mark = mavproxy.send("ftp list /log")
+    mavproxy.wait_for(r"Total size", mark, ACK_WAIT_S)
+    assert re.search(rf"^   notes\.bin\t{len(content)}$", mavproxy.output(mark), re.MULTILINE), (
+        mavproxy.tail()
+    )
+
+    local = tmp_path / "notes.bin"
+    mark = mavproxy.send(f"ftp get /log/notes.bin {local}")
+    mavproxy.wait_for(rf"Wrote {len(content)} bytes to", mark, ACK_WAIT_S)
+    assert local.read_bytes() == content

@@ -1,13 +1,16 @@
 """Closed loop on the simulated airframe: an attitude step settles without large overshoot.
 
 The autopilot's attitude and rate controllers fly the PyBullet Typhoon H480 (in lockstep, no
-sockets); the response is read from the simulator's ground truth, not from the estimator.
+sockets) on an offboard attitude setpoint, fed to the vehicle as its MAVLink endpoint would;
+the response is read from the simulator's ground truth, not from the estimator.
 """
 
 import numpy as np
 import pytest
 
 from autopilot_emu import quaternion as quat
+from autopilot_emu.modes import AutoSubMode, MainMode
+from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
 from harness.simulation import Simulation, SimulationConfig
 
 STEP_DEG = 10.0
@@ -36,14 +39,18 @@ def test_roll_step_settles_within_overshoot_bound(hovering):
     yaw = float(quat.yaw_of(fleet.estimator.r)[0])
     q = quat.from_euler(np.array([[np.radians(STEP_DEG), 0.0, yaw]]))[0]
     hover = float(fleet.params[0].get("MPC_THR_HOVER"))
-    fleet.set_attitude_target(0, q, hover / np.cos(np.radians(STEP_DEG)))
+    setpoint = OffboardSetpoint(attitude_wxyz=q, thrust=hover / np.cos(np.radians(STEP_DEG)))
+    vehicle = fleet.vehicle(0)
+    vehicle.offboard_setpoint(setpoint, LocalFrame.LOCAL_NED)
+    assert vehicle.set_mode(MainMode.OFFBOARD, 0) == 0
     rolls, times = [], []
     t0 = sim.time_s
     while sim.time_s - t0 < 1.0:
+        vehicle.offboard_setpoint(setpoint, LocalFrame.LOCAL_NED)
         sim.step()
         rolls.append(_true_roll_deg(sim))
         times.append(sim.time_s - t0)
-    fleet.set_attitude_target(0, None, 0.0)
+    assert vehicle.set_mode(MainMode.AUTO, AutoSubMode.LOITER) == 0
     rolls, times = np.array(rolls), np.array(times)
     assert rolls.max() <= STEP_DEG * (1 + OVERSHOOT_BOUND)
     settled = rolls[times >= 0.5]
@@ -58,12 +65,3 @@ def test_releasing_the_target_returns_to_level_hover(hovering):
     sim.run_lockstep(4.0)
     assert abs(_true_roll_deg(sim)) < 3.0
     assert sim.fleet.commanders[0].in_air
-
-
-def test_attitude_target_rejects_nan():
-    sim = Simulation(SimulationConfig(n_vehicles=1, mavlink=False, record_hz=0))
-    try:
-        with pytest.raises(ValueError):
-            sim.fleet.set_attitude_target(0, np.array([np.nan, 0, 0, 0]), 0.5)
-    finally:
-        sim.close()

@@ -43,7 +43,9 @@ class PositionSetpoint:
     """What the navigator asks of the position controller, (N, ...) arrays.
 
     A NaN position component means "velocity control on that axis" (then ``velocity_ff`` is the
-    velocity setpoint); finite ones are tracked with the P loop plus ``velocity_ff``.
+    velocity setpoint); finite ones are tracked with the P loop plus ``velocity_ff``. An axis
+    whose position and velocity are both NaN is acceleration-controlled: ``acceleration_ff``
+    alone is the acceleration setpoint there (offboard acceleration setpoints).
     """
 
     position_ned_m: np.ndarray
@@ -52,6 +54,8 @@ class PositionSetpoint:
     max_speed_xy_m_s: np.ndarray
     max_speed_up_m_s: np.ndarray
     max_speed_down_m_s: np.ndarray
+    acceleration_ff_m_s2: np.ndarray
+    """Acceleration feed-forward (NED, m/s²), added to the velocity loop's output."""
 
     @classmethod
     def hold(cls, n: int) -> PositionSetpoint:
@@ -63,14 +67,18 @@ class PositionSetpoint:
             np.full(n, 5.0),
             np.full(n, 3.0),
             np.full(n, 1.5),
+            np.zeros((n, 3)),
         )
 
 
 _G_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
 _ACC_Z_MAX = 0.8 * GRAVITY_M_S2
 """Vertical acceleration demand limit, m/s²."""
-_INT_MAX = np.array([1.0, 1.0, 4.0])
-"""Velocity-integrator limits (north, east, down), m/s²."""
+_INT_MAX = np.array([GRAVITY_M_S2, GRAVITY_M_S2, 4.0])
+"""Velocity-integrator limits (north, east, down), m/s². Horizontally as much as a 45° tilt
+produces: the integrator must be able to cancel the rotor drag at cruise speed, or velocity
+setpoints (offboard, and every leg's last metres) are tracked with a steady error. PX4 bounds
+it only by tracking anti-windup against the tilt limit."""
 
 
 class PositionController:
@@ -100,7 +108,13 @@ class PositionController:
         err = sp.position_ned_m - position
         has_pos = np.isfinite(err)
         err = np.where(has_pos, err, 0.0)
-        vel_cmd = sp.velocity_ff_m_s + gains.pos_p * err
+        vel_ff = sp.velocity_ff_m_s
+        has_vel = np.isfinite(vel_ff)
+        all_vel = has_vel.all()
+        if not all_vel:
+            has_vel |= has_pos
+            vel_ff = np.where(has_vel, vel_ff, 0.0)
+        vel_cmd = vel_ff + gains.pos_p * err
         # Per-axis limits: horizontal norm, vertical up/down. Horizontally also the speed from
         # which the vehicle can still stop at the target with half of MPC_ACC_HOR (what PX4's
         # jerk-limited trajectory achieves), so goto arrives without overshoot.
@@ -119,12 +133,17 @@ class PositionController:
         self.vel_sp[:, 2] = vel_cmd[:, 2]
         if not active.all():
             self.vel_sp[~active] = velocity[~active]
+        if not all_vel:  # acceleration-controlled axes follow the vehicle's velocity
+            self.vel_sp = np.where(has_vel, self.vel_sp, velocity)
 
         # Velocity PID -> acceleration setpoint (NED).
         verr = self.vel_sp - velocity
         dvel = (velocity - self._prev_vel) * (1.0 / dt_s)
         self._prev_vel = velocity.copy()
         acc = gains.vel_p * verr + self.vel_int - gains.vel_d * dvel
+        if not all_vel:
+            acc = np.where(has_vel, acc, 0.0)
+        acc += sp.acceleration_ff_m_s2
         acc[:, 2] = np.minimum(np.maximum(acc[:, 2], -_ACC_Z_MAX), _ACC_Z_MAX)
 
         # Thrust direction: body z (down) opposes the required specific force.
@@ -138,6 +157,9 @@ class PositionController:
         int_step = gains.vel_i * verr * dt_s
         int_step[:, 2] *= thrust == thrust_sat
         int_step *= active[:, None]
+        if not all_vel:
+            int_step *= has_vel
+            self.vel_int = np.where(has_vel, self.vel_int, 0.0)
         self.vel_int = np.minimum(np.maximum(self.vel_int + int_step, -_INT_MAX), _INT_MAX)
         return attitude_from_body_z(body_z, sp.yaw_rad), thrust_sat
 

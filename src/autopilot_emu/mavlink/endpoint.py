@@ -41,12 +41,20 @@ from autopilot_emu.mavlink.commands import (
     CommandDispatcher,
     CommandRequest,
 )
+from autopilot_emu.mavlink.ftp import FtpServer
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.mission_protocol import MissionProtocol
 from autopilot_emu.mavlink.param_protocol import ParamProtocol
+from autopilot_emu.mavlink.setpoints import (
+    SetpointError,
+    decode_attitude,
+    decode_global,
+    decode_local,
+)
 from autopilot_emu.mavlink.streams import StreamProfile, StreamScheduler, profile_streams
 from autopilot_emu.mavlink.tlog import TlogWriter
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
+from autopilot_emu.modes.offboard import LocalFrame
 from autopilot_emu.params import ParamError
 
 logger = logging.getLogger(__name__)
@@ -109,6 +117,9 @@ class EndpointConfig:
     gps_rate_hz: float = 10.0
     """Rate of the vehicle's GPS receiver, Hz: PX4's onboard profile sends GPS_RAW_INT on every
     new fix ("unlimited" rate), so the stream runs at this rate."""
+    ftp_root: Path | None = None
+    """Directory served over MAVLink FTP (must exist); None: FILE_TRANSFER_PROTOCOL is not
+    answered, as PX4 with FTP off (``mavlink start`` without ``-x``)."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255 or not 1 <= self.compid <= 255:
@@ -141,6 +152,10 @@ class EndpointStats:
     """Retransmissions re-ACKed from the cache without executing."""
     commands_ignored: int = 0
     """Commands addressed to another system or component (no ACK, as PX4)."""
+    setpoints_received: int = 0
+    """Offboard setpoints addressed to us and passed to the vehicle."""
+    setpoints_ignored: int = 0
+    """Offboard setpoints addressed to us that could not be flown (logged once per reason)."""
     handler_errors: int = 0
     """Exceptions raised while handling a received message."""
     encode_errors: int = 0
@@ -200,6 +215,11 @@ class MavlinkEndpoint:
         self._commands = CommandDispatcher(vehicle, self, wall_clock_s)
         self._missions = MissionProtocol(vehicle, self._send, self.announce, wall_clock_s)
         self._mission_status: tuple[int, int, int] | None = None
+        self._ftp = (
+            FtpServer(config.ftp_root, self._send, wall_clock_s)
+            if config.ftp_root is not None
+            else None
+        )
         self._handlers: dict[int, Callable[[mavlink2.MAVLink_message], None]] = {
             mavlink2.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             mavlink2.MAVLINK_MSG_ID_MISSION_COUNT: self._on_mission(self._missions.handle_count),
@@ -225,7 +245,12 @@ class MavlinkEndpoint:
             mavlink2.MAVLINK_MSG_ID_PARAM_SET: self._on_param_set,
             mavlink2.MAVLINK_MSG_ID_PING: self._on_ping,
             mavlink2.MAVLINK_MSG_ID_TIMESYNC: self._on_timesync,
+            mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED: self._on_setpoint,
+            mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self._on_setpoint,
+            mavlink2.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self._on_setpoint,
+            mavlink2.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL: self._on_ftp,
         }
+        self._setpoint_problems: set[str] = set()
         self._configured_peers = list(
             dict.fromkeys(_resolve(host, port) for host, port in config.peers)
         )
@@ -286,7 +311,9 @@ class MavlinkEndpoint:
         return tuple(self._peers)
 
     def close(self) -> None:
-        """Flush and close the tlog, close the socket. Safe to call twice."""
+        """Flush and close the tlog, close the socket and the FTP session. Safe to call twice."""
+        if self._ftp is not None:
+            self._ftp.close()
         if self._tlog is not None:
             self._tlog.close()
         if self._sock is not None:
@@ -333,6 +360,8 @@ class MavlinkEndpoint:
                 logger.debug("recvfrom failed: %s", exc)
                 break
             self._on_datagram(data, address)
+        if self._ftp is not None and self._ftp.busy:
+            self._ftp.tick()
         if now_s >= self._next_work_s or now_s < self._last_poll_s:
             self._work(now_s)
         self._last_poll_s = now_s
@@ -589,6 +618,33 @@ class MavlinkEndpoint:
             self._mission_status = status
             self._emit(mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT)
 
+    def _on_setpoint(self, msg: mavlink2.MAVLink_message) -> None:
+        """SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT, SET_ATTITUDE_TARGET -> the vehicle."""
+        if not self._targets_us(msg.target_system, msg.target_component):
+            return
+        vehicle = self._vehicle
+        try:
+            msg_id = msg.get_msgId()
+            if msg_id == mavlink2.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET:
+                taken = vehicle.offboard_setpoint(decode_attitude(msg), LocalFrame.LOCAL_NED)
+                reason = "a thrust alone without an attitude or rate setpoint"
+            elif msg_id == mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED:
+                taken = vehicle.offboard_setpoint(*decode_local(msg))
+                reason = ""
+            else:
+                taken = vehicle.offboard_setpoint_global(decode_global(msg))
+                reason = "no global origin or home yet"
+        except SetpointError as exc:
+            taken, reason = False, str(exc)
+        if taken:
+            self.stats.setpoints_received += 1
+            return
+        self.stats.setpoints_ignored += 1
+        key = f"{msg.get_type()}: {reason}"
+        if key not in self._setpoint_problems:
+            self._setpoint_problems.add(key)
+            logger.warning("ignoring %s (type_mask 0x%04x)", key, int(msg.type_mask))
+
     def _on_ping(self, msg: mavlink2.MAVLink_message) -> None:
         # As PX4: target 0/0 is a request to answer; a PING addressed to us is a reply to a
         # ping of ours (we send none), answering it could start a ping-pong between vehicles.
@@ -607,6 +663,10 @@ class MavlinkEndpoint:
         # ts1 echoed; an answer to our own requests (tc1 > 0) needs no offset estimate here.
         if msg.tc1 == 0:
             self._send(messages.timesync_reply(msg, self._now_us * 1000))
+
+    def _on_ftp(self, msg: mavlink2.MAVLink_message) -> None:
+        if self._ftp is not None and self._targets_us(msg.target_system, msg.target_component):
+            self._ftp.handle(msg)
 
     # --- CommandServices (called by the dispatcher) ------------------------------------------
 

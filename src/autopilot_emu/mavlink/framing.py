@@ -35,8 +35,9 @@ class _Plan:
 
     values: Callable[[object], tuple]
     """The field values in wire order (char arrays as their raw bytes)."""
-    has_arrays: bool
-    """Whether some values are lists that the payload struct takes element by element."""
+    arrays: tuple[bool, ...]
+    """Per value: an array (list, tuple or bytes) that the payload struct takes element by
+    element; empty when the message has no such field."""
     payload: struct.Struct
     crc_extra: bytes
     msg_id_low: int
@@ -55,18 +56,16 @@ def _plan(cls: type) -> _Plan:
     plan = _plans.get(cls)
     if plan is None:
         types = dict(zip(cls.fieldnames, cls.fieldtypes, strict=True))
-        names, has_arrays = [], False
+        names, arrays = [], []
         for name, length in zip(cls.ordered_fieldnames, cls.array_lengths, strict=True):
-            if types[name] == "char":
-                names.append(f"_{name}_raw")
-            else:
-                names.append(name)
-                has_arrays = has_arrays or length > 0
+            is_char = types[name] == "char"
+            names.append(f"_{name}_raw" if is_char else name)
+            arrays.append(length > 0 and not is_char)
         getter = attrgetter(*names)
         values = getter if len(names) > 1 else (lambda message: (getter(message),))
         plan = _Plan(
             values=values,
-            has_arrays=has_arrays,
+            arrays=tuple(arrays) if any(arrays) else (),
             payload=cls.unpacker,
             crc_extra=bytes((cls.crc_extra,)),
             msg_id_low=cls.id & 0xFFFF,
@@ -84,10 +83,10 @@ def encode(message: mavlink2.MAVLink_message, seq: int, sysid: int, compid: int)
     """
     plan = _plan(type(message))
     values = plan.values(message)
-    if plan.has_arrays:
+    if plan.arrays:
         flat: list[object] = []
-        for value in values:
-            if isinstance(value, list | tuple):
+        for value, is_array in zip(values, plan.arrays, strict=True):
+            if is_array:
                 flat.extend(value)
             else:
                 flat.append(value)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from autopilot_emu.mission.items import MissionItem, MissionType
+from autopilot_emu.modes.offboard import GlobalSetpoint, LocalFrame, OffboardSetpoint
 from autopilot_emu.params import ParamStore
 
 
@@ -242,4 +243,12 @@ class VehiclePort(Protocol):
 
     def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
         """MAV_CMD_INJECT_FAILURE; MAV_RESULT (DENIED unless SYS_FAILURE_EN is 1)."""
+        ...
+
+    def offboard_setpoint(self, setpoint: OffboardSetpoint, frame: LocalFrame) -> bool:
+        """SET_POSITION_TARGET_LOCAL_NED or SET_ATTITUDE_TARGET, decoded; False if ignored."""
+        ...
+
+    def offboard_setpoint_global(self, target: GlobalSetpoint) -> bool:
+        """SET_POSITION_TARGET_GLOBAL_INT, decoded; False if ignored (no origin or home yet)."""
         ...

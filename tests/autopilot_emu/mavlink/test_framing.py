@@ -30,6 +30,7 @@ def _every_message():
         mavlink2.MAVLink_param_value_message(b"MPC_XY_CRUISE", 5.0, 9, 900, 12),
         mavlink2.MAVLink_attitude_target_message(5, 0, (1.0, 0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 0.5),
         mavlink2.MAVLink_heartbeat_message(0, 0, 0, 0, 0, 0),  # all-zero payload: one byte kept
+        mavlink2.MAVLink_file_transfer_protocol_message(0, 255, 190, bytes(range(251))),
     ]
     return built
 
