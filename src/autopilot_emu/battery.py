@@ -54,7 +54,7 @@ class FleetBattery:
     @property
     def remaining(self) -> np.ndarray:
         """State of charge, 0..1."""
-        return np.clip(1.0 - self.consumed_mah / self.capacity_mah, 0.0, 1.0)
+        return np.minimum(np.maximum(1.0 - self.consumed_mah / self.capacity_mah, 0.0), 1.0)
 
     @property
     def voltage_v(self) -> np.ndarray:

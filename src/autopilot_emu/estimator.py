@@ -139,6 +139,15 @@ class FleetEstimator:
         settled = (self.time_s - self.first_fix_s) >= self.config.settle_s
         return self.origin_set & self.attitude_ok & fresh & settled & (self.gps_fix_type >= 3)
 
+    @property
+    def variances(self) -> tuple[float, float, float, float]:
+        """Position variance (horizontal per axis, vertical), m², then velocity variance, m²/s².
+
+        After the last measurement update; the covariance is shared by the fleet.
+        """
+        p_h, p_v = self._h_gain.kf.P, self._v_gain.kf.P
+        return float(p_h[0, 0]), float(p_v[0, 0]), float(p_h[1, 1]), float(p_v[1, 1])
+
     def set_declination(self, declination_deg: np.ndarray | list[float]) -> None:
         """Apply each vehicle's EKF2_MAG_DECL, (N,) degrees."""
         self._decl_rad = np.radians(np.asarray(declination_deg, dtype=float))

@@ -24,7 +24,7 @@ from autopilot_emu.control.mixer import Mixer
 from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
 from autopilot_emu.control.rate import RateController
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
-from autopilot_emu.mavlink.vehicle_port import HomeSnapshot, TelemetrySnapshot
+from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes.offboard import (
     AltitudeReference,
@@ -34,23 +34,12 @@ from autopilot_emu.modes.offboard import (
     to_local_ned,
 )
 from autopilot_emu.params import ParamStore
+from autopilot_emu.telemetry import FleetTelemetry
 
 _ACC_BITS, _GYRO_BITS, _MAG_BITS = 0x7, 0x38, 0x1C0
 _PRESSURE_ALT_BIT = 0x800
 _ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
 _CUSTOM_FLAG = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-_SENSORS = (
-    mavlink2.MAV_SYS_STATUS_SENSOR_3D_GYRO
-    | mavlink2.MAV_SYS_STATUS_SENSOR_3D_ACCEL
-    | mavlink2.MAV_SYS_STATUS_SENSOR_3D_MAG
-    | mavlink2.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
-    | mavlink2.MAV_SYS_STATUS_SENSOR_GPS
-    | mavlink2.MAV_SYS_STATUS_AHRS
-    | mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
-    | mavlink2.MAV_SYS_STATUS_SENSOR_BATTERY
-    | mavlink2.MAV_SYS_STATUS_PREARM_CHECK
-)
-_GEOFENCE = mavlink2.MAV_SYS_STATUS_GEOFENCE
 _FAILURE_UNIT_GPS = mavlink2.FAILURE_UNIT_SENSOR_GPS
 _FAILURE_OK, _FAILURE_OFF = mavlink2.FAILURE_TYPE_OK, mavlink2.FAILURE_TYPE_OFF
 
@@ -96,6 +85,10 @@ class AutopilotFleet:
         self.active = np.zeros(n, dtype=bool)
         self.armed = np.zeros(n, dtype=bool)
         self.q_sp = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+        self.rate_sp = np.zeros((n, 3))
+        """Body-rate setpoints of the attitude loop, (N, 3) rad/s."""
+        self.last_sensors: list[mavlink2.MAVLink_hil_sensor_message] | None = None
+        """The last HIL_SENSOR of each vehicle (HIGHRES_IMU)."""
         self.last_gps: list[mavlink2.MAVLink_hil_gps_message | None] = [None] * n
         self.gps_failed = np.zeros(n, dtype=bool)
         """GPS switched off by MAV_CMD_INJECT_FAILURE: its samples are dropped."""
@@ -115,6 +108,8 @@ class AutopilotFleet:
         """Offboard collective thrust of attitude / rate setpoints (NaN: position control)."""
         self._rate_target = np.full((n, 3), np.nan)
         """Offboard body-rate setpoints, rad/s (NaN: from the attitude loop)."""
+        self.telemetry = FleetTelemetry(self)
+        """Per-vehicle telemetry snapshots, read from these arrays once per instant."""
 
     # -- simulator side ------------------------------------------------------------------------
     def handle_sensors(
@@ -143,6 +138,7 @@ class AutopilotFleet:
         if not np.isfinite(raw).all():
             raw = np.nan_to_num(raw)  # a corrupt sample must not poison the filters
         t_usec = int(msgs[0].time_usec)
+        self.last_sensors = msgs
         if self.time_usec == 0 or t_usec <= self.time_usec:
             dt = 1.0 / self.config.imu_hz
         else:
@@ -252,6 +248,7 @@ class AutopilotFleet:
             use = self._overridden[:, None] & np.isfinite(self._rate_target)
             rates = np.where(use, self._rate_target, rate_sp)
             rate_sp = np.minimum(np.maximum(rates, -gains.rate_max), gains.rate_max)
+        self.rate_sp = rate_sp
         torque = self.rate_control.update(
             est.rates_rad_s, rate_sp, gains.rate_p, gains.rate_i, gains.rate_d, dt, self.active
         )
@@ -280,6 +277,11 @@ class AutopilotFleet:
             self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
             self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
         return self._gains
+
+    @property
+    def setpoint(self) -> PositionSetpoint:
+        """What the position controller tracks, (N, ...) arrays (NaN position: not controlled)."""
+        return self._sp
 
     # -- per-vehicle views ---------------------------------------------------------------------
     def vehicle(self, i: int) -> FleetVehicle:
@@ -352,13 +354,6 @@ class FleetVehicle:
     def _sync(self, result: int) -> int:
         self.fleet.sync_commands(self.index)
         return result
-
-    def _geodetic(self, ned: np.ndarray) -> tuple[float, float, float]:
-        # Scalar form of geodesy.ned_to_geodetic with the origin's cached scale (hot: telemetry).
-        o = self.fleet.estimator.origin_lla[self.index].tolist()
-        s = self.fleet.metres_per_degree[self.index].tolist()
-        n, e, d = ned.tolist()
-        return o[0] + n / s[0], o[1] + e / s[1], o[2] - d
 
     def _to_ned(self, lat: float, lon: float, alt: float) -> np.ndarray:
         lla = np.array([lat, lon, alt], dtype=float)
@@ -509,78 +504,5 @@ class FleetVehicle:
 
     # -- telemetry ------------------------------------------------------------------------------
     def telemetry(self) -> TelemetrySnapshot:
-        """Snapshot of this vehicle's estimate and state."""
-        f, i = self.fleet, self.index
-        est, cmd = f.estimator, self.commander
-        pos = est.position_ned_m[i]
-        vel = est.velocity_ned_m_s[i]
-        q = est.q[i]
-        euler = quat.euler_of(est.r[i : i + 1])[0].tolist()
-        origin_ok = bool(est.origin_set[i])
-        lat, lon, alt = self._geodetic(pos) if origin_ok else (math.nan, math.nan, math.nan)
-        home = None
-        rel_alt = 0.0
-        if cmd.home is not None and origin_ok:
-            hlat, hlon, _ = self._geodetic(cmd.home.position_ned_m)
-            home = HomeSnapshot(hlat, hlon, cmd.home.alt_amsl_m, tuple(cmd.home.position_ned_m))
-            rel_alt = float(cmd.home.position_ned_m[2] - pos[2])
-        pos_ok = bool(est.position_ok[i])
-        health = _SENSORS
-        if not pos_ok:
-            health &= ~(mavlink2.MAV_SYS_STATUS_SENSOR_GPS | mavlink2.MAV_SYS_STATUS_PREARM_CHECK)
-        if not est.attitude_ok[i]:
-            health &= ~mavlink2.MAV_SYS_STATUS_AHRS
-        # Geofence as MAVProxy reads it: healthy unless breached; present only when configured.
-        present = _SENSORS | (_GEOFENCE if cmd.fence_enabled else 0)
-        if not cmd.fence_breached:
-            health |= _GEOFENCE
-        gps = f.last_gps[i]
-        if gps is not None:
-            gps_fields = dict(
-                gps_fix_type=int(gps.fix_type),
-                gps_lat_deg=gps.lat * 1e-7,
-                gps_lon_deg=gps.lon * 1e-7,
-                gps_alt_amsl_m=gps.alt * 1e-3,
-                gps_eph_m=gps.eph * 0.01,
-                gps_epv_m=gps.epv * 0.01,
-                gps_satellites=int(gps.satellites_visible),
-                gps_velocity_ned_m_s=(gps.vn * 0.01, gps.ve * 0.01, gps.vd * 0.01),
-            )
-        else:
-            gps_fields = dict(
-                gps_fix_type=0,
-                gps_lat_deg=math.nan,
-                gps_lon_deg=math.nan,
-                gps_alt_amsl_m=math.nan,
-                gps_eph_m=math.nan,
-                gps_epv_m=math.nan,
-                gps_satellites=0,
-                gps_velocity_ned_m_s=(0.0, 0.0, 0.0),
-            )
-        bat = f.battery
-        return TelemetrySnapshot(
-            time_usec=f.time_usec,
-            armed=cmd.armed,
-            main_mode=int(cmd.main_mode),
-            sub_mode=int(cmd.sub_mode),
-            landed_state=int(cmd.landed_state),
-            system_status=4 if cmd.armed else 3,
-            sensors_present=present,
-            sensors_health=health,
-            lat_deg=lat,
-            lon_deg=lon,
-            alt_amsl_m=alt,
-            relative_alt_m=rel_alt,
-            position_ned_m=(float(pos[0]), float(pos[1]), float(pos[2])),
-            velocity_ned_m_s=(float(vel[0]), float(vel[1]), float(vel[2])),
-            quaternion_wxyz=tuple(q.tolist()),
-            euler_rad=tuple(euler),
-            body_rates_rad_s=tuple(float(v) for v in est.rates_rad_s[i]),
-            throttle=float(f.thrust[i]),
-            battery_voltage_v=float(bat.voltage_v[i]),
-            battery_current_a=float(bat.current_a[i]),
-            battery_remaining_pct=round(100 * float(bat.remaining[i])),
-            battery_consumed_mah=float(bat.consumed_mah[i]),
-            home=home,
-            **gps_fields,
-        )
+        """Snapshot of this vehicle's estimate, state and setpoints."""
+        return self.fleet.telemetry.snapshot(self.index)

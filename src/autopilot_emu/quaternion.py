@@ -111,9 +111,11 @@ def from_rotation_matrix(r: np.ndarray) -> np.ndarray:
 
 def euler_of(r: np.ndarray) -> np.ndarray:
     """(N, 3) roll, pitch, yaw in radians (ZYX) of (N, 3, 3) rotation matrices."""
-    roll = np.arctan2(r[:, 2, 1], r[:, 2, 2])
-    pitch = np.arcsin(np.clip(-r[:, 2, 0], -1.0, 1.0))
-    return np.stack((roll, pitch, yaw_of(r)), axis=1)
+    out = np.empty((r.shape[0], 3))
+    out[:, 0] = np.arctan2(r[:, 2, 1], r[:, 2, 2])
+    out[:, 1] = np.arcsin(np.minimum(np.maximum(-r[:, 2, 0], -1.0), 1.0))
+    out[:, 2] = np.arctan2(r[:, 1, 0], r[:, 0, 0])
+    return out
 
 
 def from_euler(rpy: np.ndarray) -> np.ndarray:

@@ -49,7 +49,7 @@ def _open_simulation(cfg: SimulationConfig) -> Simulation:
         console.print(f"[red]error:[/red] {exc}")
         console.print(
             "Another swarmsitl (or PX4 SITL) is probably running; stop it or choose other "
-            "ports with --listen-port / --sdk-port."
+            "ports with --listen-port / --gcs-listen-port."
         )
         raise typer.Exit(2) from exc
 
@@ -59,9 +59,18 @@ def up(
     vehicles: Annotated[int, typer.Option("--vehicles", "-n", min=1, max=255)] = 1,
     speed: Annotated[float, typer.Option(help="simulation seconds per wall second")] = 1.0,
     bind: Annotated[str, typer.Option(help="address the vehicles listen on")] = "127.0.0.1",
-    sdk_port: Annotated[int, typer.Option(help="MAVSDK port of vehicle 0 (+i)")] = 14540,
-    listen_port: Annotated[int, typer.Option(help="listen port of vehicle 0 (+i)")] = 14580,
-    gcs_port: Annotated[int, typer.Option(help="ground-station port, 0 = none")] = 14550,
+    sdk_port: Annotated[
+        int, typer.Option(help="onboard link: MAVSDK port of vehicle 0 (+i)")
+    ] = 14540,
+    listen_port: Annotated[
+        int, typer.Option(help="onboard link: listen port of vehicle 0 (+i)")
+    ] = 14580,
+    gcs_port: Annotated[
+        int, typer.Option(help="GCS link: ground-station port of all vehicles, 0 = no GCS link")
+    ] = 14550,
+    gcs_listen_port: Annotated[
+        int, typer.Option(help="GCS link: listen port of vehicle 0 (+i)")
+    ] = 18570,
     spacing: Annotated[float, typer.Option(help="metres between vehicles")] = 5.0,
     seed: Annotated[int, typer.Option(help="seed of every random draw")] = 0,
     out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
@@ -69,29 +78,43 @@ def up(
 ) -> None:
     """Start N emulated PX4 hexacopters and serve MAVLink until Ctrl-C.
 
-    Vehicle i (0-based) is MAVLink system i+1, listens on UDP listen_port+i and streams to
-    sdk_port+i (MAVSDK: udpin://0.0.0.0:14540+i) and to the ground-station port, as PX4 SITL
-    does. One .tlog per vehicle is written to the run directory.
+    Vehicle i (0-based) is MAVLink system i+1 with PX4 SITL's two links: the onboard link
+    (PX4's onboard stream profile: ATTITUDE 100 Hz, positions 30-50 Hz, ...) listens on UDP
+    listen_port+i and streams to sdk_port+i (MAVSDK: udpin://0.0.0.0:14540+i); the
+    ground-station link (normal profile) listens on gcs_listen_port+i and streams to gcs_port
+    (QGroundControl, MAVProxy: udpin:0.0.0.0:14550). Each link writes a .tlog to the run
+    directory (vehicleN.tlog, vehicleN-gcs.tlog).
 
     Example:  swarmsitl up --vehicles 3 --speed 2
     """
     run_dir = out or default_run_dir()
-    ports = PortPlan(bind, sdk_port, listen_port, gcs_port)
+    ports = PortPlan(
+        bind_addr=bind,
+        sdk_base=sdk_port,
+        listen_base=listen_port,
+        gcs_port=gcs_port,
+        gcs_listen_base=gcs_listen_port,
+    )
     cfg = SimulationConfig(
         n_vehicles=vehicles, seed=seed, spacing_m=spacing, ports=ports, out_dir=run_dir
     )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
-    for col in ("sysid", "listens on", "streams to", "connect with", "home lat, lon, alt"):
+    columns = ("sysid", "onboard link", "MAVSDK connects with", "GCS link", "home lat, lon, alt")
+    for col in columns:
         table.add_column(col, no_wrap=True)
     for i in range(vehicles):
         lat, lon, alt = sim.world.home_geodetic(i)
-        sends = " ".join(f"{a}:{p}" for a, p in ports.peers(i))
+        gcs = (
+            f"{bind}:{ports.gcs_listen_port(i)} -> {ports.peer_addr}:{ports.gcs_port}"
+            if ports.gcs_port
+            else "off"
+        )
         table.add_row(
             str(i + 1),
-            f"{bind}:{ports.listen_port(i)}",
-            sends,
+            f"{bind}:{ports.listen_port(i)} -> {ports.peer_addr}:{ports.sdk_port(i)}",
             f"udpin://0.0.0.0:{ports.sdk_port(i)}",
+            gcs,
             f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
         )
     console.print(table)

@@ -11,6 +11,7 @@ step. The MAVLink endpoints are polled on the simulation clock. Two ways to run 
 from __future__ import annotations
 
 import logging
+import select
 import tempfile
 import time
 from collections.abc import Callable
@@ -19,6 +20,8 @@ from pathlib import Path
 
 from autopilot_emu.fleet import AutopilotFleet, FleetConfig
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
+from autopilot_emu.mavlink.link_hub import LinkHub
+from autopilot_emu.mavlink.streams import StreamProfile
 from harness.recorder import FlightRecorder
 from sitl.world import World, WorldConfig
 
@@ -27,33 +30,53 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class PortPlan:
-    """PX4 SITL's UDP convention for vehicle i: listen on listen_base+i, send to sdk_base+i."""
+    """PX4 SITL's two MAVLink links of vehicle i (ROMFS init.d-posix/px4-rc.mavlink).
+
+    * onboard link (offboard API, MAVSDK/MAVROS; PX4's onboard stream profile): listens on
+      listen_base+i, sends to sdk_base+i;
+    * ground-station link (QGroundControl, MAVProxy; normal profile): listens on
+      gcs_listen_base+i, sends to gcs_port (the same port for every vehicle).
+
+    A base of 0 lets the OS pick the listen port (for one vehicle).
+    """
 
     bind_addr: str = "127.0.0.1"
     """Address the vehicles listen on (127.0.0.1 keeps them off the network)."""
     sdk_base: int = 14540
-    """Offboard/MAVSDK port of vehicle 0 (the vehicle sends here)."""
+    """Offboard/MAVSDK port of vehicle 0 (its onboard link sends here)."""
     listen_base: int = 14580
-    """Port vehicle 0 listens on."""
+    """Port vehicle 0's onboard link listens on."""
     gcs_port: int = 14550
-    """Ground-station port every vehicle also sends to (0 disables)."""
+    """Ground-station port every vehicle's GCS link sends to; 0: no GCS link."""
+    gcs_listen_base: int = 18570
+    """Port vehicle 0's GCS link listens on."""
     peer_addr: str = "127.0.0.1"
     """Where the companion / ground station run."""
 
+    def __post_init__(self) -> None:
+        for name in ("sdk_base", "listen_base", "gcs_port", "gcs_listen_base"):
+            if not 0 <= getattr(self, name) <= 65535:
+                raise ValueError(f"{name} must be 0..65535, got {getattr(self, name)}")
+
     def listen_port(self, i: int) -> int:
-        """UDP port vehicle i listens on."""
-        return self.listen_base + i
+        """UDP port vehicle i's onboard link listens on."""
+        return self.listen_base + i if self.listen_base else 0
 
     def sdk_port(self, i: int) -> int:
-        """UDP port vehicle i sends its offboard stream to."""
+        """UDP port vehicle i's onboard link sends to."""
         return self.sdk_base + i
 
-    def peers(self, i: int) -> tuple[tuple[str, int], ...]:
-        """Destinations of vehicle i's stream."""
-        out = [(self.peer_addr, self.sdk_port(i))]
-        if self.gcs_port:
-            out.append((self.peer_addr, self.gcs_port))
-        return tuple(out)
+    def gcs_listen_port(self, i: int) -> int:
+        """UDP port vehicle i's ground-station link listens on."""
+        return self.gcs_listen_base + i if self.gcs_listen_base else 0
+
+    def onboard_peers(self, i: int) -> tuple[tuple[str, int], ...]:
+        """Destinations of vehicle i's onboard link."""
+        return ((self.peer_addr, self.sdk_port(i)),)
+
+    def gcs_peers(self) -> tuple[tuple[str, int], ...]:
+        """Destinations of every ground-station link (none without a GCS port)."""
+        return ((self.peer_addr, self.gcs_port),) if self.gcs_port else ()
 
 
 @dataclass(frozen=True)
@@ -66,7 +89,7 @@ class SimulationConfig:
     spacing_m: float = 5.0
     """Distance between neighbouring vehicles at spawn, m."""
     mavlink: bool = True
-    """Open a MAVLink UDP endpoint per vehicle."""
+    """Open each vehicle's MAVLink links (onboard, and ground station if ports.gcs_port)."""
     ports: PortPlan = field(default_factory=PortPlan)
     mavlink_poll_hz: float = 250.0
     """How often endpoints read their sockets and emit streams, Hz of simulation time."""
@@ -108,6 +131,7 @@ class Simulation:
             p.set("MAV_SYS_ID", i + 1)
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
+        """Every MAVLink link: vehicle 0's onboard link, its GCS link (if any), vehicle 1's ..."""
         self.ftp_roots: list[Path] = []
         """Directory each vehicle serves over MAVLink FTP: ``<out_dir>/vehicle<N>/fs``, or a
         temporary directory removed on close when there is no out_dir."""
@@ -117,10 +141,14 @@ class Simulation:
         try:
             if config.mavlink:
                 for i in range(n):
-                    self.endpoints.append(self._endpoint(i))
+                    self.endpoints.extend(self._links(i))
         except BaseException:
             self.close()
             raise
+        self._readiness = select.poll()
+        self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
+        for _, fd in self._link_fds:
+            self._readiness.register(fd, select.POLLIN)
         self._poll_every = round(config.physics_hz / config.mavlink_poll_hz)
         self._step_count = 0
         self._actuators: list | None = None
@@ -129,22 +157,37 @@ class Simulation:
         self.phase_seconds: dict[str, float] | None = None
         """Wall seconds per phase of ``step`` once ``time_phases()`` was called."""
 
-    def _endpoint(self, i: int) -> MavlinkEndpoint:
+    def _links(self, i: int) -> list[MavlinkEndpoint]:
+        """Vehicle i's MAVLink links, as PX4 SITL: onboard first, then the ground station's."""
         ports = self.config.ports
         out = self.config.out_dir
-        return MavlinkEndpoint(
-            self.fleet.vehicle(i),
-            EndpointConfig(
-                sysid=i + 1,
-                compid=1,
-                bind_addr=ports.bind_addr,
-                listen_port=ports.listen_port(i),
-                peers=ports.peers(i),
-                tlog_path=(out / f"vehicle{i + 1}.tlog") if out is not None else None,
-                epoch_start_s=self.epoch_start_s,
-                ftp_root=self._ftp_root(i),
-            ),
-        )
+        vehicle = self.fleet.vehicle(i)
+        hub = LinkHub(vehicle)
+        ftp_root = self._ftp_root(i)
+        plan = [(StreamProfile.ONBOARD, ports.listen_port(i), ports.onboard_peers(i), "")]
+        if ports.gcs_port:
+            plan.append((StreamProfile.NORMAL, ports.gcs_listen_port(i), ports.gcs_peers(), "-gcs"))
+        links: list[MavlinkEndpoint] = []
+        try:
+            for profile, listen_port, peers, suffix in plan:
+                config = EndpointConfig(
+                    sysid=i + 1,
+                    compid=1,
+                    bind_addr=ports.bind_addr,
+                    listen_port=listen_port,
+                    peers=peers,
+                    profile=profile,
+                    tlog_path=(out / f"vehicle{i + 1}{suffix}.tlog") if out is not None else None,
+                    epoch_start_s=self.epoch_start_s,
+                    gps_rate_hz=self.world.config.gps_hz,
+                    ftp_root=ftp_root,
+                )
+                links.append(MavlinkEndpoint(vehicle, config, hub=hub))
+        except BaseException:
+            for link in links:
+                link.close()
+            raise
+        return links
 
     def _ftp_root(self, i: int) -> Path:
         """Create vehicle i's FTP root with an empty ``log/`` (PX4 SITL's rootfs has one)."""
@@ -177,11 +220,15 @@ class Simulation:
             self._actuators = self.fleet.handle_sensors(sensors)
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:
-            now = self.world.time_s
-            for ep in self.endpoints:
-                ep.poll(now)
+            self._poll_links(self.world.time_s)
         if self.recorder is not None:
             self.recorder.maybe_record()
+
+    def _poll_links(self, now_s: float) -> None:
+        """Poll every MAVLink link; only those whose socket has data read it."""
+        ready = {fd for fd, _ in self._readiness.poll(0)}
+        for ep, fd in self._link_fds:
+            ep.poll(now_s, fd in ready)
 
     def _step_timed(self) -> None:
         """``step`` with the wall time of each phase added to ``phase_seconds``."""
@@ -200,9 +247,7 @@ class Simulation:
         t3 = clock()
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:
-            now = self.world.time_s
-            for ep in self.endpoints:
-                ep.poll(now)
+            self._poll_links(self.world.time_s)
         t4 = clock()
         if self.recorder is not None:
             self.recorder.maybe_record()

@@ -11,7 +11,7 @@
 
 Each test module gets its own block of ports from :func:`module_ports`, so modules never
 collide with each other nor with a developer's ``swarmsitl up`` on the default ports
-(14540/14550/14580). Move the blocks with SWARMSITL_E2E_PORT_BASE / SWARMSITL_E2E_GRPC_BASE.
+(14540/14550/14580/18570). Move the blocks with SWARMSITL_E2E_PORT_BASE / SWARMSITL_E2E_GRPC_BASE.
 """
 
 from __future__ import annotations
@@ -45,7 +45,10 @@ PORT_BASE = int(os.environ.get("SWARMSITL_E2E_PORT_BASE", "24500"))
 GRPC_BASE = int(os.environ.get("SWARMSITL_E2E_GRPC_BASE", "51500"))
 PORT_BLOCK = 10
 """Ports per module: sdk ports at +0..+4, listen ports at +5..+9 (up to 5 vehicles)."""
-RESERVED_PORTS = frozenset({14540, 14550, 14580})
+GCS_LISTEN_OFFSET = 400
+"""The GCS-link listen ports of module ``slot`` start at PORT_BASE + GCS_LISTEN_OFFSET +
+PORT_BLOCK * slot, clear of every module's block (slots 0..39)."""
+RESERVED_PORTS = frozenset({14540, 14550, 14580, 18570})
 
 READY_MARKER = "Press Ctrl-C to stop."
 STARTUP_TIMEOUT_S = 90.0
@@ -62,7 +65,9 @@ class Ports:
     sdk: int
     """Vehicle i streams to sdk + i (MAVSDK: udpin://0.0.0.0:sdk+i)."""
     listen: int
-    """Vehicle i listens on listen + i."""
+    """Vehicle i's onboard link listens on listen + i."""
+    gcs_listen: int
+    """Vehicle i's ground-station link (only with a GCS port) listens on gcs_listen + i."""
     grpc: int
     """mavsdk_server gRPC port of client i is grpc + i."""
 
@@ -78,8 +83,14 @@ class Ports:
 def module_ports(slot: int) -> Ports:
     """The port block of test module number ``slot`` (each module uses its own slot)."""
     base = PORT_BASE + PORT_BLOCK * slot
-    ports = Ports(sdk=base, listen=base + PORT_BLOCK // 2, grpc=GRPC_BASE + PORT_BLOCK * slot)
-    used = set(range(base, base + PORT_BLOCK))
+    gcs_listen = PORT_BASE + GCS_LISTEN_OFFSET + PORT_BLOCK * slot
+    ports = Ports(
+        sdk=base,
+        listen=base + PORT_BLOCK // 2,
+        gcs_listen=gcs_listen,
+        grpc=GRPC_BASE + PORT_BLOCK * slot,
+    )
+    used = set(range(base, base + PORT_BLOCK)) | set(range(gcs_listen, gcs_listen + 5))
     assert not used & RESERVED_PORTS, f"e2e port block {base}.. overlaps {RESERVED_PORTS}"
     return ports
 
@@ -319,8 +330,8 @@ def start_swarm(
 ) -> Swarm:
     """Start ``swarmsitl up`` and return once it printed its endpoint table.
 
-    ``gcs_port`` is passed as ``--gcs-port``: 0 (no ground-station stream) unless a test runs
-    a ground station there.
+    ``gcs_port`` is passed as ``--gcs-port``: 0 (no ground-station link) unless a test runs
+    a ground station there; the GCS links then listen on the module's ``gcs_listen`` ports.
     """
     out.mkdir(parents=True, exist_ok=True)
     log_path = out.parent / f"{out.name}-swarmsitl.log"
@@ -331,6 +342,7 @@ def start_swarm(
         "--sdk-port", ports.sdk,
         "--listen-port", ports.listen,
         "--gcs-port", gcs_port,
+        "--gcs-listen-port", ports.gcs_listen,
         "--out", out,
         *extra,
     )  # fmt: skip
@@ -360,6 +372,8 @@ def start_swarm(
         assert f"udpin://0.0.0.0:{ports.sdk + i}" in table, table
     if gcs_port:
         assert f"127.0.0.1:{gcs_port}" in table, table
+        for i in range(vehicles):
+            assert f"127.0.0.1:{ports.gcs_listen + i}" in table, table
     return swarm
 
 
@@ -386,7 +400,7 @@ def running_swarm(vehicles: int, ports: Ports, out: Path, gcs_port: int = 0) -> 
     require_free_udp(
         [ports.listen + i for i in range(vehicles)]
         + [ports.sdk + i for i in range(vehicles)]
-        + ([gcs_port] if gcs_port else [])
+        + ([gcs_port, *(ports.gcs_listen + i for i in range(vehicles))] if gcs_port else [])
     )
     swarm = start_swarm(vehicles, ports, out, gcs_port=gcs_port)
     try:

@@ -8,9 +8,11 @@ seen by a raw pymavlink client listening in parallel (HEARTBEAT custom_mode and 
 GLOBAL_POSITION_INT, EXTENDED_SYS_STATE, and the uploaded lists read back with
 MISSION_REQUEST_LIST). The tests run in file order on one vehicle.
 
-MAVProxy talks to a PX4 autopilot the way it does to PX4 SITL: the vehicle streams to
-``--gcs-port`` and MAVProxy (``--master=udpin:127.0.0.1:<port>``) answers to where the stream
-comes from, the vehicle's listen port.
+MAVProxy talks to a PX4 autopilot the way it does to PX4 SITL: the vehicle's ground-station
+link (PX4's normal stream profile) streams from ``--gcs-listen-port`` to ``--gcs-port``, and
+MAVProxy (``--master=udpin:127.0.0.1:<port>``) answers to where the stream comes from. The raw
+observer sits on the other link, the onboard one (``--listen-port``), as a companion would: what
+MAVProxy changes must show there too.
 """
 
 from __future__ import annotations
@@ -57,7 +59,7 @@ def swarm(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def link(swarm):
-    """A raw observer on the vehicle's listen port (sysid 245, as MAVSDK)."""
+    """A raw observer on the vehicle's onboard link (sysid 245, as MAVSDK)."""
     lk = RawLink(PORTS.listen)
     lk.send(mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))  # makes the vehicle stream to us
     yield lk

@@ -87,10 +87,15 @@ def test_mavlink_poll_rate_must_divide_physics_rate():
 
 
 def test_port_plan_follows_px4_sitl_convention():
+    """px4-rc.mavlink: onboard link 14580+i -> 14540+i, GCS link 18570+i -> 14550."""
     ports = PortPlan()
     assert [ports.listen_port(i) for i in range(3)] == [14580, 14581, 14582]
-    assert ports.peers(2) == (("127.0.0.1", 14542), ("127.0.0.1", 14550))
-    assert PortPlan(gcs_port=0).peers(0) == (("127.0.0.1", 14540),)
+    assert ports.onboard_peers(2) == (("127.0.0.1", 14542),)
+    assert [ports.gcs_listen_port(i) for i in range(3)] == [18570, 18571, 18572]
+    assert ports.gcs_peers() == (("127.0.0.1", 14550),)
+    assert PortPlan(gcs_port=0).gcs_peers() == ()
+    with pytest.raises(ValueError, match="gcs_listen_base"):
+        PortPlan(gcs_listen_base=70000)
 
 
 def _airborne(seed=2):

@@ -1,15 +1,22 @@
-"""One vehicle's MAVLink endpoint: a UDP socket that speaks MAVLink 2 as PX4 SITL does.
+"""One MAVLink link of a vehicle: a UDP socket that speaks MAVLink 2 as a PX4 instance does.
 
-The endpoint owns the wire: it receives and parses datagrams, answers commands and the parameter
-protocol, and streams telemetry read from the vehicle (:mod:`autopilot_emu.mavlink.vehicle_port`)
-at PX4-like rates. It never blocks and never reads the wall clock for scheduling: the simulation
-loop calls :meth:`MavlinkEndpoint.poll` with the simulation time, and everything due by then is
-sent. A poll with no traffic and nothing due costs one failing ``recvfrom`` and one comparison.
+PX4 runs one MAVLink instance per link, each with its own port, peers and stream profile (PX4
+SITL: the onboard profile from 14580+i to the offboard API on 14540+i, the normal profile from
+18570+i to a ground station on 14550). An endpoint is one such instance: it receives and parses
+datagrams, answers commands and the parameter and mission protocols, and streams telemetry read
+from the vehicle (:mod:`autopilot_emu.mavlink.vehicle_port`) at its profile's rates
+(:mod:`autopilot_emu.mavlink.streams`). The endpoints of one vehicle share a
+:class:`~autopilot_emu.mavlink.link_hub.LinkHub`: one snapshot per poll, and every status text and
+mission item reached forwarded on every link.
 
-Every frame goes to the configured peers (PX4 SITL: 14540 for the offboard API, 14550 for a
-ground station) and to every address MAVLink has been received from, as PX4 does. Malformed input
-is counted in :attr:`MavlinkEndpoint.stats` and logged, never raised; errors while sending are
-counted and otherwise ignored.
+It never blocks and never reads the wall clock for scheduling: the simulation loop calls
+:meth:`MavlinkEndpoint.poll` with the simulation time, and everything due by then is sent; a
+message is built only when its stream is due. A poll with no traffic and nothing due costs one
+failing ``recvfrom`` and one comparison.
+
+Every frame goes to the configured peers and to every address MAVLink has been received from, as
+PX4 does. Malformed input is counted in :attr:`MavlinkEndpoint.stats` and logged, never raised;
+errors while sending are counted and otherwise ignored.
 """
 
 from __future__ import annotations
@@ -20,14 +27,14 @@ import math
 import socket
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
 
 from pymavlink.dialects.v20 import common as mavlink2
 
-from autopilot_emu.mavlink import messages
+from autopilot_emu.mavlink import framing, messages
 from autopilot_emu.mavlink.commands import (
     ACCEPTED,
     DENIED,
@@ -35,6 +42,7 @@ from autopilot_emu.mavlink.commands import (
     CommandRequest,
 )
 from autopilot_emu.mavlink.ftp import FtpServer
+from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.mission_protocol import MissionProtocol
 from autopilot_emu.mavlink.param_protocol import ParamProtocol
 from autopilot_emu.mavlink.setpoints import (
@@ -43,7 +51,7 @@ from autopilot_emu.mavlink.setpoints import (
     decode_global,
     decode_local,
 )
-from autopilot_emu.mavlink.streams import DEFAULT_STREAMS, StreamScheduler
+from autopilot_emu.mavlink.streams import StreamProfile, StreamScheduler, profile_streams
 from autopilot_emu.mavlink.tlog import TlogWriter
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
 from autopilot_emu.modes.offboard import LocalFrame
@@ -92,16 +100,23 @@ class EndpointConfig:
     bind_addr: str = "127.0.0.1"
     """IPv4 address to listen on."""
     listen_port: int = 14580
-    """UDP port to listen on (PX4 SITL: 14580 + instance); 0 lets the OS pick one."""
-    peers: tuple[tuple[str, int], ...] = (("127.0.0.1", 14540), ("127.0.0.1", 14550))
+    """UDP port to listen on (PX4 SITL: 14580 + instance, or 18570 + instance for the
+    ground-station link); 0 lets the OS pick one."""
+    peers: tuple[tuple[str, int], ...] = (("127.0.0.1", 14540),)
     """Addresses every frame is sent to, besides addresses learned from received traffic."""
+    profile: StreamProfile = StreamProfile.ONBOARD
+    """PX4 MAVLink mode of the link: its default streams and rates."""
     tlog_path: Path | None = None
     """Where to append a .tlog of every frame sent and every valid frame received (CRC checked,
     known message id); None: no log."""
     epoch_start_s: float = field(default_factory=time.time)
     """Unix time at simulation t = 0, s (tlog timestamps, SYSTEM_TIME)."""
     stream_rates_hz: Mapping[str, float] = field(default_factory=dict)
-    """Per-message overrides of the default stream rates, e.g. {"ATTITUDE": 50.0}; 0 = off."""
+    """Per-message overrides of the profile's rates, e.g. {"ATTITUDE": 50.0}; 0 = off. Any
+    streamable message (streams.STREAMABLE) may be named, also one the profile leaves off."""
+    gps_rate_hz: float = 10.0
+    """Rate of the vehicle's GPS receiver, Hz: PX4's onboard profile sends GPS_RAW_INT on every
+    new fix ("unlimited" rate), so the stream runs at this rate."""
     ftp_root: Path | None = None
     """Directory served over MAVLink FTP (must exist); None: FILE_TRANSFER_PROTOCOL is not
     answered, as PX4 with FTP off (``mavlink start`` without ``-x``)."""
@@ -111,6 +126,8 @@ class EndpointConfig:
             raise ValueError(f"sysid/compid must be 1..255, got {self.sysid}/{self.compid}")
         if not 0 <= self.listen_port <= 65535:
             raise ValueError(f"listen_port must be 0..65535, got {self.listen_port}")
+        if not self.gps_rate_hz > 0:
+            raise ValueError(f"gps_rate_hz must be positive, got {self.gps_rate_hz}")
 
 
 @dataclass
@@ -157,13 +174,14 @@ class MavlinkEndpoint:
 
     Args:
         vehicle: the flight stack behind the endpoint.
-        config: addresses, ids, tlog and stream rates.
+        config: addresses, ids, profile, tlog and stream rates.
         wall_clock_s: monotonic clock of the peers' retransmission timers (command duplicates,
             mission-transfer retries and timeouts); injectable for tests.
+        hub: what this link shares with the vehicle's other links (None: a link of its own).
 
     Raises:
         PortInUseError: ``config.listen_port`` is already bound.
-        ValueError: a stream rate names an unknown message.
+        ValueError: a stream rate names an unknown message; ``hub`` serves another vehicle.
     """
 
     def __init__(
@@ -171,13 +189,23 @@ class MavlinkEndpoint:
         vehicle: VehiclePort,
         config: EndpointConfig,
         wall_clock_s: Callable[[], float] = time.monotonic,
+        hub: LinkHub | None = None,
     ) -> None:
+        if hub is not None and hub.vehicle is not vehicle:
+            raise ValueError("the link hub serves another vehicle")
         self._vehicle = vehicle
         self._config = config
         self.stats = EndpointStats()
-        self._streams = StreamScheduler(DEFAULT_STREAMS, config.stream_rates_hz)
+        self._hub = hub if hub is not None else LinkHub(vehicle)
+        self._cursor = self._hub.subscribe()
+        self._streams = StreamScheduler(
+            profile_streams(config.profile, config.gps_rate_hz), config.stream_rates_hz
+        )
         self._mav = mavlink2.MAVLink(None, srcSystem=config.sysid, srcComponent=config.compid)
+        """The parser of received frames."""
         self._mav.robust_parsing = True
+        self._seq = 0
+        """Sequence number of the next frame sent."""
         self._context = messages.MessageContext(
             sysid=config.sysid,
             params=vehicle.params,
@@ -216,6 +244,7 @@ class MavlinkEndpoint:
             mavlink2.MAVLINK_MSG_ID_PARAM_REQUEST_READ: self._on_param_request_read,
             mavlink2.MAVLINK_MSG_ID_PARAM_SET: self._on_param_set,
             mavlink2.MAVLINK_MSG_ID_PING: self._on_ping,
+            mavlink2.MAVLINK_MSG_ID_TIMESYNC: self._on_timesync,
             mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED: self._on_setpoint,
             mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self._on_setpoint,
             mavlink2.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self._on_setpoint,
@@ -231,11 +260,11 @@ class MavlinkEndpoint:
             TlogWriter(config.tlog_path, config.epoch_start_s) if config.tlog_path else None
         )
         self._now_s = 0.0
+        self._now_us = 0
         self._last_poll_s = -_NEVER
         self._next_work_s = -_NEVER
         self._next_statustext_us = 0
         self._next_flush_us = TLOG_FLUSH_INTERVAL_US
-        self._snapshot: TelemetrySnapshot | None = None
         self._replies: list[mavlink2.MAVLink_message] = []
         self._statustext_id = 0
         self._check_sysid_param()
@@ -304,14 +333,24 @@ class MavlinkEndpoint:
 
     # --- the loop ----------------------------------------------------------------------------
 
-    def poll(self, now_s: float) -> None:
-        """Handle received datagrams, then send whatever is due at simulation time ``now_s``."""
+    def fileno(self) -> int:
+        """File descriptor of the socket, for a readiness poll of many links at once."""
+        if self._sock is None:
+            raise RuntimeError("endpoint is closed")
+        return self._sock.fileno()
+
+    def poll(self, now_s: float, receive: bool = True) -> None:
+        """Handle received datagrams, then send whatever is due at simulation time ``now_s``.
+
+        ``receive=False`` skips reading the socket: for a caller that polled the readiness of
+        all its links at once (one syscall instead of one failing ``recvfrom`` per link).
+        """
         sock = self._sock
         if sock is None:
             raise RuntimeError("endpoint is closed")
         self._now_s = now_s
-        self._snapshot = None
-        for _ in range(MAX_DATAGRAMS_PER_POLL):
+        self._now_us = round(now_s * 1e6)
+        for _ in range(MAX_DATAGRAMS_PER_POLL if receive else 0):
             try:
                 data, address = sock.recvfrom(MAX_DATAGRAM_BYTES)
             except BlockingIOError:
@@ -329,7 +368,7 @@ class MavlinkEndpoint:
 
     def _work(self, now_s: float) -> None:
         """Periodic part of poll: streams, status texts, parameter list, tlog flush."""
-        now_us = round(now_s * 1e6)
+        now_us = self._now_us
         if now_s < self._last_poll_s:
             logger.info("simulation time went back to %.6f s: restarting streams", now_s)
             self._streams.restart(now_us)
@@ -339,9 +378,10 @@ class MavlinkEndpoint:
             self._emit(spec.msg_id)
         if now_us >= self._next_statustext_us:
             self._next_statustext_us = now_us + STATUSTEXT_POLL_INTERVAL_US
-            for severity, text in self._vehicle.pop_status_texts():
+            texts, reached = self._hub.announcements(self._cursor)
+            for severity, text in texts:
                 self.announce(severity, text)
-            self._mission_events()
+            self._mission_events(reached)
         if self._params.list_pending:
             self._params.send_list_batch()
         if self._missions.busy:
@@ -363,22 +403,21 @@ class MavlinkEndpoint:
         self._next_work_s = (next_us - 0.5) / 1e6
 
     def _telemetry(self) -> TelemetrySnapshot:
-        """The vehicle's snapshot for this poll (read at most once per poll)."""
-        if self._snapshot is None:
-            self._snapshot = self._vehicle.telemetry()
-        return self._snapshot
+        """The vehicle's snapshot for this poll (read once per poll for all its links)."""
+        return self._hub.telemetry(self._now_us)
 
     # --- sending -----------------------------------------------------------------------------
 
     def _send(self, message: mavlink2.MAVLink_message) -> None:
-        """Pack ``message`` with our ids and the next sequence number; send it to every peer."""
+        """Frame ``message`` with our ids and the next sequence number; send it to every peer."""
+        config = self._config
         try:
-            frame = message.pack(self._mav)
+            frame = framing.encode(message, self._seq, config.sysid, config.compid)
         except Exception:
             self.stats.encode_errors += 1
             logger.exception("cannot pack %s", message.get_type())
             return
-        self._mav.seq = (self._mav.seq + 1) & 0xFF
+        self._seq = (self._seq + 1) & 0xFF
         self.stats.frames_sent += 1
         sock = self._sock
         if sock is not None:
@@ -462,6 +501,7 @@ class MavlinkEndpoint:
             except Exception:
                 self.stats.handler_errors += 1
                 logger.exception("error handling %s from %s", msg.get_type(), address)
+            self._hub.touched()
 
     def _learn_peer(self, address: tuple[str, int]) -> None:
         peer = (address[0], address[1])
@@ -567,11 +607,11 @@ class MavlinkEndpoint:
     def _on_mission_set_current(self, msg: mavlink2.MAVLink_message) -> None:
         if self._targets_us(msg.target_system, msg.target_component):
             self._missions.handle_set_current(msg)
-            self._mission_events(force_current=True)
+            self._mission_events((), force_current=True)
 
-    def _mission_events(self, force_current: bool = False) -> None:
+    def _mission_events(self, reached: Iterable[int], force_current: bool = False) -> None:
         """MISSION_ITEM_REACHED for completed items; MISSION_CURRENT when it changed."""
-        for seq in self._vehicle.pop_mission_reached():
+        for seq in reached:
             self._send(mavlink2.MAVLink_mission_item_reached_message(seq & 0xFFFF))
         status = self._vehicle.mission_status()
         if force_current or status != self._mission_status:
@@ -617,6 +657,12 @@ class MavlinkEndpoint:
                     target_component=msg.get_srcComponent(),
                 )
             )
+
+    def _on_timesync(self, msg: mavlink2.MAVLink_message) -> None:
+        # As PX4 (mavlink_timesync): a request (tc1 == 0) is answered with our boot time in ns and
+        # ts1 echoed; an answer to our own requests (tc1 > 0) needs no offset estimate here.
+        if msg.tc1 == 0:
+            self._send(messages.timesync_reply(msg, self._now_us * 1000))
 
     def _on_ftp(self, msg: mavlink2.MAVLink_message) -> None:
         if self._ftp is not None and self._targets_us(msg.target_system, msg.target_component):

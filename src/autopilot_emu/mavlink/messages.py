@@ -414,6 +414,248 @@ def autopilot_version(snapshot: TelemetrySnapshot, context: MessageContext) -> M
     )
 
 
+_POSITION_IGNORE_BITS = (
+    mavlink2.POSITION_TARGET_TYPEMASK_X_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_Y_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_Z_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_VX_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_VY_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_VZ_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_AX_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_AY_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_AZ_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_YAW_IGNORE,
+    mavlink2.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+)
+_NAN_COVARIANCE = [math.nan] * 21
+_COVARIANCE_DIAGONAL = (0, 6, 11)
+"""Indices of the x, y, z variances in ODOMETRY's 21-entry upper-triangle covariances."""
+
+
+def _ignore_mask(values: Sequence[float]) -> int:
+    """POSITION_TARGET_TYPEMASK with the *_IGNORE bit of every NaN among x..yaw_rate."""
+    mask = 0
+    for bit, value in zip(_POSITION_IGNORE_BITS, values, strict=True):
+        if value != value:  # NaN: not controlled
+            mask |= bit
+    return mask
+
+
+def attitude_target(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+    """ATTITUDE_TARGET (83): attitude, body-rate and collective thrust setpoints.
+
+    As PX4: type_mask 0 (every field is a live setpoint) and thrust = |thrust vector| in 0..1;
+    nothing while no controller runs.
+    """
+    sp = snapshot.setpoint
+    if sp is None:
+        return None
+    p, q, r = sp.body_rates_rad_s
+    return mavlink2.MAVLink_attitude_target_message(
+        time_boot_ms=_time_boot_ms(snapshot),
+        type_mask=0,
+        q=list(sp.attitude_wxyz),
+        body_roll_rate=p,
+        body_pitch_rate=q,
+        body_yaw_rate=r,
+        thrust=min(1.0, max(0.0, sp.thrust)),
+    )
+
+
+def position_target_local_ned(
+    snapshot: TelemetrySnapshot, context: MessageContext
+) -> Message | None:
+    """POSITION_TARGET_LOCAL_NED (85): the position controller's setpoint, as PX4 fills it.
+
+    Every NaN field (an axis that is velocity-controlled, no acceleration setpoint, no yaw-rate
+    setpoint) gets its *_IGNORE bit in type_mask. Nothing while no controller runs.
+    """
+    sp = snapshot.setpoint
+    if sp is None:
+        return None
+    values = (*sp.position_ned_m, *sp.velocity_ned_m_s, *sp.acceleration_ned_m_s2)
+    values += (sp.yaw_rad, sp.yaw_rate_rad_s)
+    x, y, z, vx, vy, vz, afx, afy, afz, yaw, yaw_rate = values
+    return mavlink2.MAVLink_position_target_local_ned_message(
+        time_boot_ms=_time_boot_ms(snapshot),
+        coordinate_frame=mavlink2.MAV_FRAME_LOCAL_NED,
+        type_mask=_ignore_mask(values),
+        x=x,
+        y=y,
+        z=z,
+        vx=vx,
+        vy=vy,
+        vz=vz,
+        afx=afx,
+        afy=afy,
+        afz=afz,
+        yaw=yaw,
+        yaw_rate=yaw_rate,
+    )
+
+
+def position_target_global_int(
+    snapshot: TelemetrySnapshot, context: MessageContext
+) -> Message | None:
+    """POSITION_TARGET_GLOBAL_INT (87): the position setpoint as lat/lon (degE7) and AMSL alt.
+
+    PX4 sends it only while a position setpoint is being flown (its triplet's current item, with
+    finite lat/lon); so here: only while the horizontal position is controlled. Unlike PX4,
+    whose type_mask is always 0, NaN fields (no acceleration or yaw-rate setpoint, altitude not
+    controlled) get their *_IGNORE bits.
+    """
+    sp = snapshot.setpoint
+    if sp is None:
+        return None
+    lat, lon, alt = sp.global_position
+    if not (math.isfinite(lat) and math.isfinite(lon)):
+        return None
+    vx, vy, vz = sp.velocity_ned_m_s
+    afx, afy, afz = sp.acceleration_ned_m_s2
+    values = (lat, lon, alt, vx, vy, vz, afx, afy, afz, sp.yaw_rad, sp.yaw_rate_rad_s)
+    return mavlink2.MAVLink_position_target_global_int_message(
+        time_boot_ms=_time_boot_ms(snapshot),
+        coordinate_frame=mavlink2.MAV_FRAME_GLOBAL_INT,
+        type_mask=_ignore_mask(values),
+        lat_int=_scaled(lat, 1e7, -900_000_000, 900_000_000, 0),
+        lon_int=_scaled(lon, 1e7, -1_800_000_000, 1_800_000_000, 0),
+        alt=alt,
+        vx=vx,
+        vy=vy,
+        vz=vz,
+        afx=afx,
+        afy=afy,
+        afz=afz,
+        yaw=sp.yaw_rad,
+        yaw_rate=sp.yaw_rate_rad_s,
+    )
+
+
+def estimator_status(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+    """ESTIMATOR_STATUS (230): solution flags and position accuracy.
+
+    The innovation test ratios are 0: the emulated filters gate no measurement (a ratio >= 1
+    would mean "rejected").
+    """
+    est = snapshot.estimator
+    if est is None:
+        return None
+    return mavlink2.MAVLink_estimator_status_message(
+        time_usec=snapshot.time_usec,
+        flags=est.flags & 0xFFFF,
+        vel_ratio=0.0,
+        pos_horiz_ratio=0.0,
+        pos_vert_ratio=0.0,
+        mag_ratio=0.0,
+        hagl_ratio=0.0,
+        tas_ratio=0.0,
+        pos_horiz_accuracy=est.pos_horiz_accuracy_m,
+        pos_vert_accuracy=est.pos_vert_accuracy_m,
+    )
+
+
+def odometry(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+    """ODOMETRY (331): EKF pose and velocity in the local NED frame, as PX4's EKF2 publishes it.
+
+    Velocity is NED (child_frame_id LOCAL_NED), angular velocity body FRD; the covariances carry
+    the position and velocity variances on their diagonals and NaN elsewhere (unknown).
+    Nothing before the local position is known.
+    """
+    x, y, z = snapshot.position_ned_m
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        return None
+    pose_cov = list(_NAN_COVARIANCE)
+    velocity_cov = list(_NAN_COVARIANCE)
+    est = snapshot.estimator
+    if est is not None:
+        for index, pos_var, vel_var in zip(
+            _COVARIANCE_DIAGONAL, est.position_variance_m2, est.velocity_variance_m2_s2, strict=True
+        ):
+            pose_cov[index] = pos_var
+            velocity_cov[index] = vel_var
+    vx, vy, vz = snapshot.velocity_ned_m_s
+    p, q, r = snapshot.body_rates_rad_s
+    return mavlink2.MAVLink_odometry_message(
+        time_usec=snapshot.time_usec,
+        frame_id=mavlink2.MAV_FRAME_LOCAL_NED,
+        child_frame_id=mavlink2.MAV_FRAME_LOCAL_NED,
+        x=x,
+        y=y,
+        z=z,
+        q=list(snapshot.quaternion_wxyz),
+        vx=vx,
+        vy=vy,
+        vz=vz,
+        rollspeed=p,
+        pitchspeed=q,
+        yawspeed=r,
+        pose_covariance=pose_cov,
+        velocity_covariance=velocity_cov,
+        reset_counter=0,
+        estimator_type=mavlink2.MAV_ESTIMATOR_TYPE_AUTOPILOT,
+        quality=0,
+    )
+
+
+def highres_imu(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+    """HIGHRES_IMU (105): the last IMU sample (body FRD; gauss, hPa, degC) and its update flags."""
+    imu = snapshot.imu
+    if imu is None:
+        return None
+    ax, ay, az = imu.accel_m_s2
+    gx, gy, gz = imu.gyro_rad_s
+    mx, my, mz = imu.mag_gauss
+    return mavlink2.MAVLink_highres_imu_message(
+        time_usec=imu.time_usec,
+        xacc=ax,
+        yacc=ay,
+        zacc=az,
+        xgyro=gx,
+        ygyro=gy,
+        zgyro=gz,
+        xmag=mx,
+        ymag=my,
+        zmag=mz,
+        abs_pressure=imu.abs_pressure_hpa,
+        diff_pressure=imu.diff_pressure_hpa,
+        pressure_alt=imu.pressure_alt_m,
+        temperature=imu.temperature_degc,
+        fields_updated=imu.fields_updated & 0xFFFF,
+        id=0,
+    )
+
+
+def gps_global_origin(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+    """GPS_GLOBAL_ORIGIN (49): the EKF origin of LOCAL_POSITION_NED; nothing before it is set."""
+    est = snapshot.estimator
+    if est is None or est.origin_lla is None:
+        return None
+    lat, lon, alt = est.origin_lla
+    return mavlink2.MAVLink_gps_global_origin_message(
+        latitude=_scaled(lat, 1e7, -900_000_000, 900_000_000, 0),
+        longitude=_scaled(lon, 1e7, -1_800_000_000, 1_800_000_000, 0),
+        altitude=_scaled(alt, 1000.0, -(2**31), 2**31 - 1, 0),
+        time_usec=est.origin_time_usec,
+    )
+
+
+def timesync_request(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
+    """TIMESYNC (111) as PX4's onboard stream sends it: tc1 = 0 (a request), ts1 = boot time, ns.
+
+    The companion answers with its own clock in tc1; this emulator needs no offset estimate (the
+    simulation clock is authoritative), so the answers are not used.
+    """
+    return mavlink2.MAVLink_timesync_message(tc1=0, ts1=snapshot.time_usec * 1000)
+
+
+def timesync_reply(request: Message, now_ns: int) -> Message:
+    """TIMESYNC answer to a request (tc1 == 0), as PX4's timesync.
+
+    tc1 = our boot time in ns, ts1 echoed so the requester can match it to its own request.
+    """
+    return mavlink2.MAVLink_timesync_message(tc1=now_ns, ts1=request.ts1)
+
+
 def mission_current(seq: int, total: int, state: int) -> Message:
     """MISSION_CURRENT (42): current item, item count (65535: none), MISSION_STATE and mode.
 
@@ -474,5 +716,13 @@ BUILDERS: dict[int, Builder] = {
     mavlink2.MAVLINK_MSG_ID_SYSTEM_TIME: system_time,
     mavlink2.MAVLINK_MSG_ID_FLIGHT_INFORMATION: flight_information,
     mavlink2.MAVLINK_MSG_ID_AUTOPILOT_VERSION: autopilot_version,
+    mavlink2.MAVLINK_MSG_ID_ATTITUDE_TARGET: attitude_target,
+    mavlink2.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: position_target_local_ned,
+    mavlink2.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: position_target_global_int,
+    mavlink2.MAVLINK_MSG_ID_ESTIMATOR_STATUS: estimator_status,
+    mavlink2.MAVLINK_MSG_ID_ODOMETRY: odometry,
+    mavlink2.MAVLINK_MSG_ID_HIGHRES_IMU: highres_imu,
+    mavlink2.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN: gps_global_origin,
+    mavlink2.MAVLINK_MSG_ID_TIMESYNC: timesync_request,
 }
 """Message id -> builder, for streams and MAV_CMD_REQUEST_MESSAGE."""

@@ -1,15 +1,23 @@
-"""Telemetry stream table and a simulation-time scheduler for it.
+"""Telemetry stream profiles (PX4's MAVLink modes) and a simulation-time scheduler for them.
 
-The defaults approximate PX4 SITL's onboard profile (MAVSDK_CONTRACT.md section 5). Intervals are
-kept in integer microseconds of simulation time, so a run emits exactly the same messages at the
-same instants whatever the wall clock does. MAV_CMD_SET_MESSAGE_INTERVAL edits the table at run
-time (:meth:`StreamScheduler.set_interval`).
+PX4 runs one MAVLink instance per link, each in a mode whose default stream rates come from
+``Mavlink::configure_streams_to_default`` (src/modules/mavlink/mavlink_main.cpp). PX4 SITL starts
+the ground-station link in the *normal* mode and the offboard/API link in the *onboard* mode
+(ROMFS/px4fmu_common/init.d-posix/px4-rc.mavlink). :data:`PROFILES` holds both tables as data,
+restricted to the messages this emulator can fill, with PX4's rates (Hz) and order; HEARTBEAT
+(``Mavlink::task_main``) and MISSION_CURRENT (the mission manager, once a second) go out on every
+link. Every other message with a builder can still be switched on at run time
+(MAV_CMD_SET_MESSAGE_INTERVAL) or by configuration, as PX4 allows any stream on any link.
+
+Intervals are kept in integer microseconds of simulation time, so a run emits exactly the same
+messages at the same instants whatever the wall clock does.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from enum import StrEnum
 
 from pymavlink.dialects.v20 import common as mavlink2
 
@@ -29,7 +37,86 @@ both what PX4 serves a companion at most and safely below the poll rate: shorter
 accepted and clamped to :data:`MIN_INTERVAL_US`, as PX4 effectively does."""
 MIN_INTERVAL_US = round(1e6 / MAX_STREAM_RATE_HZ)
 """Shortest interval a SET_MESSAGE_INTERVAL request can set, microseconds."""
+UNLIMITED = -1.0
+"""PX4's ``unlimited_rate``: the message goes out whenever its source has new data. Here the
+source's update rate stands in for it (GPS_RAW_INT: the GPS receiver's rate)."""
 _NEVER_US = 2**63 - 1
+
+
+class StreamProfile(StrEnum):
+    """PX4 MAVLink mode of a link (``mavlink start -m``): which streams it sends by default."""
+
+    NORMAL = "normal"
+    """Ground-station link (QGroundControl, MAVProxy): PX4 SITL's port 18570+i -> 14550."""
+    ONBOARD = "onboard"
+    """Companion / offboard-API link (MAVSDK, MAVROS): PX4 SITL's port 14580+i -> 14540+i."""
+
+
+EVERY_LINK: dict[str, float] = {"HEARTBEAT": 1.0, "MISSION_CURRENT": 1.0}
+"""Streams of every link whatever its mode, Hz: HEARTBEAT (task_main), MISSION_CURRENT (the
+mission manager's 1 s rate limiter)."""
+
+PROFILES: dict[StreamProfile, dict[str, float]] = {
+    StreamProfile.NORMAL: {
+        "ALTITUDE": 1.0,
+        "ATTITUDE": 15.0,
+        "ATTITUDE_QUATERNION": 10.0,
+        "ATTITUDE_TARGET": 2.0,
+        "BATTERY_STATUS": 0.5,
+        "ESTIMATOR_STATUS": 0.5,
+        "EXTENDED_SYS_STATE": 1.0,
+        "GLOBAL_POSITION_INT": 5.0,
+        "GPS_GLOBAL_ORIGIN": 1.0,
+        "GPS_RAW_INT": 5.0,
+        "HOME_POSITION": 0.5,
+        "LOCAL_POSITION_NED": 1.0,
+        "POSITION_TARGET_GLOBAL_INT": 1.0,
+        "POSITION_TARGET_LOCAL_NED": 1.5,
+        "SYS_STATUS": 1.0,
+        "VFR_HUD": 4.0,
+    },
+    StreamProfile.ONBOARD: {
+        "TIMESYNC": 10.0,
+        "HIGHRES_IMU": 50.0,
+        "LOCAL_POSITION_NED": 30.0,
+        "ATTITUDE": 100.0,
+        "ALTITUDE": 10.0,
+        "ODOMETRY": 30.0,
+        "ATTITUDE_QUATERNION": 50.0,
+        "ATTITUDE_TARGET": 10.0,
+        "BATTERY_STATUS": 0.5,
+        "ESTIMATOR_STATUS": 1.0,
+        "EXTENDED_SYS_STATE": 5.0,
+        "GLOBAL_POSITION_INT": 50.0,
+        "GPS_GLOBAL_ORIGIN": 1.0,
+        "GPS_RAW_INT": UNLIMITED,
+        "HOME_POSITION": 0.5,
+        "POSITION_TARGET_GLOBAL_INT": 10.0,
+        "POSITION_TARGET_LOCAL_NED": 10.0,
+        "SYS_STATUS": 5.0,
+        "SYSTEM_TIME": 1.0,
+        "VFR_HUD": 10.0,
+    },
+}
+"""PX4's default rates per mode, Hz, for the messages the emulator fills (PX4 order: the
+low-latency streams first); :data:`UNLIMITED` = on every update of the source."""
+
+ON_REQUEST: tuple[str, ...] = ("FLIGHT_INFORMATION",)
+"""Off in every profile until a client asks (MAVSDK's info.flight_information() sets
+FLIGHT_INFORMATION to 1 Hz with SET_MESSAGE_INTERVAL), as in PX4."""
+
+STREAMABLE: tuple[str, ...] = tuple(
+    dict.fromkeys(
+        [
+            *EVERY_LINK,
+            *PROFILES[StreamProfile.ONBOARD],
+            *PROFILES[StreamProfile.NORMAL],
+            *ON_REQUEST,
+        ]
+    )
+)
+"""Every message a link can stream (off unless its profile, the configuration or
+SET_MESSAGE_INTERVAL switches it on), in the order they go out when due together."""
 
 
 @dataclass(frozen=True)
@@ -44,25 +131,22 @@ class StreamSpec:
     """Rate in simulation time, Hz (0 = off by default)."""
 
 
-DEFAULT_STREAMS: tuple[StreamSpec, ...] = (
-    StreamSpec("HEARTBEAT", mavlink2.MAVLINK_MSG_ID_HEARTBEAT, 1.0),
-    StreamSpec("SYS_STATUS", mavlink2.MAVLINK_MSG_ID_SYS_STATUS, 2.0),
-    StreamSpec("EXTENDED_SYS_STATE", mavlink2.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, 2.0),
-    StreamSpec("GLOBAL_POSITION_INT", mavlink2.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, 20.0),
-    StreamSpec("LOCAL_POSITION_NED", mavlink2.MAVLINK_MSG_ID_LOCAL_POSITION_NED, 20.0),
-    StreamSpec("ATTITUDE", mavlink2.MAVLINK_MSG_ID_ATTITUDE, 20.0),
-    StreamSpec("ATTITUDE_QUATERNION", mavlink2.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, 20.0),
-    StreamSpec("GPS_RAW_INT", mavlink2.MAVLINK_MSG_ID_GPS_RAW_INT, 5.0),
-    StreamSpec("BATTERY_STATUS", mavlink2.MAVLINK_MSG_ID_BATTERY_STATUS, 1.0),
-    StreamSpec("HOME_POSITION", mavlink2.MAVLINK_MSG_ID_HOME_POSITION, 0.5),
-    StreamSpec("VFR_HUD", mavlink2.MAVLINK_MSG_ID_VFR_HUD, 4.0),
-    StreamSpec("ALTITUDE", mavlink2.MAVLINK_MSG_ID_ALTITUDE, 5.0),
-    StreamSpec("SYSTEM_TIME", mavlink2.MAVLINK_MSG_ID_SYSTEM_TIME, 1.0),
-    StreamSpec("MISSION_CURRENT", mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT, 1.0),
-    # Off until asked for, as PX4: MAVSDK's info.flight_information() sets it to 1 Hz.
-    StreamSpec("FLIGHT_INFORMATION", mavlink2.MAVLINK_MSG_ID_FLIGHT_INFORMATION, 0.0),
-)
-"""Streams sent unprompted, in the order they go out when due together."""
+def profile_streams(profile: StreamProfile, unlimited_rate_hz: float) -> tuple[StreamSpec, ...]:
+    """Every streamable message with its default rate in ``profile`` (0 = off).
+
+    Args:
+        profile: the link's PX4 mode.
+        unlimited_rate_hz: rate that stands in for PX4's unlimited rate, Hz (the rate at which
+            the source has new data, e.g. the GPS receiver's).
+    """
+    rates = {**EVERY_LINK, **PROFILES[profile]}
+    specs = []
+    for name in STREAMABLE:
+        rate = rates.get(name, 0.0)
+        if rate == UNLIMITED:
+            rate = unlimited_rate_hz
+        specs.append(StreamSpec(name, getattr(mavlink2, f"MAVLINK_MSG_ID_{name}"), rate))
+    return tuple(specs)
 
 
 def rate_to_interval_us(rate_hz: float) -> int:
@@ -93,7 +177,7 @@ class StreamScheduler:
 
     def __init__(
         self,
-        specs: tuple[StreamSpec, ...] = DEFAULT_STREAMS,
+        specs: tuple[StreamSpec, ...],
         rates_hz: Mapping[str, float] | None = None,
     ) -> None:
         rates_hz = rates_hz or {}

@@ -5,8 +5,11 @@ estimator behind this interface decide what happens. Keeping the two apart lets 
 tested against a fake vehicle and lets the flight stack run without sockets (lockstep benchmarks).
 
 Units: SI, angles in radians unless the name says ``_deg``; NED frame; altitudes AMSL unless the
-name says ``relative``. Results are ``MAV_RESULT`` integers (0 accepted, 1 temporarily rejected,
-2 denied, 3 unsupported, 4 failed).
+name says ``relative``. Snapshots are plain slotted dataclasses, built once per poll and never
+changed afterwards; they are not frozen because a frozen dataclass of this size costs four times
+as much to build, on the telemetry hot path (hundreds of snapshots per simulated second).
+Results are ``MAV_RESULT`` integers (0 accepted, 1 temporarily rejected, 2 denied, 3 unsupported,
+4 failed).
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from autopilot_emu.modes.offboard import GlobalSetpoint, LocalFrame, OffboardSet
 from autopilot_emu.params import ParamStore
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class HomeSnapshot:
     """Home position as HOME_POSITION reports it."""
 
@@ -33,7 +36,73 @@ class HomeSnapshot:
     """Home in the local NED frame of LOCAL_POSITION_NED, m."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
+class SetpointSnapshot:
+    """What the controllers track now; NaN marks what is not controlled.
+
+    PX4's vehicle_local_position_setpoint, vehicle_attitude_setpoint, vehicle_rates_setpoint.
+    """
+
+    position_ned_m: tuple[float, float, float]
+    """Position setpoint in the local NED frame, m; NaN on an axis that is velocity-controlled."""
+    velocity_ned_m_s: tuple[float, float, float]
+    """Velocity setpoint, m/s (the position loop's output plus feed-forward)."""
+    acceleration_ned_m_s2: tuple[float, float, float]
+    """Acceleration setpoint, m/s²; NaN where the controller has none."""
+    yaw_rad: float
+    """Heading setpoint, rad; NaN = not controlled."""
+    yaw_rate_rad_s: float
+    """Yaw-rate setpoint, rad/s; NaN = not controlled."""
+    global_position: tuple[float, float, float]
+    """The position setpoint as latitude, longitude (deg) and AMSL altitude (m); NaN where the
+    local setpoint is NaN or the vehicle has no EKF origin."""
+    attitude_wxyz: tuple[float, float, float, float]
+    """Attitude setpoint quaternion, body FRD to NED."""
+    body_rates_rad_s: tuple[float, float, float]
+    """Body-rate setpoint (roll, pitch, yaw), rad/s."""
+    thrust: float
+    """Collective thrust setpoint, 0..1."""
+
+
+@dataclass(slots=True)
+class ImuSample:
+    """The last IMU sample the flight stack received (HIGHRES_IMU), body FRD."""
+
+    time_usec: int
+    """Sample time since boot, microseconds."""
+    accel_m_s2: tuple[float, float, float]
+    gyro_rad_s: tuple[float, float, float]
+    mag_gauss: tuple[float, float, float]
+    abs_pressure_hpa: float
+    diff_pressure_hpa: float
+    pressure_alt_m: float
+    temperature_degc: float
+    fields_updated: int
+    """HIGHRES_IMU_UPDATED_FLAGS of the fields that are new in this sample."""
+
+
+@dataclass(slots=True)
+class EstimatorSnapshot:
+    """Estimator health and uncertainty (ESTIMATOR_STATUS, ODOMETRY covariances)."""
+
+    flags: int
+    """ESTIMATOR_STATUS_FLAGS of the solution's valid parts."""
+    pos_horiz_accuracy_m: float
+    """1-sigma horizontal position uncertainty, m."""
+    pos_vert_accuracy_m: float
+    """1-sigma vertical position uncertainty, m."""
+    position_variance_m2: tuple[float, float, float]
+    """Variance of the NED position estimate, m²."""
+    velocity_variance_m2_s2: tuple[float, float, float]
+    """Variance of the NED velocity estimate, m²/s²."""
+    origin_lla: tuple[float, float, float] | None
+    """EKF origin (GPS_GLOBAL_ORIGIN): latitude, longitude (deg), AMSL altitude (m); None
+    until the first good fix."""
+    origin_time_usec: int
+    """When the origin was set, microseconds since boot (0: not set)."""
+
+
+@dataclass(slots=True)
 class TelemetrySnapshot:
     """Everything the telemetry streams report, read at one instant of simulation time."""
 
@@ -85,6 +154,12 @@ class TelemetrySnapshot:
     home: HomeSnapshot | None
     """None until the vehicle has a home (before the first good position estimate)."""
     takeoff_alt_amsl_m: float = float("nan")
+    setpoint: SetpointSnapshot | None = None
+    """None while no controller runs (disarmed, or idle on the ground)."""
+    imu: ImuSample | None = None
+    """None before the first IMU sample."""
+    estimator: EstimatorSnapshot | None = None
+    """None if the flight stack does not report it."""
     extra: dict[str, float] = field(default_factory=dict)
     """Free-form extras for optional streams."""
 

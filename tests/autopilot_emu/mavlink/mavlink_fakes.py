@@ -12,7 +12,14 @@ from dataclasses import dataclass, field, replace
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
-from autopilot_emu.mavlink.vehicle_port import HomeSnapshot, TelemetrySnapshot
+from autopilot_emu.mavlink.link_hub import LinkHub
+from autopilot_emu.mavlink.vehicle_port import (
+    EstimatorSnapshot,
+    HomeSnapshot,
+    ImuSample,
+    SetpointSnapshot,
+    TelemetrySnapshot,
+)
 from autopilot_emu.params import ParamStore
 
 HOME = HomeSnapshot(lat_deg=47.397742, lon_deg=8.545594, alt_amsl_m=488.0, local_ned_m=(0, 0, 0))
@@ -53,6 +60,37 @@ def make_snapshot(**overrides: object) -> TelemetrySnapshot:
         battery_remaining_pct=95,
         battery_consumed_mah=12.0,
         home=HOME,
+        setpoint=SetpointSnapshot(
+            position_ned_m=(0.0, 0.0, -2.5),
+            velocity_ned_m_s=(0.0, 0.0, 0.0),
+            acceleration_ned_m_s2=(math.nan, math.nan, math.nan),
+            yaw_rad=0.0,
+            yaw_rate_rad_s=math.nan,
+            global_position=(HOME.lat_deg, HOME.lon_deg, HOME.alt_amsl_m + 2.5),
+            attitude_wxyz=(1.0, 0.0, 0.0, 0.0),
+            body_rates_rad_s=(0.0, 0.0, 0.0),
+            thrust=0.5,
+        ),
+        imu=ImuSample(
+            time_usec=1_000_000,
+            accel_m_s2=(0.0, 0.0, -9.81),
+            gyro_rad_s=(0.0, 0.0, 0.0),
+            mag_gauss=(0.21, 0.01, 0.42),
+            abs_pressure_hpa=955.0,
+            diff_pressure_hpa=0.0,
+            pressure_alt_m=488.0,
+            temperature_degc=20.0,
+            fields_updated=0x1FFF,
+        ),
+        estimator=EstimatorSnapshot(
+            flags=mavlink2.ESTIMATOR_ATTITUDE | mavlink2.ESTIMATOR_POS_HORIZ_ABS,
+            pos_horiz_accuracy_m=0.4,
+            pos_vert_accuracy_m=0.6,
+            position_variance_m2=(0.08, 0.08, 0.36),
+            velocity_variance_m2_s2=(0.01, 0.01, 0.02),
+            origin_lla=(HOME.lat_deg, HOME.lon_deg, HOME.alt_amsl_m),
+            origin_time_usec=500_000,
+        ),
     )
     return replace(base, **overrides)
 
@@ -151,6 +189,7 @@ def make_endpoint(
     vehicle: FakeVehicle,
     peers: tuple[tuple[str, int], ...] = (),
     wall_clock_s: Callable[[], float] = time.monotonic,
+    hub: LinkHub | None = None,
     **config: object,
 ) -> MavlinkEndpoint:
     """An endpoint on a free loopback port that sends only to ``peers`` and learned addresses."""
@@ -158,6 +197,7 @@ def make_endpoint(
         vehicle,
         EndpointConfig(listen_port=0, peers=peers, epoch_start_s=EPOCH_START_S, **config),
         wall_clock_s,
+        hub=hub,
     )
 
 

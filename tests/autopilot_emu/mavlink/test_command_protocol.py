@@ -15,6 +15,7 @@ from autopilot_emu.mavlink.commands import (
     CommandRequest,
 )
 from autopilot_emu.mavlink.messages import CAPABILITIES
+from autopilot_emu.mavlink.streams import PROFILES, StreamProfile
 
 ACCEPTED = mavlink2.MAV_RESULT_ACCEPTED
 DENIED = mavlink2.MAV_RESULT_DENIED
@@ -301,7 +302,8 @@ def test_get_message_interval(client, endpoint):
     client.send(endpoint, command_long(mavlink2.MAV_CMD_GET_MESSAGE_INTERVAL, 33))
     inbox = client.exchange(endpoint, 0.0, has("MESSAGE_INTERVAL"))
     interval = next(m for m in inbox if m.get_type() == "MESSAGE_INTERVAL")
-    assert (interval.message_id, interval.interval_us) == (33, 50_000)
+    onboard_rate_hz = PROFILES[StreamProfile.ONBOARD]["GLOBAL_POSITION_INT"]
+    assert (interval.message_id, interval.interval_us) == (33, round(1e6 / onboard_rate_hz))
 
 
 class _NoServices:

@@ -19,7 +19,19 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint, PortInUseError
-from autopilot_emu.mavlink.streams import DEFAULT_STREAMS, MAX_STREAM_RATE_HZ, MIN_INTERVAL_US
+from autopilot_emu.mavlink.streams import (
+    MAX_STREAM_RATE_HZ,
+    MIN_INTERVAL_US,
+    PROFILES,
+    StreamProfile,
+    StreamScheduler,
+    profile_streams,
+    rate_to_interval_us,
+)
+
+ONBOARD = PROFILES[StreamProfile.ONBOARD]
+ATTITUDE_HZ = ONBOARD["ATTITUDE"]
+"""Default ATTITUDE rate of the endpoints under test (the onboard profile)."""
 
 
 def _drive(endpoint, client, start_ms, stop_ms):
@@ -65,14 +77,19 @@ def test_disarmed_offboard_heartbeat(client, vehicle):
     assert heartbeat.base_mode & mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 
 
-def test_default_stream_rates_in_simulation_time(client, vehicle):
-    """Over 2 s of simulated time every stream is sent at its default rate."""
-    with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
+@pytest.mark.parametrize("profile", list(StreamProfile))
+def test_default_stream_rates_in_simulation_time(client, vehicle, profile):
+    """Over 2 s of simulated time every stream of the profile goes out at its default rate, one
+    message per interval, and no other stream goes out."""
+    with make_endpoint(vehicle, peers=(client.address,), profile=profile) as endpoint:
         endpoint.poll(0.0)
         client.drain()
         received = _drive(endpoint, client, 0, 2000)
-    for spec in DEFAULT_STREAMS:
-        assert _count(received, spec.name) == round(2.0 * spec.default_rate_hz), spec.name
+    for spec in profile_streams(profile, unlimited_rate_hz=10.0):
+        expected = 0
+        if spec.default_rate_hz > 0:
+            expected = 2_000_000 // rate_to_interval_us(spec.default_rate_hz)
+        assert _count(received, spec.name) == expected, spec.name
 
 
 def test_set_message_interval_changes_stops_and_restores_a_stream(client, vehicle):
@@ -88,11 +105,11 @@ def test_set_message_interval_changes_stops_and_restores_a_stream(client, vehicl
         client.exchange(endpoint, 2.0, has("COMMAND_ACK"))
         received = _drive(endpoint, client, 2000, 4000)
         assert _count(received, "ATTITUDE") == 0
-        assert _count(received, "ATTITUDE_QUATERNION") == 40
+        assert _count(received, "ATTITUDE_QUATERNION") == 2 * ONBOARD["ATTITUDE_QUATERNION"]
 
         client.send(endpoint, command_long(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 30, 0))
         client.exchange(endpoint, 4.0, has("COMMAND_ACK"))
-        assert _count(_drive(endpoint, client, 4000, 6000), "ATTITUDE") == 40
+        assert _count(_drive(endpoint, client, 4000, 6000), "ATTITUDE") == 2 * ATTITUDE_HZ
 
 
 def test_set_message_interval_for_unknown_message_is_denied(client, vehicle):
@@ -136,6 +153,13 @@ def test_unknown_stream_name_in_config_is_rejected(vehicle):
 
 
 def test_telemetry_is_read_at_most_once_per_poll_and_only_when_due(client, vehicle):
+    """One snapshot per poll at which a stream is due (MISSION_CURRENT alone needs none)."""
+    due_polls = 0
+    scheduler = StreamScheduler(profile_streams(StreamProfile.ONBOARD, 10.0))
+    scheduler.pop_due(0)
+    for ms in range(1, 1001):
+        names = {spec.name for spec in scheduler.pop_due(ms * 1000)}
+        due_polls += bool(names - {"MISSION_CURRENT"})
     with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
         endpoint.poll(0.0)
         assert vehicle.telemetry_calls == 1
@@ -143,7 +167,7 @@ def test_telemetry_is_read_at_most_once_per_poll_and_only_when_due(client, vehic
         assert vehicle.telemetry_calls == 1
         for ms in range(1, 1001):
             endpoint.poll(ms / 1000.0)
-        assert vehicle.telemetry_calls == 1 + 20  # the 20 Hz streams are due every 50 ms
+        assert vehicle.telemetry_calls == 1 + due_polls
 
 
 def test_home_position_is_not_streamed_without_a_home(client, vehicle):
@@ -379,7 +403,7 @@ def test_unrepresentable_or_unsupported_intervals_are_denied(client, vehicle, pa
     with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
         endpoint.poll(0.0)
         assert _interval_ack(client, endpoint, 0.0, *params) == 2
-        assert _count(_drive(endpoint, client, 0, 1000), "ATTITUDE") == 20  # unchanged
+        assert _count(_drive(endpoint, client, 0, 1000), "ATTITUDE") == ATTITUDE_HZ  # unchanged
 
 
 def test_any_negative_interval_stops_a_stream_and_tiny_ones_restore_the_default(client, vehicle):
@@ -389,7 +413,7 @@ def test_any_negative_interval_stops_a_stream_and_tiny_ones_restore_the_default(
         assert _interval_ack(client, endpoint, 0.0, 30, -5) == 0
         assert _count(_drive(endpoint, client, 0, 1000), "ATTITUDE") == 0
         assert _interval_ack(client, endpoint, 1.0, 30, 1e-6) == 0
-        assert _count(_drive(endpoint, client, 1000, 2000), "ATTITUDE") == 20
+        assert _count(_drive(endpoint, client, 1000, 2000), "ATTITUDE") == ATTITUDE_HZ
         assert _interval_ack(client, endpoint, 2.0, 30, 0.6) == 0  # rounds to 1 us: fastest
         assert _count(_drive(endpoint, client, 2000, 3000), "ATTITUDE") == MAX_STREAM_RATE_HZ
 

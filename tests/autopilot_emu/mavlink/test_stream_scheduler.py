@@ -5,11 +5,13 @@ from __future__ import annotations
 import pytest
 
 from autopilot_emu.mavlink.streams import (
-    DEFAULT_STREAMS,
     MAX_STREAM_RATE_HZ,
     MIN_INTERVAL_US,
+    PROFILES,
+    StreamProfile,
     StreamScheduler,
     StreamSpec,
+    profile_streams,
     rate_to_interval_us,
 )
 
@@ -77,10 +79,25 @@ def test_rate_to_interval():
     assert rate_to_interval_us(-3.0) == -1
 
 
-def test_default_table_starts_with_heartbeat_at_1_hz():
-    assert DEFAULT_STREAMS[0].name == "HEARTBEAT"
-    assert DEFAULT_STREAMS[0].default_rate_hz == 1.0
-    assert len({s.msg_id for s in DEFAULT_STREAMS}) == len(DEFAULT_STREAMS)
+@pytest.mark.parametrize("profile", list(StreamProfile))
+def test_every_profile_starts_with_heartbeat_at_1_hz_and_names_each_message_once(profile):
+    specs = profile_streams(profile, unlimited_rate_hz=10.0)
+    assert (specs[0].name, specs[0].default_rate_hz) == ("HEARTBEAT", 1.0)
+    assert len({s.msg_id for s in specs}) == len(specs)
+
+
+def test_unlimited_rate_streams_run_at_the_rate_of_their_source():
+    """PX4's onboard GPS_RAW_INT goes out on every fix: here at the GPS rate asked for."""
+    specs = {s.name: s for s in profile_streams(StreamProfile.ONBOARD, unlimited_rate_hz=8.0)}
+    assert specs["GPS_RAW_INT"].default_rate_hz == 8.0
+    normal = {s.name: s for s in profile_streams(StreamProfile.NORMAL, unlimited_rate_hz=8.0)}
+    assert normal["GPS_RAW_INT"].default_rate_hz == PROFILES[StreamProfile.NORMAL]["GPS_RAW_INT"]
+
+
+def test_messages_outside_a_profile_are_streamable_but_off():
+    """PX4 can stream any message on any link: HIGHRES_IMU is off on the GCS link by default."""
+    specs = {s.name: s for s in profile_streams(StreamProfile.NORMAL, unlimited_rate_hz=10.0)}
+    assert specs["HIGHRES_IMU"].default_rate_hz == 0.0
 
 
 @pytest.mark.parametrize("requested_us", [1, 5_000, MIN_INTERVAL_US - 1])
@@ -103,4 +120,5 @@ def test_max_stream_rate_is_within_the_default_poll_rate():
     from harness.simulation import SimulationConfig
 
     assert SimulationConfig().mavlink_poll_hz >= MAX_STREAM_RATE_HZ
-    assert max(spec.default_rate_hz for spec in DEFAULT_STREAMS) <= MAX_STREAM_RATE_HZ
+    for profile in StreamProfile:
+        assert max(PROFILES[profile].values()) <= MAX_STREAM_RATE_HZ

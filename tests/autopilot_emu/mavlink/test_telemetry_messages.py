@@ -130,3 +130,87 @@ def test_statustext_single_message_and_chunks():
     assert [len(c.text) for c in chunks] == [50, 50, 20]
     for chunk in chunks:
         _packs(chunk)
+
+
+def test_position_target_local_ned_marks_uncontrolled_fields_as_ignored():
+    """As PX4: NaN setpoint components (velocity-controlled axes, no acceleration, no yaw
+    rate) get their *_IGNORE bit; controlled ones are sent as they are."""
+    sp = replace(
+        make_snapshot().setpoint,
+        position_ned_m=(math.nan, math.nan, -10.0),
+        velocity_ned_m_s=(1.0, -0.5, 0.0),
+    )
+    msg = _packs(messages.position_target_local_ned(make_snapshot(setpoint=sp), CONTEXT))
+    ignored = (
+        mavlink2.POSITION_TARGET_TYPEMASK_X_IGNORE
+        | mavlink2.POSITION_TARGET_TYPEMASK_Y_IGNORE
+        | mavlink2.POSITION_TARGET_TYPEMASK_AX_IGNORE
+        | mavlink2.POSITION_TARGET_TYPEMASK_AY_IGNORE
+        | mavlink2.POSITION_TARGET_TYPEMASK_AZ_IGNORE
+        | mavlink2.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+    )
+    assert msg.type_mask == ignored
+    assert msg.coordinate_frame == mavlink2.MAV_FRAME_LOCAL_NED
+    assert (msg.z, msg.vx, msg.vy) == (-10.0, 1.0, -0.5)
+
+
+def test_setpoint_messages_are_not_sent_while_no_controller_runs():
+    idle = make_snapshot(setpoint=None)
+    for build in (
+        messages.attitude_target,
+        messages.position_target_local_ned,
+        messages.position_target_global_int,
+    ):
+        assert build(idle, CONTEXT) is None
+
+
+def test_position_target_global_int_only_for_a_horizontal_position_target():
+    snapshot = make_snapshot()
+    msg = _packs(messages.position_target_global_int(snapshot, CONTEXT))
+    lat, lon, alt = snapshot.setpoint.global_position
+    assert (msg.lat_int, msg.lon_int) == (round(lat * 1e7), round(lon * 1e7))
+    assert msg.alt == pytest.approx(alt)
+    assert msg.coordinate_frame == mavlink2.MAV_FRAME_GLOBAL_INT
+    velocity_only = replace(snapshot.setpoint, global_position=(math.nan, math.nan, alt))
+    assert (
+        messages.position_target_global_int(make_snapshot(setpoint=velocity_only), CONTEXT) is None
+    )
+
+
+@pytest.mark.parametrize("thrust", [-0.2, 0.0, 0.61, 1.7])
+def test_attitude_target_thrust_is_collective_thrust_in_0_1(thrust):
+    sp = replace(make_snapshot().setpoint, thrust=thrust, attitude_wxyz=(0.0, 1.0, 0.0, 0.0))
+    msg = _packs(messages.attitude_target(make_snapshot(setpoint=sp), CONTEXT))
+    assert msg.thrust == pytest.approx(min(1.0, max(0.0, thrust)))
+    assert list(msg.q) == [0.0, 1.0, 0.0, 0.0]
+    assert msg.type_mask == 0  # as PX4: every field is a live setpoint
+
+
+def test_odometry_is_ned_with_variances_on_the_covariance_diagonals():
+    snapshot = make_snapshot(position_ned_m=(1.0, 2.0, -3.0), velocity_ned_m_s=(0.5, 0.0, -0.1))
+    msg = _packs(messages.odometry(snapshot, CONTEXT))
+    assert (msg.frame_id, msg.child_frame_id) == (mavlink2.MAV_FRAME_LOCAL_NED,) * 2
+    assert (msg.x, msg.y, msg.z, msg.vx, msg.vz) == pytest.approx((1.0, 2.0, -3.0, 0.5, -0.1))
+    est = snapshot.estimator
+    diagonal = [msg.pose_covariance[i] for i in (0, 6, 11)]
+    assert diagonal == pytest.approx(est.position_variance_m2)
+    assert [msg.velocity_covariance[i] for i in (0, 6, 11)] == pytest.approx(
+        est.velocity_variance_m2_s2
+    )
+    assert math.isnan(msg.pose_covariance[1])  # off-diagonal: unknown
+    assert msg.estimator_type == mavlink2.MAV_ESTIMATOR_TYPE_AUTOPILOT
+
+
+def test_estimator_status_origin_and_highres_imu_fields():
+    snapshot = make_snapshot()
+    est = _packs(messages.estimator_status(snapshot, CONTEXT))
+    assert est.flags == snapshot.estimator.flags
+    assert est.pos_horiz_accuracy == pytest.approx(snapshot.estimator.pos_horiz_accuracy_m)
+    origin = _packs(messages.gps_global_origin(snapshot, CONTEXT))
+    assert (origin.latitude, origin.altitude) == (473977420, 488000)
+    assert origin.time_usec == snapshot.estimator.origin_time_usec
+    no_origin = replace(snapshot.estimator, origin_lla=None)
+    assert messages.gps_global_origin(make_snapshot(estimator=no_origin), CONTEXT) is None
+    imu = _packs(messages.highres_imu(snapshot, CONTEXT))
+    assert (imu.zacc, imu.abs_pressure, imu.fields_updated) == pytest.approx((-9.81, 955.0, 0x1FFF))
+    assert messages.highres_imu(make_snapshot(imu=None), CONTEXT) is None

@@ -1,0 +1,84 @@
+"""What the MAVLink links of one vehicle share: one telemetry snapshot per poll, one-off events.
+
+PX4 runs one MAVLink instance per link (PX4 SITL: the offboard/API link and the ground-station
+link), all reading the same vehicle. Two things must then not be consumed by whichever link reads
+first: the telemetry snapshot (read once per instant of simulation time, whatever number of links
+stream from it) and the announcements the vehicle makes once (status texts, mission items
+reached), which every link must forward. :class:`LinkHub` owns both; each link reads the
+announcements through its own cursor.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
+
+MAX_PENDING_ANNOUNCEMENTS = 256
+"""Announcements kept for a link that has not read them yet; older ones are dropped."""
+
+Announcement = tuple[int, str] | int
+"""A status text (MAV_SEVERITY, text) or the seq of a mission item reached."""
+
+
+class LinkHub:
+    """The shared side of one vehicle's MAVLink links.
+
+    Args:
+        vehicle: the flight stack every link talks to.
+    """
+
+    def __init__(self, vehicle: VehiclePort) -> None:
+        self.vehicle = vehicle
+        self._snapshot: TelemetrySnapshot | None = None
+        self._snapshot_key: tuple[int, int] | None = None
+        self._generation = 0
+        self._log: deque[tuple[int, Announcement]] = deque(maxlen=MAX_PENDING_ANNOUNCEMENTS)
+        self._next_seq = 0
+        self._cursors: list[int] = []
+
+    # --- telemetry -------------------------------------------------------------------------
+
+    def telemetry(self, now_us: int) -> TelemetrySnapshot:
+        """The vehicle's snapshot at simulation time ``now_us``, read once for all links."""
+        key = (now_us, self._generation)
+        if key != self._snapshot_key or self._snapshot is None:
+            self._snapshot = self.vehicle.telemetry()
+            self._snapshot_key = key
+        return self._snapshot
+
+    def touched(self) -> None:
+        """A link handled input that may have changed the vehicle: read a fresh snapshot."""
+        self._generation += 1
+
+    # --- announcements ---------------------------------------------------------------------
+
+    def subscribe(self) -> int:
+        """A new link: its cursor id (it sees announcements made from now on)."""
+        self._cursors.append(self._next_seq)
+        return len(self._cursors) - 1
+
+    def announcements(self, cursor: int) -> tuple[list[tuple[int, str]], list[int]]:
+        """Status texts and mission items reached that link ``cursor`` has not seen yet."""
+        self._collect()
+        start = self._cursors[cursor]
+        self._cursors[cursor] = self._next_seq
+        texts: list[tuple[int, str]] = []
+        reached: list[int] = []
+        for seq, item in self._log:
+            if seq < start:
+                continue
+            if isinstance(item, int):
+                reached.append(item)
+            else:
+                texts.append(item)
+        oldest_needed = min(self._cursors)
+        while self._log and self._log[0][0] < oldest_needed:
+            self._log.popleft()
+        return texts, reached
+
+    def _collect(self) -> None:
+        """Move what the vehicle announced since the last read into the shared log."""
+        for item in (*self.vehicle.pop_status_texts(), *self.vehicle.pop_mission_reached()):
+            self._log.append((self._next_seq, item))
+            self._next_seq += 1
