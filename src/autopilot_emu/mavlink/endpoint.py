@@ -210,6 +210,7 @@ class MavlinkEndpoint:
             sysid=config.sysid,
             params=vehicle.params,
             epoch_start_us=round(config.epoch_start_s * 1e6),
+            ftp=config.ftp_root is not None,
         )
         self._params = ParamProtocol(vehicle.params, self._send)
         self._commands = CommandDispatcher(vehicle, self, wall_clock_s)

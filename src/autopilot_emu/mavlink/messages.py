@@ -81,6 +81,8 @@ class MessageContext:
     """The vehicle's parameters (battery cell count and warning thresholds)."""
     epoch_start_us: int
     """Unix time at simulation t = 0, microseconds (SYSTEM_TIME)."""
+    ftp: bool = False
+    """MAVLink FTP is served (AUTOPILOT_VERSION advertises MAV_PROTOCOL_CAPABILITY_FTP)."""
 
 
 Message = mavlink2.MAVLink_message
@@ -399,7 +401,7 @@ def autopilot_version(snapshot: TelemetrySnapshot, context: MessageContext) -> M
     """AUTOPILOT_VERSION (148): capabilities, PX4-packed version, uid derived from sysid."""
     version = flight_sw_version(*FIRMWARE_VERSION, _FIRMWARE_TYPE_RELEASE)
     return mavlink2.MAVLink_autopilot_version_message(
-        capabilities=CAPABILITIES,
+        capabilities=CAPABILITIES | (mavlink2.MAV_PROTOCOL_CAPABILITY_FTP if context.ftp else 0),
         flight_sw_version=version,
         middleware_sw_version=version,
         os_sw_version=0,

@@ -55,6 +55,22 @@ def test_list_directory_is_answered_to_the_sender(client, vehicle, root):
     assert reply.valid_data == b"S\0S\0Fhello.txt\t5\0Dlog\0"
 
 
+@pytest.mark.parametrize("served", [True, False])
+def test_autopilot_version_advertises_ftp_only_when_served(client, vehicle, root, served):
+    """MAV_PROTOCOL_CAPABILITY_FTP, as PX4 sets it when its MAVLink instance runs FTP (-x)."""
+    ftp_root = root if served else None
+    with make_endpoint(vehicle, stream_rates_hz={"HEARTBEAT": 0}, ftp_root=ftp_root) as endpoint:
+        client.send(
+            endpoint,
+            mavlink2.MAVLink_command_long_message(
+                1, 1, mavlink2.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0, 1, 0, 0, 0, 0, 0, 0
+            ),
+        )
+        inbox = client.exchange(endpoint, 0.0, has("AUTOPILOT_VERSION"))
+    version = next(m for m in inbox if m.get_type() == "AUTOPILOT_VERSION")
+    assert bool(version.capabilities & mavlink2.MAV_PROTOCOL_CAPABILITY_FTP) is served
+
+
 @pytest.mark.parametrize("target", [(0, 0), (1, 0), (0, 1)])
 def test_broadcast_targets_are_answered(client, vehicle, root, target):
     with make_endpoint(vehicle, stream_rates_hz={"HEARTBEAT": 0}, ftp_root=root) as endpoint:
