@@ -140,9 +140,11 @@ def up(
         with console.status("starting ...") as status:
             sim.run_paced(speed, should_stop, duration if duration > 0 else float("inf"))
     finally:
+        # Close (tlogs, truth.csv) while Ctrl-C still only sets the flag: a second Ctrl-C or
+        # a SIGTERM from a wrapper during shutdown must not cut the recordings short.
+        sim.close()
         for s, h in old.items():
             signal.signal(s, h)
-        sim.close()
     wall = max(time.monotonic() - t_start, 1e-9)
     console.print(
         f"stopped at t = {sim.time_s:.1f} s simulated ({sim.time_s / wall:.2f}x real time "
@@ -200,8 +202,6 @@ def demo(
                 lambda: proc.poll() is not None or flag.stop or time.monotonic() - t0 > timeout,
             )
     finally:
-        for s, h in old.items():
-            signal.signal(s, h)
         if proc.poll() is None:
             proc.terminate()
             try:
@@ -209,7 +209,9 @@ def demo(
             except subprocess.TimeoutExpired:
                 proc.kill()
         log.close()
-        sim.close()
+        sim.close()  # before the handlers are restored: see `up`
+        for s, h in old.items():
+            signal.signal(s, h)
     import json
 
     if not events_path.exists():
