@@ -101,11 +101,13 @@ def test_health_and_unix_epoch_time(run):
 
 
 def test_default_rates_in_simulation_time(run):
-    """Unprompted rates within PX4 SITL's ranges (contract section 5); SYSTEM_TIME every 1 s."""
+    """Unprompted rates of PX4's onboard profile, the one MAVSDK's port gets (ATTITUDE 100 Hz,
+    ATTITUDE_QUATERNION 50 Hz, GPS_RAW_INT at every GPS fix: 10 Hz here); SYSTEM_TIME every 1 s.
+    """
     c = run.check("rates_default")
-    assert 10.0 <= c["attitude_euler_hz"] <= 50.0
-    assert 10.0 <= c["attitude_quaternion_hz"] <= 50.0
-    assert 1.0 <= c["raw_gps_hz"] <= 5.0
+    assert c["attitude_euler_hz"] == pytest.approx(100.0, rel=0.05)
+    assert c["attitude_quaternion_hz"] == pytest.approx(50.0, rel=0.05)
+    assert c["raw_gps_hz"] == pytest.approx(10.0, rel=0.1)
     assert c["unix_epoch_steps_s"] == pytest.approx([1.0] * 3, abs=0.01)
 
 
