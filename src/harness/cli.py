@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import math
 import os
 import signal
 import subprocess
@@ -17,6 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from autopilot_emu.mavlink.endpoint import PortInUseError
+from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 app = typer.Typer(
@@ -54,6 +56,30 @@ def _open_simulation(cfg: SimulationConfig) -> Simulation:
         raise typer.Exit(2) from exc
 
 
+def parse_stream_rates(specs: list[str]) -> dict[StreamProfile, dict[str, float]]:
+    """``[gcs:]NAME=HZ`` options -> rate overrides per link kind (onboard unless ``gcs:``)."""
+    rates: dict[StreamProfile, dict[str, float]] = {}
+    for spec in specs:
+        profile = StreamProfile.ONBOARD
+        body = spec
+        if spec.lower().startswith("gcs:"):
+            profile, body = StreamProfile.NORMAL, spec[4:]
+        name, sep, value = body.partition("=")
+        name = name.strip().upper()
+        try:
+            rate = float(value) if sep else math.nan
+        except ValueError:
+            rate = math.nan
+        if not (math.isfinite(rate) and rate >= 0):
+            raise typer.BadParameter(f"{spec!r}: expected NAME=HZ with HZ >= 0, e.g. ATTITUDE=20")
+        if name not in STREAMABLE:
+            raise typer.BadParameter(
+                f"{spec!r}: {name} is not a stream; streams: {', '.join(sorted(STREAMABLE))}"
+            )
+        rates.setdefault(profile, {})[name] = rate
+    return rates
+
+
 @app.command()
 def up(
     vehicles: Annotated[int, typer.Option("--vehicles", "-n", min=1, max=255)] = 1,
@@ -75,6 +101,13 @@ def up(
     seed: Annotated[int, typer.Option(help="seed of every random draw")] = 0,
     out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
     duration: Annotated[float, typer.Option(help="stop after this many sim seconds")] = 0.0,
+    stream_rate: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="override a stream's rate: NAME=HZ on the onboard link, gcs:NAME=HZ on the "
+            "GCS link, 0 = off (repeatable; e.g. ATTITUDE=20)"
+        ),
+    ] = None,
 ) -> None:
     """Start N emulated PX4 hexacopters and serve MAVLink until Ctrl-C.
 
@@ -86,6 +119,8 @@ def up(
     directory (vehicleN.tlog, vehicleN-gcs.tlog).
 
     Example:  swarmsitl up --vehicles 3 --speed 2
+
+    Example:  swarmsitl up --vehicles 20 --stream-rate ATTITUDE=20 --stream-rate HIGHRES_IMU=0
     """
     run_dir = out or default_run_dir()
     ports = PortPlan(
@@ -96,7 +131,12 @@ def up(
         gcs_listen_base=gcs_listen_port,
     )
     cfg = SimulationConfig(
-        n_vehicles=vehicles, seed=seed, spacing_m=spacing, ports=ports, out_dir=run_dir
+        n_vehicles=vehicles,
+        seed=seed,
+        spacing_m=spacing,
+        ports=ports,
+        out_dir=run_dir,
+        stream_rates_hz=parse_stream_rates(stream_rate or []),
     )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")

@@ -99,6 +99,10 @@ class SimulationConfig:
     """Rate of the ground-truth recording, Hz (0 disables)."""
     world_overrides: dict = field(default_factory=dict)
     """Extra WorldConfig fields (e.g. spawn_altitude_m)."""
+    stream_rates_hz: dict[StreamProfile, dict[str, float]] = field(default_factory=dict)
+    """Overrides of the stream profiles' default rates per link kind, e.g.
+    {StreamProfile.ONBOARD: {"ATTITUDE": 20.0}}; 0 Hz switches a stream off. Fewer messages
+    make large swarms faster (PX4: ``mavlink stream -r``)."""
 
     def __post_init__(self) -> None:
         if self.n_vehicles < 1:
@@ -181,6 +185,7 @@ class Simulation:
                     epoch_start_s=self.epoch_start_s,
                     gps_rate_hz=self.world.config.gps_hz,
                     ftp_root=ftp_root,
+                    stream_rates_hz=self.config.stream_rates_hz.get(profile, {}),
                 )
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
         except BaseException:

@@ -42,3 +42,22 @@ def test_ctrl_c_during_shutdown_does_not_cut_the_recordings(tmp_path, monkeypatc
     assert "stopped at" in result.output
     assert (out / "truth.csv").stat().st_size > 0
     assert (out / "vehicle1.tlog").stat().st_size > 0
+
+
+def test_stream_rate_options_parse_per_link():
+    from autopilot_emu.mavlink.streams import StreamProfile
+    from harness.cli import parse_stream_rates
+
+    rates = parse_stream_rates(["ATTITUDE=20", "gcs:attitude=2", "HIGHRES_IMU=0"])
+    assert rates == {
+        StreamProfile.ONBOARD: {"ATTITUDE": 20.0, "HIGHRES_IMU": 0.0},
+        StreamProfile.NORMAL: {"ATTITUDE": 2.0},
+    }
+
+
+@pytest.mark.parametrize("spec", ["ATTITUDE", "ATTITUDE=-1", "ATTITUDE=fast", "NOPE=5"])
+def test_bad_stream_rate_options_are_refused_with_a_reason(spec):
+    result = CliRunner().invoke(app, ["up", "--stream-rate", spec, "--duration", "1"])
+    assert result.exit_code == 2  # a usage error, before anything starts
+    flat = "".join(result.output.replace("│", "").split())
+    assert f"'{spec}':" in flat  # the message names the bad option

@@ -156,3 +156,38 @@ def test_hold_during_goto_stops_near_where_it_was():
         assert abs(north - north_at_hold) < 6.0  # braking distance from cruise speed
     finally:
         sim.close()
+
+
+def test_stream_rate_overrides_reach_the_onboard_link():
+    """SimulationConfig.stream_rates_hz: ATTITUDE at 20 Hz instead of the profile's 100 Hz."""
+    import socket
+
+    from pymavlink.dialects.v20 import common as mavlink2
+
+    from autopilot_emu.mavlink.streams import StreamProfile
+    from harness.simulation import PortPlan, Simulation, SimulationConfig
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
+        client.bind(("127.0.0.1", 0))
+        client.setblocking(False)
+        port = client.getsockname()[1]
+        config = SimulationConfig(
+            record_hz=0,
+            ports=PortPlan(listen_base=0, sdk_base=port, gcs_port=0),
+            stream_rates_hz={StreamProfile.ONBOARD: {"ATTITUDE": 20.0}},
+        )
+        with Simulation(config) as sim:
+            mav = mavlink2.MAVLink(None)
+            mav.robust_parsing = True
+            count = 0
+            for step in range(1000):  # 2 s at 500 Hz
+                sim.step()
+                if step % 50 == 0 or step == 999:
+                    while True:
+                        try:
+                            data = client.recv(65535)
+                        except BlockingIOError:
+                            break
+                        msgs = mav.parse_buffer(data) or []
+                        count += sum(m.get_type() == "ATTITUDE" for m in msgs)
+    assert count in (40, 41)
