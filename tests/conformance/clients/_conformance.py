@@ -64,6 +64,10 @@ CONNECT_TIMEOUT_S = 60.0
 """Wall seconds to connect and see global position and home OK."""
 
 
+RECONNECT_GRPC_OFFSET = 5
+"""gRPC port offset of a reconnected classic client (inside the module's port block of 10)."""
+
+
 class Api:
     """One vehicle as seen through either MAVSDK-Python API."""
 
@@ -102,10 +106,21 @@ class Api:
         await self._stack.aclose()
 
     async def reconnect(self) -> None:
-        """Disconnect and connect again, as a user restarting a script does."""
+        """Disconnect and connect again, as a user restarting a script does.
+
+        The classic API's new mavsdk_server gets the other gRPC port of the pair (port, port +
+        RECONNECT_GRPC_OFFSET): the old server may not have released its port yet when the new
+        one starts, which made the reconnect fail now and then ("connection refused").
+        """
         await self.close()
-        fresh = await Api.connect(self.kind, *self._how)
+        url, grpc_port, r = self._how
+        if self.kind == "classic":
+            base = self._grpc_base if hasattr(self, "_grpc_base") else grpc_port
+            grpc_port = base + RECONNECT_GRPC_OFFSET if grpc_port == base else base
+        fresh = await Api.connect(self.kind, url, grpc_port, r)
+        base_port = getattr(self, "_grpc_base", self._how[1])
         self.__dict__.update(fresh.__dict__)
+        self._grpc_base = base_port
 
     def plugin(self, name: str):
         """The plugin ``name`` (``action``, ``mission_raw``, ...) of this vehicle."""
