@@ -114,6 +114,27 @@ def test_position_ned_takes_off_flies_and_turns(flying):
     assert lk.yaw_deg() == pytest.approx(90.0, abs=5.0)
 
 
+def test_setpoints_are_streamed_back_as_position_and_attitude_targets(flying):
+    """POSITION_TARGET_LOCAL_NED carries the offboard target, ATTITUDE_TARGET the attitude and
+    thrust being flown (PX4's onboard profile: 10 Hz each)."""
+    lk = flying
+    target = lk.ned() + np.array([3.0, 2.0, -1.0])
+    sp = local_ned(POSITION_NED, x=target[0], y=target[1], z=target[2], yaw=math.radians(45))
+    lk.stream(lambda: sp, 1.0)
+    echo = lk.wait_type("POSITION_TARGET_LOCAL_NED")
+    assert [echo.x, echo.y, echo.z] == pytest.approx(target.tolist(), abs=1e-3)
+    assert echo.yaw == pytest.approx(math.radians(45), abs=1e-4)
+    assert echo.type_mask & mavlink2.POSITION_TARGET_TYPEMASK_AX_IGNORE
+    hover = float(lk.sim.fleet.params[0].get("MPC_THR_HOVER"))
+    tilt = attitude_target(5.0, 0.0, 45.0, hover)
+    lk.stream(lambda: tilt, 0.5)
+    lk.inbox.clear()
+    echo = lk.wait_type("ATTITUDE_TARGET")
+    q = quat.from_euler(np.radians([[5.0, 0.0, 45.0]]))[0]
+    assert abs(float(np.dot(echo.q, q))) == pytest.approx(1.0, abs=1e-4)
+    assert echo.thrust == pytest.approx(hover, abs=1e-4)
+
+
 def test_velocity_ned_and_body_velocity_with_yaw_rate(flying):
     lk = flying
     east = local_ned(VELOCITY_NED, vy=2.0, yaw=math.radians(90))
