@@ -6,6 +6,7 @@ with ``os._exit`` so that no stray thread (mavsdk_grpc's log thread) can keep it
 
 from __future__ import annotations
 
+import argparse
 import asyncio
 import json
 import math
@@ -138,3 +139,14 @@ def run(main, report: Report) -> None:
     print(json.dumps(report, default=str), flush=True)
     sys.stderr.flush()
     os._exit(rc)
+
+
+def classic_main(flow, options=lambda ap: None) -> None:
+    """A classic-API client's command line (``--url``, ``--grpc-port``, ``options``), then
+    :func:`run` of ``flow(args, report)``."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--url", required=True)
+    ap.add_argument("--grpc-port", type=int, required=True)
+    options(ap)
+    args = ap.parse_args()
+    run(lambda report: flow(args, report), Report())

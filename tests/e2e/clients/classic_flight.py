@@ -9,7 +9,6 @@ fast the simulation actually runs.
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import math
 import statistics
@@ -18,11 +17,11 @@ import pymap3d
 from _common import (
     ClientError,
     Report,
+    classic_main,
     connect_healthy,
     first,
     horizontal,
     ned_of,
-    run,
     sim_sleep,
     wait_for,
 )
@@ -179,11 +178,7 @@ async def fly(args, r: Report) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    ap.add_argument("--grpc-port", type=int, required=True)
-    args = ap.parse_args()
-    run(lambda report: fly(args, report), Report())
+    classic_main(fly)
 
 
 if __name__ == "__main__":

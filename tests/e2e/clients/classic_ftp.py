@@ -12,12 +12,11 @@ downloads and the FtpResult names of the errors.
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import os
 from pathlib import Path
 
-from _common import Report, run, wait_for
+from _common import Report, classic_main, wait_for
 
 UPLOAD_BYTES = 3000
 STEP_TIMEOUT_S = 60.0
@@ -108,15 +107,14 @@ async def session(args, r: Report) -> None:
         drone._stop_mavsdk_server()
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    ap.add_argument("--grpc-port", type=int, required=True)
+def _options(ap) -> None:
     ap.add_argument("--seed-remote", required=True)
     ap.add_argument("--seed-local", required=True)
     ap.add_argument("--work-dir", required=True)
-    args = ap.parse_args()
-    run(lambda report: session(args, report), Report())
+
+
+def main() -> None:
+    classic_main(session, _options)
 
 
 if __name__ == "__main__":

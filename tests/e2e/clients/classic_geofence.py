@@ -9,10 +9,9 @@ clears it and reads both again. See :func:`_plans.geofence_flow`.
 
 from __future__ import annotations
 
-import argparse
 from types import SimpleNamespace
 
-from _common import Report, connect_healthy, first, run
+from _common import Report, classic_main, connect_healthy, first
 from _plans import geofence_flow
 
 
@@ -36,11 +35,7 @@ async def main_flow(args, r: Report) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    ap.add_argument("--grpc-port", type=int, required=True)
-    args = ap.parse_args()
-    run(lambda report: main_flow(args, report), Report())
+    classic_main(main_flow)
 
 
 if __name__ == "__main__":

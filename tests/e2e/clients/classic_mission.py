@@ -10,17 +10,16 @@ settling periods in simulated seconds (the vehicle's SYSTEM_TIME).
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 
 from _common import (
     Report,
+    classic_main,
     collect,
     connect_healthy,
     first,
     horizontal,
     ned_of,
-    run,
     sim_sleep,
     until,
     wait_for,
@@ -133,11 +132,7 @@ async def fly(args, r: Report) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    ap.add_argument("--grpc-port", type=int, required=True)
-    args = ap.parse_args()
-    run(lambda report: fly(args, report), Report())
+    classic_main(fly)
 
 
 if __name__ == "__main__":

@@ -11,9 +11,7 @@ the exclusion circle) and records MAVSDK's result; finally clears the mission. S
 
 from __future__ import annotations
 
-import argparse
-
-from _common import Report, connect_healthy, first, run
+from _common import Report, classic_main, connect_healthy, first
 from _plans import raw_plans_flow
 
 
@@ -34,11 +32,7 @@ async def main_flow(args, r: Report) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    ap.add_argument("--grpc-port", type=int, required=True)
-    args = ap.parse_args()
-    run(lambda report: main_flow(args, report), Report())
+    classic_main(main_flow)
 
 
 if __name__ == "__main__":

@@ -8,10 +8,9 @@ the relative altitude reached.
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 
-from _common import Report, connect_healthy, first, run, wait_for
+from _common import Report, classic_main, connect_healthy, first, wait_for
 
 
 async def heartbeat_sysids(drone, count: int) -> list[int]:
@@ -55,13 +54,12 @@ async def fly(args, r: Report) -> None:
         drone._stop_mavsdk_server()
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    ap.add_argument("--grpc-port", type=int, required=True)
+def _options(ap) -> None:
     ap.add_argument("--alt", type=float, default=5.0)
-    args = ap.parse_args()
-    run(lambda report: fly(args, report), Report())
+
+
+def main() -> None:
+    classic_main(fly, _options)
 
 
 if __name__ == "__main__":
