@@ -30,20 +30,35 @@ class Report(dict):
 
 
 async def first(stream):
-    """First item of an async generator."""
-    async for item in stream:
-        return item
-    raise ClientError("stream ended")
+    """First item of an async generator, which is then closed.
+
+    Closing it at once matters for the native 4.x API: an open subscription keeps its plugin
+    referenced, and ``Mavsdk`` aborts the process (SIGABRT) if it is destroyed while a plugin
+    it handed out is still alive.
+    """
+    try:
+        async for item in stream:
+            return item
+        raise ClientError("stream ended")
+    finally:
+        aclose = getattr(stream, "aclose", None)
+        if aclose is not None:
+            await aclose()
 
 
 async def wait_for(stream, predicate, timeout_s: float, what: str):
     """First item of ``stream`` satisfying ``predicate``, within ``timeout_s`` wall seconds."""
 
     async def scan():
-        async for item in stream:
-            if predicate(item):
-                return item
-        raise ClientError(f"stream ended while waiting for {what}")
+        try:
+            async for item in stream:
+                if predicate(item):
+                    return item
+            raise ClientError(f"stream ended while waiting for {what}")
+        finally:
+            aclose = getattr(stream, "aclose", None)
+            if aclose is not None:
+                await aclose()  # see first()
 
     try:
         return await asyncio.wait_for(scan(), timeout_s)
