@@ -376,7 +376,7 @@ class Commander:
         self._offboard_fallback = None
         return ACCEPTED
 
-    def _check_offboard_signal(self, nav: NavInput) -> None:
+    def _check_offboard_signal(self) -> None:
         """Offboard-loss failsafe (COM_OF_LOSS_T, COM_OBL_RC_ACT) and its recovery."""
         if not self.armed:
             self._offboard_fallback = None
@@ -562,7 +562,7 @@ class Commander:
         if self.landed_state == LandedState.LANDING and not self._descending:
             self.landed_state = LandedState.IN_AIR  # Land (or RTL's descent) was left in the air
         self._check_failsafes(nav)
-        self._check_offboard_signal(nav)
+        self._check_offboard_signal()
         out = NavOutput(yaw_rad=self._yaw_sp)
         cruise = self._speed_override_m_s
         if not math.isfinite(cruise):

@@ -359,6 +359,19 @@ class FleetVehicle:
         lla = np.array([lat, lon, alt], dtype=float)
         return geodesy.geodetic_to_ned(lla, self.fleet.estimator.origin_lla[self.index])
 
+    def _to_ned_partial(self, lat: float, lon: float, alt: float) -> np.ndarray:
+        """As :meth:`_to_ned`, with NaN meaning "keep the current target" on that axis.
+
+        A NaN latitude or longitude leaves north and east NaN, a NaN altitude leaves down NaN.
+        """
+        # Project with the unknown parts zeroed, then mark them NaN.
+        target = self._to_ned(np.nan_to_num(lat), np.nan_to_num(lon), np.nan_to_num(alt))
+        if not (math.isfinite(lat) and math.isfinite(lon)):
+            target[:2] = np.nan
+        if not math.isfinite(alt):
+            target[2] = np.nan
+        return target
+
     # -- commands ----------------------------------------------------------------------------
     def arm(self, force: bool) -> int:
         """Arm (see Commander.arm)."""
@@ -386,14 +399,7 @@ class FleetVehicle:
         """Fly to a geodetic point and hold there (NaN keeps)."""
         if not self.fleet.estimator.origin_set[self.index]:
             return 1
-        # Project with the unknown parts zeroed, then mark them NaN: "keep the current target".
-        target = self._to_ned(
-            np.nan_to_num(lat_deg, nan=0.0), np.nan_to_num(lon_deg, nan=0.0), alt_amsl_m
-        )
-        if not (math.isfinite(lat_deg) and math.isfinite(lon_deg)):
-            target[:2] = np.nan
-        if not math.isfinite(alt_amsl_m):
-            target[2] = np.nan
+        target = self._to_ned_partial(lat_deg, lon_deg, alt_amsl_m)
         return self._sync(self.commander.reposition(target, yaw_rad, speed_m_s))
 
     def change_speed(self, speed_m_s: float) -> int:
@@ -471,13 +477,7 @@ class FleetVehicle:
             if cmd.home is None:
                 return False
             alt += cmd.home.alt_amsl_m
-        ned = self._to_ned(
-            np.nan_to_num(target.lat_deg), np.nan_to_num(target.lon_deg), np.nan_to_num(alt)
-        )
-        if not math.isfinite(target.lat_deg):
-            ned[:2] = np.nan
-        if not math.isfinite(alt):
-            ned[2] = np.nan
+        ned = self._to_ned_partial(target.lat_deg, target.lon_deg, alt)
         rest = target.setpoint
         return cmd.offboard_setpoint(
             OffboardSetpoint(

@@ -243,13 +243,6 @@ class OffboardControl:
         """A setpoint arrived within ``timeout_s`` before ``time_s`` (PX4's offboard signal)."""
         return self.setpoint is not None and time_s - self.received_s <= timeout_s
 
-    def clear(self) -> None:
-        """Forget the stream (on disarm: a new flight needs a new stream)."""
-        self.setpoint = None
-        self.received_s = -math.inf
-        self._thrust = math.nan
-        self._yaw_sp = math.nan
-
     def target(
         self, position_ned_m: np.ndarray, yaw_rad: float, dt_s: float, hover_thrust: float
     ) -> OffboardTarget:

@@ -83,8 +83,6 @@ def test_stream_is_fresh_for_the_timeout_only():
     ctl.receive(velocity(0, 0, 0), 10.0)
     assert ctl.fresh(10.9, 1.0)
     assert not ctl.fresh(11.1, 1.0)
-    ctl.clear()
-    assert not ctl.fresh(10.0, 1.0)
 
 
 def test_thrust_alone_updates_an_attitude_setpoint_and_nothing_else():
