@@ -46,6 +46,14 @@ async def first(stream):
             await aclose()
 
 
+async def home_reference(stream, report) -> tuple[float, float, float]:
+    """The first home of ``stream`` as (lat, lon, alt AMSL), also recorded in ``report``."""
+    home = await first(stream)
+    ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
+    report["home"] = list(ref)
+    return ref
+
+
 async def wait_for(stream, predicate, timeout_s: float, what: str):
     """First item of ``stream`` satisfying ``predicate``, within ``timeout_s`` wall seconds."""
 
@@ -165,3 +173,12 @@ def classic_main(flow, options=lambda ap: None) -> None:
     options(ap)
     args = ap.parse_args()
     run(lambda report: flow(args, report), Report())
+
+
+def native_main(flow, timeout_s: float) -> None:
+    """A native-API client's command line (``--url``), then :func:`run` of ``flow(args,
+    report)`` bounded by ``timeout_s`` wall seconds."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--url", required=True)
+    args = ap.parse_args()
+    run(lambda report: asyncio.wait_for(flow(args, report), timeout_s), Report())

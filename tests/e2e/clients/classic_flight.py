@@ -20,6 +20,7 @@ from _common import (
     classic_main,
     connect_healthy,
     first,
+    home_reference,
     horizontal,
     ned_of,
     sim_sleep,
@@ -112,9 +113,7 @@ async def fly(args, r: Report) -> None:
             "rtl_alt": rtl,
         }
 
-        home = await first(drone.telemetry.home())
-        ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
-        r["home"] = list(ref)
+        ref = await home_reference(drone.telemetry.home(), r)
 
         r.stage("arm")
         await drone.action.arm()
@@ -139,7 +138,7 @@ async def fly(args, r: Report) -> None:
 
         r.stage("goto")
         lat, lon, _ = pymap3d.ned2geodetic(GOTO_NORTH_M, 0.0, 0.0, *ref)
-        alt = home.absolute_altitude_m + TAKEOFF_ALT_M
+        alt = ref[2] + TAKEOFF_ALT_M
         target = (float(lat), float(lon), alt)
 
         def dist(q) -> float:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from _common import Report, classic_main, connect_healthy, first
+from _common import Report, classic_main, connect_healthy, home_reference
 from _plans import geofence_flow
 
 
@@ -25,9 +25,7 @@ async def main_flow(args, r: Report) -> None:
     drone = System(port=args.grpc_port)
     try:
         await connect_healthy(drone, args.url, r, 60)
-        home = await first(drone.telemetry.home())
-        ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
-        r["home"] = list(ref)
+        ref = await home_reference(drone.telemetry.home(), r)
         await geofence_flow(r, drone.geofence, drone.mission_raw, types, ref)
         r.stage("done")
     finally:

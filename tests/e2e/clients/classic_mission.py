@@ -18,6 +18,7 @@ from _common import (
     collect,
     connect_healthy,
     first,
+    home_reference,
     horizontal,
     ned_of,
     sim_sleep,
@@ -51,9 +52,7 @@ async def fly(args, r: Report) -> None:
                     modes.append(mode.name)
 
         tasks.append(asyncio.ensure_future(watch_modes()))
-        home = await first(drone.telemetry.home())
-        ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
-        r["home"] = list(ref)
+        ref = await home_reference(drone.telemetry.home(), r)
 
         r.stage("params")
         await drone.action.set_takeoff_altitude(TAKEOFF_ALT_M)

@@ -11,7 +11,7 @@ the exclusion circle) and records MAVSDK's result; finally clears the mission. S
 
 from __future__ import annotations
 
-from _common import Report, classic_main, connect_healthy, first
+from _common import Report, classic_main, connect_healthy, home_reference
 from _plans import raw_plans_flow
 
 
@@ -22,9 +22,7 @@ async def main_flow(args, r: Report) -> None:
     drone = System(port=args.grpc_port)
     try:
         await connect_healthy(drone, args.url, r, 60)
-        home = await first(drone.telemetry.home())
-        ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
-        r["home"] = list(ref)
+        ref = await home_reference(drone.telemetry.home(), r)
         await raw_plans_flow(r, drone.mission_raw, MissionItem, MissionRawError, ref)
         r.stage("done")
     finally:

@@ -7,10 +7,7 @@ The native API runs MAVSDK's C++ core in this process (no mavsdk_server, no gRPC
 
 from __future__ import annotations
 
-import argparse
-import asyncio
-
-from _common import ClientError, Report, first, run, wait_for
+from _common import ClientError, Report, first, native_main, wait_for
 
 TAKEOFF_ALT_M = 4.0
 
@@ -74,10 +71,7 @@ async def fly(args, r: Report) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    args = ap.parse_args()
-    run(lambda report: asyncio.wait_for(fly(args, report), 300), Report())
+    native_main(fly, 300)
 
 
 if __name__ == "__main__":

@@ -8,11 +8,9 @@ clear_geofence) and ``MissionRawAsync.download_geofence``. See :func:`_plans.geo
 
 from __future__ import annotations
 
-import argparse
-import asyncio
 from types import SimpleNamespace
 
-from _common import Report, first, native_autopilot, run
+from _common import Report, home_reference, native_autopilot, native_main
 from _plans import geofence_flow
 
 
@@ -36,18 +34,13 @@ async def main_flow(args, r: Report) -> None:
     async with Mavsdk(config) as sdk:
         r["mavsdk_version"] = await sdk.version()
         system = await native_autopilot(sdk, args.url, r, 60)
-        home = await first(TelemetryAsync(system).subscribe_home())
-        ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
-        r["home"] = list(ref)
+        ref = await home_reference(TelemetryAsync(system).subscribe_home(), r)
         await geofence_flow(r, GeofenceAsync(system), MissionRawAsync(system), types, ref)
         r.stage("done")
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    args = ap.parse_args()
-    run(lambda report: asyncio.wait_for(main_flow(args, report), 120), Report())
+    native_main(main_flow, 120)
 
 
 if __name__ == "__main__":

@@ -8,17 +8,17 @@ plugin is ``mavsdk.asyncio.plugins.mission.MissionAsync`` (streams are ``subscri
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 
 from _common import (
     Report,
     collect,
     first,
+    home_reference,
     horizontal,
     native_autopilot,
+    native_main,
     ned_of,
-    run,
     sim_sleep,
     until,
     wait_for,
@@ -59,9 +59,7 @@ async def fly(args, r: Report) -> None:
                         modes.append(mode.name)
 
             tasks.append(asyncio.ensure_future(watch_modes()))
-            home = await first(telemetry.subscribe_home())
-            ref = (home.latitude_deg, home.longitude_deg, home.absolute_altitude_m)
-            r["home"] = list(ref)
+            ref = await home_reference(telemetry.subscribe_home(), r)
 
             r.stage("params")
             await action.set_takeoff_altitude(TAKEOFF_ALT_M)
@@ -148,10 +146,7 @@ async def fly(args, r: Report) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--url", required=True)
-    args = ap.parse_args()
-    run(lambda report: asyncio.wait_for(fly(args, report), 240), Report())
+    native_main(fly, 240)
 
 
 if __name__ == "__main__":
