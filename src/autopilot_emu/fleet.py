@@ -222,21 +222,19 @@ class AutopilotFleet:
             self.armed[i] = cmd.armed
         idle = ~self.active
         if idle.any():
-            self.position_control.reset(idle)
+            self.position_control.reset(idle, vel)
             self.rate_control.reset(idle)
         self.q_sp, thrust = self.position_control.update(
             sp, gains.position, pos, vel, dt, self.active
         )
         self.thrust = np.where(self.active, thrust, 0.0)
-        # Offboard attitude / rate setpoints replace the position controller's output; the
-        # position loop keeps running underneath so that leaving Offboard is smooth.
+        # Offboard attitude / rate setpoints replace the position controller's output.
         override = self.active & np.isfinite(self._att_target_thrust)
         self._overridden = override
         if override.any():
             # Not flying the position loop: it restarts from the vehicle's state afterwards,
             # as PX4 initialises its position controller when a mode starts using it.
-            self.position_control.reset(override)
-            self.position_control.vel_sp[override] = vel[override]
+            self.position_control.reset(override, vel)
             with_att = override & np.isfinite(self._att_target_q[:, 0])
             self.q_sp[with_att] = self._att_target_q[with_att]
             self.thrust[override] = np.clip(self._att_target_thrust[override], 0.0, 1.0)

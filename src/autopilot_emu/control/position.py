@@ -88,10 +88,10 @@ class PositionController:
         self.vel_sp = np.zeros((n, 3))
         self._prev_vel = np.zeros((n, 3))
 
-    def reset(self, mask: np.ndarray) -> None:
-        """Clear integrators and slew state (e.g. on arming)."""
+    def reset(self, mask: np.ndarray, velocity: np.ndarray) -> None:
+        """Restart the masked vehicles from their current velocity (integrators cleared)."""
         self.vel_int[mask] = 0.0
-        self.vel_sp[mask] = 0.0
+        self.vel_sp[mask] = velocity[mask]
 
     def update(
         self,

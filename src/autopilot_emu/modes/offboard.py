@@ -203,7 +203,7 @@ class OffboardTarget:
     velocity_ff_m_s: np.ndarray
     acceleration_ff_m_s2: np.ndarray
     yaw_rad: float
-    yaw_rate_rad_s: float
+    """Heading setpoint; a yaw-rate setpoint is already integrated into it."""
     attitude_wxyz: np.ndarray | None = None
     body_rates_rad_s: np.ndarray | None = None
     thrust: float = math.nan
@@ -260,7 +260,6 @@ class OffboardControl:
                 velocity_ff_m_s=np.zeros(3),
                 acceleration_ff_m_s2=_nan3(),
                 yaw_rad=yaw_rad,
-                yaw_rate_rad_s=math.nan,
                 attitude_wxyz=sp.attitude_wxyz,
                 body_rates_rad_s=sp.body_rates_rad_s,
                 thrust=thrust,
@@ -284,7 +283,6 @@ class OffboardControl:
             velocity_ff_m_s=np.where(accel_only, np.nan, np.nan_to_num(velocity)),
             acceleration_ff_m_s2=np.nan_to_num(accel),
             yaw_rad=self._yaw_sp,
-            yaw_rate_rad_s=sp.yaw_rate_rad_s,
         )
 
     def wants_climb(self, position_ned_m: np.ndarray, hover_thrust: float) -> bool:
