@@ -20,7 +20,7 @@ from autopilot_emu import quaternion as quat
 from autopilot_emu.battery import BatteryModel, FleetBattery
 from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
 from autopilot_emu.control.attitude import attitude_rate_setpoint
-from autopilot_emu.control.mixer import Mixer
+from autopilot_emu.control.mixer import MAX_ROTORS, Mixer, RotorGeometry
 from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
 from autopilot_emu.control.rate import RateController
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
@@ -77,11 +77,12 @@ class AutopilotFleet:
         self.commanders = [Commander(p) for p in self.params]
         self.position_control = PositionController(n)
         self.rate_control = RateController(n)
-        self.mixer = Mixer()
+        self.mixer = Mixer([RotorGeometry.from_params(p) for p in self.params])
         self.battery = FleetBattery(n, config.battery)
         self.time_usec = 0
         self.thrust = np.zeros(n)
-        self.outputs = np.zeros((n, 6))
+        self.outputs = np.zeros((n, MAX_ROTORS))
+        """Motor outputs 0..1 in PX4's output order, (N, MAX_ROTORS); unused outputs 0."""
         self.active = np.zeros(n, dtype=bool)
         self.armed = np.zeros(n, dtype=bool)
         self.q_sp = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
@@ -252,7 +253,7 @@ class AutopilotFleet:
         )
         out = self.mixer.mix(torque, self.thrust)
         if not (self.active.all() and self.armed.all()):
-            out[~self.active] = self.mixer.idle_output
+            out[~self.active] = self.mixer.idle_outputs[~self.active]
             out[~self.armed] = 0.0
         self.outputs = out
 
@@ -262,7 +263,7 @@ class AutopilotFleet:
         msgs = []
         outputs = self.outputs.tolist()
         for i in range(self.n):
-            controls = outputs[i] + self._controls[6:]
+            controls = outputs[i] + self._controls[MAX_ROTORS:]
             mode = _CUSTOM_FLAG | (_ARMED_FLAG if self.armed[i] else 0)
             msgs.append(mavlink2.MAVLink_hil_actuator_controls_message(t_usec, controls, mode, 0))
         return msgs
@@ -274,6 +275,13 @@ class AutopilotFleet:
             self._param_versions = versions
             self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
             self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
+            geometries = [RotorGeometry.from_params(p) for p in self.params]
+            if any(
+                g.moment_ratio_m.tolist() != o.moment_ratio_m.tolist()
+                or g.position_m.tolist() != o.position_m.tolist()
+                for g, o in zip(geometries, self.mixer.geometries, strict=True)
+            ):
+                self.mixer = Mixer(geometries, self.mixer.idle_output)
         return self._gains
 
     @property

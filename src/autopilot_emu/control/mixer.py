@@ -1,9 +1,14 @@
-"""Hexa-X control allocation: normalised torque and thrust -> six motor outputs (0..1).
+"""Multirotor control allocation from PX4's CA_* parameters: torque and thrust -> motor outputs.
 
-Geometry is PX4's Hexa X (airframe typhoon_h480, SYS_AUTOSTART 6011): motor i at (x, y) in the
-body FRD frame with spin direction CW/CCW; motor order is PX4's output order. The emulator does
-not know the simulator's constants: like PX4 it only knows rotor positions and directions, and
-assumes thrust ∝ output² (THR_MDL_FAC = 1, since rotor speed ∝ output and thrust ∝ speed²).
+Like PX4's control_allocator (ActuatorEffectivenessRotors), the emulator knows each vehicle's
+rotors only through parameters: CA_ROTOR_COUNT rotors, rotor i at (CA_ROTOR{i}_PX,
+CA_ROTOR{i}_PY) in the body FRD frame (m), thrust along body -z, and yaw moment = KM x thrust with
+CA_ROTOR{i}_KM > 0 for a counter-clockwise rotor (PX4 module.yaml of control_allocator). The
+effectiveness of rotor i is then (-py, px, km, 1) on (roll, pitch, yaw, thrust), and the mixer is
+its pseudo-inverse. Motor order is PX4's output order. Thrust is taken ∝ output² (rotor speed ∝
+output, thrust ∝ speed², i.e. THR_MDL_FAC = 1).
+
+Vehicles may have different rotor counts: outputs are (N, MAX_ROTORS) with unused outputs 0.
 """
 
 from __future__ import annotations
@@ -12,54 +17,112 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-# (x_m, y_m, direction) per output; direction +1 = CCW (seen from above), -1 = CW.
-HEXA_X_ROTORS: tuple[tuple[float, float, int], ...] = (
-    (-0.00187896, 0.242705, -1),  # motor 1: right, CW
-    (-0.00187896, -0.242705, 1),  # motor 2: left, CCW
-    (0.211396, -0.119762, -1),  # motor 3: front left, CW
-    (-0.209396, 0.122762, 1),  # motor 4: rear right, CCW
-    (0.211396, 0.119762, 1),  # motor 5: front right, CCW
-    (-0.209396, -0.122762, -1),  # motor 6: rear left, CW
+from autopilot_emu.params import ParamStore
+
+MAX_ROTORS = 8
+"""Rotors PX4's multicopter allocation supports (CA_ROTOR0..7)."""
+
+# Typhoon H480 (PX4 airframe 6011_gazebo-classic_typhoon_h480, Hexa X): (x_m, y_m, KM) per
+# output; rotor positions from the typhoon_h480 SDF, KM = ±momentConstant 0.06 (+ = CCW).
+TYPHOON_H480_ROTORS: tuple[tuple[float, float, float], ...] = (
+    (-0.00187896, 0.242705, -0.06),  # motor 1: right, CW
+    (-0.00187896, -0.242705, 0.06),  # motor 2: left, CCW
+    (0.211396, -0.119762, -0.06),  # motor 3: front left, CW
+    (-0.209396, 0.122762, 0.06),  # motor 4: rear right, CCW
+    (0.211396, 0.119762, 0.06),  # motor 5: front right, CCW
+    (-0.209396, -0.122762, -0.06),  # motor 6: rear left, CW
 )
-YAW_MOMENT_RATIO = 0.06
-"""Rotor yaw moment per unit thrust, m (PX4 Gazebo model momentConstant)."""
+
+
+@dataclass(frozen=True)
+class RotorGeometry:
+    """Rotor layout of one vehicle, as PX4's CA_ROTOR* parameters give it."""
+
+    position_m: np.ndarray
+    """(M, 2) rotor x, y in the body FRD frame, m."""
+    moment_ratio_m: np.ndarray
+    """(M,) yaw moment per unit thrust (CA_ROTOR{i}_KM), m; positive for a CCW rotor."""
+
+    def __post_init__(self) -> None:
+        m = len(self.moment_ratio_m)
+        if m > MAX_ROTORS or self.position_m.shape != (m, 2):
+            raise ValueError(f"need 0..{MAX_ROTORS} rotors with (x, y) each, got {m}")
+
+    @classmethod
+    def from_rows(cls, rows: tuple[tuple[float, float, float], ...]) -> RotorGeometry:
+        """From (x_m, y_m, km) rows."""
+        r = np.asarray(rows, dtype=float).reshape(-1, 3)
+        return cls(r[:, :2].copy(), r[:, 2].copy())
+
+    @classmethod
+    def from_params(cls, params: ParamStore) -> RotorGeometry:
+        """From CA_ROTOR_COUNT and CA_ROTOR{i}_PX / _PY / _KM."""
+        count = int(params.get("CA_ROTOR_COUNT"))
+        rows = tuple(
+            tuple(float(params.get(f"CA_ROTOR{i}_{k}")) for k in ("PX", "PY", "KM"))
+            for i in range(count)
+        )
+        return cls.from_rows(rows)  # type: ignore[arg-type]
 
 
 @dataclass
 class Mixer:
-    """Pseudo-inverse allocation with roll/pitch priority over yaw and thrust."""
+    """Pseudo-inverse allocation with roll/pitch priority over yaw and thrust, per vehicle."""
 
-    rotors: tuple[tuple[float, float, int], ...] = HEXA_X_ROTORS
+    geometries: list[RotorGeometry] = field(
+        default_factory=lambda: [RotorGeometry.from_rows(TYPHOON_H480_ROTORS)]
+    )
     idle_output: float = 0.15
     """Output of a spinning motor when armed with no thrust demand (PWM_MIN-like)."""
     matrix: np.ndarray = field(init=False)
-    """(6, 3) torque -> thrust-fraction columns, each scaled to a peak of 1."""
+    """(N, MAX_ROTORS, 3) torque -> thrust-fraction columns, each scaled to a peak of 1."""
     thrust_column: np.ndarray = field(init=False)
-    """(6,) collective thrust -> thrust fractions, mean 1 (uneven when the CoM is off-centre)."""
+    """(N, MAX_ROTORS) collective thrust -> thrust fractions, mean 1 over the used rotors."""
+    used: np.ndarray = field(init=False)
+    """(N, MAX_ROTORS) outputs that drive a rotor."""
+    idle_outputs: np.ndarray = field(init=False)
+    """(N, MAX_ROTORS) armed-idle output: idle_output on used rotors, 0 elsewhere."""
+    rotor_counts: np.ndarray = field(init=False)
+    """(N,) rotors of each vehicle."""
 
     def __post_init__(self) -> None:
-        r = np.asarray(self.rotors, dtype=float)
-        eff = np.stack((-r[:, 1], r[:, 0], r[:, 2] * YAW_MOMENT_RATIO, np.ones(len(r))))
-        mix = np.linalg.pinv(eff)
-        self.matrix = mix[:, :3] / np.abs(mix[:, :3]).max(axis=0)
-        self.thrust_column = mix[:, 3] / mix[:, 3].mean()
+        n = len(self.geometries)
+        self.matrix = np.zeros((n, MAX_ROTORS, 3))
+        self.thrust_column = np.zeros((n, MAX_ROTORS))
+        self.used = np.zeros((n, MAX_ROTORS), dtype=bool)
+        for i, g in enumerate(self.geometries):
+            m = len(g.moment_ratio_m)
+            if m == 0:
+                continue
+            eff = np.stack((-g.position_m[:, 1], g.position_m[:, 0], g.moment_ratio_m, np.ones(m)))
+            mix = np.linalg.pinv(eff)
+            peak = np.maximum(np.abs(mix[:, :3]).max(axis=0), 1e-12)
+            self.matrix[i, :m] = mix[:, :3] / peak
+            self.thrust_column[i, :m] = mix[:, 3] / mix[:, 3].mean()
+            self.used[i, :m] = True
+        self.idle_outputs = np.where(self.used, self.idle_output, 0.0)
+        self.rotor_counts = self.used.sum(axis=1)
 
     def mix(self, torque: np.ndarray, thrust: np.ndarray) -> np.ndarray:
-        """Motor outputs (N, 6) for torque (N, 3) in -1..1 and collective thrust (N,) in 0..1."""
+        """Outputs (N, MAX_ROTORS) for torque (N, 3) in -1..1 and collective thrust (N,) 0..1."""
         thr = thrust[:, None] * self.thrust_column
-        fractions = thr + torque @ self.matrix.T
+        t_rp = np.einsum("nmk,nk->nm", self.matrix[:, :, :2], torque[:, :2])
+        t_y = self.matrix[:, :, 2] * torque[:, 2:3]
+        fractions = thr + t_rp + t_y
         if fractions.max() > 1.0 or fractions.min() < 0.0:
-            fractions = self._desaturate(thr, torque[:, :2] @ self.matrix[:, :2].T,
-                                         torque[:, 2:3] * self.matrix[:, 2])  # fmt: skip
-        return np.maximum(np.sqrt(fractions), self.idle_output)
+            fractions = self._desaturate(thr, t_rp, t_y, self.used)
+        return np.where(self.used, np.maximum(np.sqrt(fractions), self.idle_output), 0.0)
 
     @staticmethod
-    def _desaturate(thr: np.ndarray, t_rp: np.ndarray, t_y: np.ndarray) -> np.ndarray:
+    def _desaturate(
+        thr: np.ndarray, t_rp: np.ndarray, t_y: np.ndarray, used: np.ndarray
+    ) -> np.ndarray:
         """Keep roll/pitch by shifting collective thrust, then scale yaw into what is left."""
-        hi = (thr + t_rp).max(axis=1, keepdims=True)
-        lo = (thr + t_rp).min(axis=1, keepdims=True)
-        thr = thr - np.maximum(hi - 1.0, 0.0) + np.maximum(-lo, 0.0)
         base = thr + t_rp
+        hi = np.where(used, base, -np.inf).max(axis=1, keepdims=True)
+        lo = np.where(used, base, np.inf).min(axis=1, keepdims=True)
+        thr = thr - np.maximum(hi - 1.0, 0.0) + np.maximum(-lo, 0.0)
+        base = np.where(used, thr + t_rp, 0.0)
         room_up = np.where(t_y > 0, (1.0 - base) / np.maximum(t_y, 1e-9), np.inf)
         room_dn = np.where(t_y < 0, base / np.maximum(-t_y, 1e-9), np.inf)
         k = np.clip(np.minimum(room_up, room_dn).min(axis=1, keepdims=True), 0.0, 1.0)

@@ -20,8 +20,6 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
 from autopilot_emu.params import ParamStore
 
-MAV_TYPE = mavlink2.MAV_TYPE_HEXAROTOR
-"""HEARTBEAT.type: PX4 reports a hexacopter airframe (typhoon_h480) as HEXAROTOR (13)."""
 MAV_AUTOPILOT = mavlink2.MAV_AUTOPILOT_PX4
 """HEARTBEAT.autopilot: selects PX4 mode decoding and bytewise params in MAVSDK/QGC."""
 
@@ -148,9 +146,9 @@ def _floats(values: Sequence[float]) -> list[float]:
 
 
 def heartbeat(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
-    """HEARTBEAT (0): PX4 autopilot, hexarotor, base/custom mode, system status."""
+    """HEARTBEAT (0): PX4 autopilot, the airframe's MAV_TYPE, base/custom mode, system status."""
     return mavlink2.MAVLink_heartbeat_message(
-        type=MAV_TYPE,
+        type=int(context.params.get("MAV_TYPE")),
         autopilot=MAV_AUTOPILOT,
         base_mode=base_mode(snapshot.armed, snapshot.main_mode),
         custom_mode=custom_mode(snapshot.main_mode, snapshot.sub_mode),

@@ -1,22 +1,26 @@
-"""Hexa-X allocation produces the torques it is asked for, with the right signs."""
+"""Allocation from CA_ROTOR* geometry produces the torques it is asked for, with the right signs."""
 
 import numpy as np
+import pytest
 
-from autopilot_emu.control.mixer import HEXA_X_ROTORS, YAW_MOMENT_RATIO, Mixer
+from autopilot_emu.control.mixer import MAX_ROTORS, TYPHOON_H480_ROTORS, Mixer, RotorGeometry
+from autopilot_emu.params import ParamStore
+
+# PX4 Quad X output order: 1 front right CCW, 2 rear left CCW, 3 front left CW, 4 rear right CW.
+QUAD_X = ((0.15, 0.15, 0.05), (-0.15, -0.15, 0.05), (0.15, -0.15, -0.05), (-0.15, 0.15, -0.05))
 
 
-def _wrench(outputs):
+def _wrench(outputs, rows=TYPHOON_H480_ROTORS):
     """Roll, pitch, yaw torque and thrust (per unit max rotor thrust) of motor outputs."""
-    r = np.asarray(HEXA_X_ROTORS)
-    t = outputs**2  # thrust fraction: thrust ∝ (rotor speed)² ∝ output²
-    return np.array(
-        [(-r[:, 1] * t).sum(), (r[:, 0] * t).sum(), (r[:, 2] * YAW_MOMENT_RATIO * t).sum(), t.sum()]
-    )
+    r = np.asarray(rows)
+    t = outputs[: len(r)] ** 2  # thrust fraction: thrust ∝ (rotor speed)² ∝ output²
+    return np.array([(-r[:, 1] * t).sum(), (r[:, 0] * t).sum(), (r[:, 2] * t).sum(), t.sum()])
 
 
 def test_pure_thrust_is_symmetric():
     out = Mixer().mix(np.zeros((1, 3)), np.array([0.4]))[0]
-    np.testing.assert_allclose(out, np.sqrt(0.4), rtol=2e-3)
+    np.testing.assert_allclose(out[:6], np.sqrt(0.4), rtol=2e-3)
+    np.testing.assert_array_equal(out[6:], 0.0)
     np.testing.assert_allclose(_wrench(out)[:3], 0.0, atol=1e-12)
 
 
@@ -32,12 +36,55 @@ def test_each_axis_torque_has_the_commanded_sign_and_no_cross_coupling():
         np.testing.assert_allclose(w[3], 6 * 0.4, rtol=1e-9)
 
 
+def test_quad_x_torques_drive_the_motors_physics_asks_for():
+    """Roll right: left motors up; pitch up: front motors up; yaw right: CCW motors up."""
+    mixer = Mixer([RotorGeometry.from_rows(QUAD_X), RotorGeometry.from_rows(TYPHOON_H480_ROTORS)])
+    np.testing.assert_array_equal(mixer.rotor_counts, [4, 6])
+    hover = mixer.mix(np.zeros((2, 3)), np.full(2, 0.4))
+    expect_up = {0: [1, 2], 1: [0, 2], 2: [0, 1]}
+    for axis, up in expect_up.items():
+        torque = np.zeros((2, 3))
+        torque[:, axis] = 0.1
+        out = mixer.mix(torque, np.full(2, 0.4))
+        delta = out[0, :4] - hover[0, :4]
+        down = [k for k in range(4) if k not in up]
+        assert np.all(delta[up] > 0.01) and np.all(delta[down] < -0.01), (axis, delta)
+        np.testing.assert_array_equal(out[0, 4:], 0.0)  # unused outputs stay off
+        w = _wrench(out[0], QUAD_X)
+        assert w[axis] > 0
+        np.testing.assert_allclose(np.delete(w[:3], axis), 0.0, atol=1e-9)
+
+
 def test_saturation_keeps_roll_and_pitch_and_outputs_in_range():
-    out = Mixer().mix(np.array([[1.0, 0.0, 1.0]]), np.array([0.9]))[0]
+    mixer = Mixer([RotorGeometry.from_rows(TYPHOON_H480_ROTORS), RotorGeometry.from_rows(QUAD_X)])
+    out = mixer.mix(np.array([[1.0, 0.0, 1.0], [1.0, 0.0, 1.0]]), np.array([0.9, 0.9]))
     assert np.all((out >= 0) & (out <= 1))
-    assert _wrench(out)[0] > 0
+    assert _wrench(out[0])[0] > 0
+    assert _wrench(out[1], QUAD_X)[0] > 0
 
 
 def test_idle_output_when_no_thrust():
-    out = Mixer(idle_output=0.15).mix(np.zeros((2, 3)), np.zeros(2))
-    np.testing.assert_allclose(out, 0.15)
+    mixer = Mixer([RotorGeometry.from_rows(QUAD_X)] * 2, idle_output=0.15)
+    out = mixer.mix(np.zeros((2, 3)), np.zeros(2))
+    np.testing.assert_allclose(out[:, :4], 0.15)
+    np.testing.assert_array_equal(out[:, 4:], 0.0)
+    assert out.shape == (2, MAX_ROTORS)
+
+
+def test_geometry_from_params_defaults_to_the_typhoon_and_follows_changes():
+    params = ParamStore()
+    g = RotorGeometry.from_params(params)
+    np.testing.assert_allclose(g.position_m, np.asarray(TYPHOON_H480_ROTORS)[:, :2], rtol=1e-6)
+    np.testing.assert_allclose(g.moment_ratio_m, np.asarray(TYPHOON_H480_ROTORS)[:, 2], rtol=1e-6)
+    params.set("CA_ROTOR_COUNT", 4)
+    for i, (x, y, km) in enumerate(QUAD_X):
+        params.set(f"CA_ROTOR{i}_PX", x)
+        params.set(f"CA_ROTOR{i}_PY", y)
+        params.set(f"CA_ROTOR{i}_KM", km)
+    quad = RotorGeometry.from_params(params)
+    np.testing.assert_allclose(quad.position_m, np.asarray(QUAD_X)[:, :2], rtol=1e-6)
+
+
+def test_too_many_rotors_is_refused():
+    with pytest.raises(ValueError, match="rotors"):
+        RotorGeometry.from_rows(((0.1, 0.1, 0.05),) * (MAX_ROTORS + 1))

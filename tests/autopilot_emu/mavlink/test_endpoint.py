@@ -67,6 +67,15 @@ def test_heartbeat_identifies_a_px4_hexarotor_with_mode_and_armed_flag(client, v
     assert heartbeat.get_msgbuf()[0] == mavlink2.PROTOCOL_MARKER_V2
 
 
+def test_heartbeat_type_follows_the_mav_type_parameter(client, vehicle):
+    """A quad airframe (MAV_TYPE 2) reports itself as a quadrotor."""
+    vehicle.params.set("MAV_TYPE", mavlink2.MAV_TYPE_QUADROTOR)
+    with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
+        inbox = client.exchange(endpoint, 0.0, has("HEARTBEAT"))
+    heartbeat = next(m for m in inbox if m.get_type() == "HEARTBEAT")
+    assert heartbeat.type == mavlink2.MAV_TYPE_QUADROTOR
+
+
 def test_disarmed_offboard_heartbeat(client, vehicle):
     vehicle.snapshot = replace(vehicle.snapshot, armed=False, main_mode=6, sub_mode=0)
     with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
