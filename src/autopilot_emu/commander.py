@@ -17,6 +17,7 @@ from enum import Enum
 import numpy as np
 
 from autopilot_emu import geodesy
+from autopilot_emu.control.trajectory import braking_distance
 from autopilot_emu.failsafe import ACTION_NAMES, Action, FailsafeInput, FailsafeMonitor
 from autopilot_emu.mission.executor import LegKind, MissionExecutor, StepInput, Tolerances
 from autopilot_emu.mission.feasibility import (
@@ -80,6 +81,8 @@ class NavOutput:
     max_speed_down_m_s: float = 1.5
     active: bool = False
     """False while on the ground: motors idle, controllers reset."""
+    smooth: bool = False
+    """Auto modes: the target goes through the jerk-limited trajectory (offboard: as given)."""
     attitude_wxyz: np.ndarray | None = None
     """Offboard attitude setpoint: replaces the position controller's attitude."""
     body_rates_rad_s: np.ndarray | None = None
@@ -154,16 +157,17 @@ class Commander:
         """Hold at the braking point: the current position plus the distance it takes to stop.
 
         As PX4's Loiter (Navigator::calculate_breaking_stop), so that a Hold commanded at speed
-        does not fly back to where it was asked; the distance is v²/(2 MPC_ACC_HOR), without
-        PX4's jerk term.
+        does not fly back to where it was asked; the distance is the jerk-limited trajectory's
+        stopping distance with MPC_ACC_HOR and MPC_JERK_AUTO.
         """
         self._target = self._position()
         if self._last is not None and self.in_air:
             vel = self._last.velocity_ned_m_s[:2]
             speed = float(np.hypot(vel[0], vel[1]))
             acc = float(self.params.get("MPC_ACC_HOR"))
-            if acc > 0:
-                self._target[:2] += vel * (speed / (2.0 * acc))
+            jerk = float(self.params.get("MPC_JERK_AUTO"))
+            if speed > 1e-6:
+                self._target[:2] += vel * (float(braking_distance(speed, acc, jerk)) / speed)
         self._yaw_sp = self._last.yaw_rad if self._last else 0.0
         self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
 
@@ -413,6 +417,8 @@ class Commander:
         out.body_rates_rad_s = target.body_rates_rad_s
         out.thrust = target.thrust
         out.max_speed_xy_m_s = float(p.get("MPC_XY_VEL_MAX"))
+        out.max_speed_up_m_s = float(p.get("MPC_Z_VEL_MAX_UP"))
+        out.max_speed_down_m_s = float(p.get("MPC_Z_VEL_MAX_DN"))
         self._target = self._position()
         self._yaw_sp = target.yaw_rad if math.isfinite(target.yaw_rad) else nav.yaw_rad
 
@@ -568,8 +574,8 @@ class Commander:
         if not math.isfinite(cruise):
             cruise = float(p.get("MPC_XY_CRUISE"))
         out.max_speed_xy_m_s = min(cruise, float(p.get("MPC_XY_VEL_MAX")))
-        out.max_speed_up_m_s = float(p.get("MPC_Z_VEL_MAX_UP"))
-        out.max_speed_down_m_s = float(p.get("MPC_Z_VEL_MAX_DN"))
+        out.max_speed_up_m_s = float(p.get("MPC_Z_V_AUTO_UP"))
+        out.max_speed_down_m_s = float(p.get("MPC_Z_V_AUTO_DN"))
         if not self.armed:
             return out
         offboard = self.main_mode == MainMode.OFFBOARD
@@ -584,6 +590,7 @@ class Commander:
             self._check_preflight_disarm(nav)
             return out
         out.active = True
+        out.smooth = not offboard
         out.position_ned_m = self._target.copy()
         sub = self.sub_mode
         if offboard:
@@ -723,7 +730,7 @@ class Commander:
         rel_alt = self._relative_alt(nav)
         speed = float(self.params.get("MPC_LAND_SPEED"))
         if rel_alt > 10.0:
-            speed = float(self.params.get("MPC_Z_VEL_MAX_DN"))
+            speed = float(self.params.get("MPC_Z_V_AUTO_DN"))
         out.velocity_ff_m_s = np.array([0.0, 0.0, speed])
         if self.landed_state == LandedState.IN_AIR:
             self.landed_state = LandedState.LANDING

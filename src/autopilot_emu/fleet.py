@@ -23,6 +23,7 @@ from autopilot_emu.control.attitude import attitude_rate_setpoint
 from autopilot_emu.control.mixer import MAX_ROTORS, Mixer, RotorGeometry
 from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
 from autopilot_emu.control.rate import RateController
+from autopilot_emu.control.trajectory import JerkLimitedTrajectory, TrajectoryLimits
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
 from autopilot_emu.mission.items import MissionItem, MissionType
@@ -76,6 +77,12 @@ class AutopilotFleet:
         self.estimator = FleetEstimator(n, config.estimator)
         self.commanders = [Commander(p) for p in self.params]
         self.position_control = PositionController(n)
+        self.trajectory = JerkLimitedTrajectory(n)
+        """Auto-mode setpoint smoothing between the commander and the position controller."""
+        self._smooth = np.zeros(n, dtype=bool)
+        """Vehicles whose commander asks for a smoothed target (auto modes)."""
+        self._smoothing = np.zeros(n, dtype=bool)
+        """Vehicles whose position controller tracked the trajectory at the last tick."""
         self.rate_control = RateController(n)
         self.mixer = Mixer([RotorGeometry.from_params(p) for p in self.params])
         self.battery = FleetBattery(n, config.battery)
@@ -94,6 +101,7 @@ class AutopilotFleet:
         self.gps_failed = np.zeros(n, dtype=bool)
         """GPS switched off by MAV_CMD_INJECT_FAILURE: its samples are dropped."""
         self._sp = PositionSetpoint.hold(n)
+        self._ctrl_sp = PositionSetpoint.hold(n)
         self._nav_period_s = 1.0 / config.nav_hz
         self._nav_accum_s = self._nav_period_s  # run navigation on the first sample
         self._param_versions: tuple[int, ...] = ()
@@ -220,13 +228,14 @@ class AutopilotFleet:
                 rates = out.body_rates_rad_s
                 self._rate_target[i] = rates if rates is not None else np.nan
             self.active[i] = out.active
+            self._smooth[i] = out.smooth
             self.armed[i] = cmd.armed
         idle = ~self.active
         if idle.any():
             self.position_control.reset(idle, vel)
             self.rate_control.reset(idle)
         self.q_sp, thrust = self.position_control.update(
-            sp, gains.position, pos, vel, dt, self.active
+            self._smoothed_setpoint(pos, vel, dt, gains), gains.position, pos, vel, dt, self.active
         )
         self.thrust = np.where(self.active, thrust, 0.0)
         # Offboard attitude / rate setpoints replace the position controller's output.
@@ -239,6 +248,54 @@ class AutopilotFleet:
             with_att = override & np.isfinite(self._att_target_q[:, 0])
             self.q_sp[with_att] = self._att_target_q[with_att]
             self.thrust[override] = np.clip(self._att_target_thrust[override], 0.0, 1.0)
+
+    def _smoothed_setpoint(
+        self, pos: np.ndarray, vel: np.ndarray, dt: float, gains: _Gains
+    ) -> PositionSetpoint:
+        """The commander's setpoint, with auto-mode targets replaced by the trajectory's state.
+
+        Axes the commander controls by position get the trajectory's position, velocity and
+        acceleration; axes it controls by velocity (landing) get its velocity and acceleration.
+        The controller's own limits then become MPC_XY_VEL_MAX / MPC_Z_VEL_MAX_UP / _DN, as in
+        PX4, so that it can catch up with the trajectory.
+        """
+        sp = self._sp
+        smooth = self._smooth & self.active
+        restart = smooth & ~self._smoothing
+        self._smoothing = smooth
+        if not smooth.any():
+            return sp
+        traj = self.trajectory
+        if restart.any():
+            traj.reset(restart, pos, vel)
+        lim = gains.limits
+        traj.update(
+            sp.position_ned_m,
+            sp.velocity_ff_m_s,
+            TrajectoryLimits(
+                sp.max_speed_xy_m_s,
+                sp.max_speed_up_m_s,
+                sp.max_speed_down_m_s,
+                lim.acc_xy_m_s2,
+                lim.acc_up_m_s2,
+                lim.acc_down_m_s2,
+                lim.jerk_m_s3,
+                lim.error_max_m,
+            ),
+            pos,
+            dt,
+        )
+        out, rows = self._ctrl_sp, smooth[:, None]
+        has_pos = np.isfinite(sp.position_ned_m)
+        out.position_ned_m = np.where(rows & has_pos, traj.position_m, sp.position_ned_m)
+        out.velocity_ff_m_s = np.where(rows, traj.velocity_m_s, sp.velocity_ff_m_s)
+        out.acceleration_ff_m_s2 = np.where(rows, traj.acceleration_m_s2, sp.acceleration_ff_m_s2)
+        out.yaw_rad = sp.yaw_rad
+        out.max_speed_xy_m_s = np.where(smooth, lim.speed_xy_m_s, sp.max_speed_xy_m_s)
+        out.max_speed_up_m_s = np.where(smooth, lim.speed_up_m_s, sp.max_speed_up_m_s)
+        out.max_speed_down_m_s = np.where(smooth, lim.speed_down_m_s, sp.max_speed_down_m_s)
+        out.smoothed = smooth
+        return out
 
     def _control(self, dt: float, gains: _Gains) -> None:
         est = self.estimator
@@ -313,6 +370,9 @@ class _Gains:
     rate_d: np.ndarray
     rate_max: np.ndarray
     hover_thrust: np.ndarray
+    limits: TrajectoryLimits
+    """Trajectory acceleration, jerk and error limits; its speeds are the controller's own
+    (MPC_XY_VEL_MAX, MPC_Z_VEL_MAX_UP / _DN): the trajectory's come from the commander."""
 
     @classmethod
     def from_params(cls, params: list[ParamStore]) -> _Gains:
@@ -345,6 +405,16 @@ class _Gains:
             rate_d=rpy("MC_{}RATE_D"),
             rate_max=np.radians(rpy("MC_{}RATE_MAX")),
             hover_thrust=hover,
+            limits=TrajectoryLimits(
+                speed_xy_m_s=col("MPC_XY_VEL_MAX"),
+                speed_up_m_s=col("MPC_Z_VEL_MAX_UP"),
+                speed_down_m_s=col("MPC_Z_VEL_MAX_DN"),
+                acc_xy_m_s2=col("MPC_ACC_HOR"),
+                acc_up_m_s2=col("MPC_ACC_UP_MAX"),
+                acc_down_m_s2=col("MPC_ACC_DOWN_MAX"),
+                jerk_m_s3=col("MPC_JERK_AUTO"),
+                error_max_m=col("MPC_XY_ERR_MAX"),
+            ),
         )
 
 

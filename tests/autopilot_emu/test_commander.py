@@ -313,7 +313,8 @@ def test_leaving_land_mode_in_the_air_reports_in_air_again():
 
 
 def test_hold_at_speed_aims_at_the_braking_point():
-    """Hold while flying 4 m/s north: target v²/(2 MPC_ACC_HOR) ahead, not where it was."""
+    """Hold while flying 4 m/s north: target v²/(2 MPC_ACC_HOR) + 0.6 s × v ahead (PX4's jerk
+    delay), not where it was."""
     c = hovering_at_20_m()
     moving = NavInput(50.0, np.array([10.0, 0.0, -20.0]), np.array([4.0, 0.0, 0.0]), 0.0, True,
                       0.23, 488.0)  # fmt: skip
@@ -321,5 +322,5 @@ def test_hold_at_speed_aims_at_the_braking_point():
     assert c.set_mode(MainMode.AUTO, AutoSubMode.LOITER) == 0
     out = c.update(moving)
     acc = float(c.params.get("MPC_ACC_HOR"))
-    assert out.position_ned_m[:2] == pytest.approx([10.0 + 16.0 / (2 * acc), 0.0])
+    assert out.position_ned_m[:2] == pytest.approx([10.0 + 16.0 / (2 * acc) + 0.6 * 4.0, 0.0])
     assert out.position_ned_m[2] == pytest.approx(-20.0)

@@ -211,7 +211,9 @@ def test_max_horizontal_distance_breach_holds(link):
     link.until(lambda: link.commander.fence_breached, 30)
     link.run(6.0)
     n, _, _ = link.truth_ned()
-    assert 12.0 < n < 18.0  # GF_ACTION 2 (default): Hold just past the limit
+    # GF_ACTION 2 (default): Hold just past the limit, at the jerk-limited braking distance
+    # (v²/2a + 0.6 s × v, 7.2 m at 5 m/s) beyond where the breach was seen.
+    assert 12.0 < n < 21.0
     assert link.commander.sub_mode == AutoSubMode.LOITER
 
 
@@ -291,8 +293,16 @@ def test_data_link_loss_returns_after_com_dl_loss_t(link):
     link.set_param("COM_DL_LOSS_T", 5, int32=True)
     link.set_param("RTL_RETURN_ALT", 8.0)
     gcs_heartbeat(link)
-    take_off(link)
-    gcs_heartbeat(link)
+    # The ground station talks during the take-off too: the jerk-limited climb to 5 m takes
+    # longer than COM_DL_LOSS_T.
+    link.set_param("MIS_TAKEOFF_ALT", 5.0)
+    assert link.arm() == 0 and link.command(mavlink2.MAV_CMD_NAV_TAKEOFF) == 0
+    for _ in range(30):
+        link.run(1.0)
+        gcs_heartbeat(link)
+        if link.commander.sub_mode == AutoSubMode.LOITER:
+            break
+    assert link.commander.sub_mode == AutoSubMode.LOITER
     assert goto(link, 10, 0, 5) == 0
     for _ in range(4):  # the ground station keeps talking: no failsafe
         link.run(1.0)

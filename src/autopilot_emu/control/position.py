@@ -56,6 +56,9 @@ class PositionSetpoint:
     max_speed_down_m_s: np.ndarray
     acceleration_ff_m_s2: np.ndarray
     """Acceleration feed-forward (NED, m/s²), added to the velocity loop's output."""
+    smoothed: np.ndarray | None = None
+    """(N,) rows that come from the jerk-limited trajectory (auto modes): tracked as given. Other
+    rows (offboard, or no trajectory) keep the controller's own approach-speed and slew limits."""
 
     @classmethod
     def hold(cls, n: int) -> PositionSetpoint:
@@ -68,6 +71,7 @@ class PositionSetpoint:
             np.full(n, 3.0),
             np.full(n, 1.5),
             np.zeros((n, 3)),
+            np.zeros(n, dtype=bool),
         )
 
 
@@ -113,11 +117,12 @@ class PositionController:
             has_vel |= has_pos
             vel_ff = np.where(has_vel, vel_ff, 0.0)
         vel_cmd = vel_ff + gains.pos_p * err
-        # Per-axis limits: horizontal norm, vertical up/down. Horizontally also the speed from
-        # which the vehicle can still stop at the target with half of MPC_ACC_HOR (what PX4's
-        # jerk-limited trajectory achieves), so goto arrives without overshoot.
+        # Per-axis limits: horizontal norm, vertical up/down. Setpoints that do not come from
+        # the trajectory are also capped at the speed from which the vehicle can still stop at
+        # the target with MPC_ACC_HOR, and slew-limited by it.
+        raw = ~sp.smoothed if sp.smoothed is not None else np.ones(self.n, dtype=bool)
         hnorm = np.hypot(vel_cmd[:, 0], vel_cmd[:, 1])
-        dist = np.where(has_pos[:, 0], np.hypot(err[:, 0], err[:, 1]), np.inf)
+        dist = np.where(has_pos[:, 0] & raw, np.hypot(err[:, 0], err[:, 1]), np.inf)
         v_max = np.minimum(sp.max_speed_xy_m_s, np.sqrt(gains.acc_hor_max_m_s2 * dist))
         vel_cmd[:, :2] *= np.minimum(1.0, v_max / np.maximum(hnorm, 1e-9))[:, None]
         vel_cmd[:, 2] = np.minimum(
@@ -127,6 +132,7 @@ class PositionController:
         dv = vel_cmd[:, :2] - self.vel_sp[:, :2]
         dvn = np.hypot(dv[:, 0], dv[:, 1])
         dv *= np.minimum(1.0, (gains.acc_hor_max_m_s2 * dt_s) / np.maximum(dvn, 1e-9))[:, None]
+        dv = np.where(raw[:, None], dv, vel_cmd[:, :2] - self.vel_sp[:, :2])
         self.vel_sp[:, :2] += dv
         self.vel_sp[:, 2] = vel_cmd[:, 2]
         if not active.all():

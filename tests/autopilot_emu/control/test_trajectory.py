@@ -1,0 +1,85 @@
+"""The auto-mode trajectory respects its speed, acceleration and jerk limits and stops on target."""
+
+import numpy as np
+import pytest
+
+from autopilot_emu.control.trajectory import (
+    JerkLimitedTrajectory,
+    TrajectoryLimits,
+    braking_distance,
+)
+
+DT = 0.02
+
+
+def _limits(n, cruise=5.0, up=3.0, down=1.5, acc=3.0, jerk=4.0, err=2.0):
+    f = lambda v: np.full(n, float(v))  # noqa: E731
+    return TrajectoryLimits(f(cruise), f(up), f(down), f(acc), f(4.0), f(3.0), f(jerk), f(err))
+
+
+def _fly(target, limits, seconds, start=None, vehicle=None):
+    n = len(target)
+    traj = JerkLimitedTrajectory(n)
+    if start is not None:
+        traj.reset(np.ones(n, dtype=bool), start, np.zeros((n, 3)))
+    log = []
+    for _ in range(int(seconds / DT)):
+        here = traj.position_m.copy() if vehicle is None else vehicle
+        traj.update(target, np.zeros((n, 3)), limits, here, DT)
+        log.append((traj.position_m.copy(), traj.velocity_m_s.copy(), traj.acceleration_m_s2.copy()))
+    return [np.array(x) for x in zip(*log, strict=True)]
+
+
+@pytest.mark.parametrize("cruise", [5.0, 10.0])
+def test_long_leg_cruises_at_the_limit_and_stops_on_target_without_overshoot(cruise):
+    target = np.array([[80.0, 0.0, 0.0], [0.0, -80.0, 0.0]])
+    pos, vel, acc = _fly(target, _limits(2, cruise=cruise), 40.0)
+    speed = np.hypot(vel[..., 0], vel[..., 1])
+    assert speed.max() == pytest.approx(cruise, rel=1e-3)
+    along = np.stack((pos[:, 0, 0], -pos[:, 1, 1]), axis=1)
+    assert along.max() <= 80.0 + 1e-3  # no overshoot
+    np.testing.assert_allclose(pos[-1], target, atol=0.01)
+    assert np.abs(pos[:, 0, 1]).max() < 1e-9  # straight line
+    assert np.hypot(acc[..., 0], acc[..., 1]).max() <= 3.0 + 1e-9
+    jerk = np.diff(acc, axis=0) / DT
+    assert np.linalg.norm(jerk, axis=2).max() <= 4.0 + 1e-6
+
+
+def test_vertical_limits_are_asymmetric():
+    target = np.array([[0.0, 0.0, -30.0], [0.0, 0.0, 30.0]])
+    pos, vel, acc = _fly(target, _limits(2, up=3.0, down=1.5), 40.0)
+    assert vel[:, 0, 2].min() == pytest.approx(-3.0, rel=1e-3)
+    assert vel[:, 1, 2].max() == pytest.approx(1.5, rel=1e-3)
+    assert acc[:, 0, 2].min() >= -4.0 - 1e-9  # MPC_ACC_UP_MAX
+    assert acc[:, :, 2].max() <= 3.0 + 1e-9  # MPC_ACC_DOWN_MAX
+    assert pos[:, 0, 2].min() >= -30.0 - 1e-3 and pos[:, 1, 2].max() <= 30.0 + 1e-3
+
+
+def test_short_hop_never_overshoots():
+    target = np.array([[1.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    pos, _, _ = _fly(target, _limits(2, cruise=12.0), 20.0)
+    assert pos[:, 0, 0].max() <= 1.0 + 1e-3 and pos[:, 1, 0].max() <= 3.0 + 1e-3
+    np.testing.assert_allclose(pos[-1], target, atol=0.01)
+
+
+def test_trajectory_waits_for_a_vehicle_that_lags_behind():
+    """MPC_XY_ERR_MAX: with the vehicle stuck at the start, the trajectory stops 2 m ahead."""
+    target = np.array([[50.0, 0.0, 0.0]])
+    pos, _, _ = _fly(target, _limits(1, err=2.0), 20.0, vehicle=np.zeros((1, 3)))
+    assert 1.0 < pos[-1, 0, 0] <= 2.0
+
+
+def test_braking_distance_stops_a_cruising_trajectory():
+    """A Hold target at the navigator's braking distance is overshot by less than 0.5 m."""
+    traj = JerkLimitedTrajectory(1)
+    limits = _limits(1, cruise=5.0)
+    far = np.array([[1000.0, 0.0, 0.0]])
+    for _ in range(int(5.0 / DT)):
+        traj.update(far, np.zeros((1, 3)), limits, traj.position_m.copy(), DT)
+    assert traj.velocity_m_s[0, 0] == pytest.approx(5.0, rel=1e-3)
+    stop = traj.position_m[0, 0] + braking_distance(5.0, 3.0, 4.0)
+    peak = 0.0
+    for _ in range(int(10.0 / DT)):
+        traj.update(np.array([[stop, 0, 0]]), np.zeros((1, 3)), limits, traj.position_m.copy(), DT)
+        peak = max(peak, traj.position_m[0, 0])
+    assert peak <= stop + 0.5
