@@ -313,7 +313,7 @@ def test_leaving_land_mode_in_the_air_reports_in_air_again():
 
 
 def test_hold_at_speed_aims_at_the_braking_point():
-    """Hold while flying 4 m/s north: target v²/(2 MPC_ACC_HOR) + 0.6 s × v ahead (PX4's jerk
+    """Hold while flying 4 m/s north: target v²/(2 MPC_ACC_HOR) + 0.6 s x v ahead (PX4's jerk
     delay), not where it was."""
     c = hovering_at_20_m()
     moving = NavInput(50.0, np.array([10.0, 0.0, -20.0]), np.array([4.0, 0.0, 0.0]), 0.0, True,

@@ -212,7 +212,7 @@ def test_max_horizontal_distance_breach_holds(link):
     link.run(6.0)
     n, _, _ = link.truth_ned()
     # GF_ACTION 2 (default): Hold just past the limit, at the jerk-limited braking distance
-    # (v²/2a + 0.6 s × v, 7.2 m at 5 m/s) beyond where the breach was seen.
+    # (v²/2a + 0.6 s x v, 7.2 m at 5 m/s) beyond where the breach was seen.
     assert 12.0 < n < 21.0
     assert link.commander.sub_mode == AutoSubMode.LOITER
 

@@ -26,7 +26,8 @@ def _fly(target, limits, seconds, start=None, vehicle=None):
     for _ in range(int(seconds / DT)):
         here = traj.position_m.copy() if vehicle is None else vehicle
         traj.update(target, np.zeros((n, 3)), limits, here, DT)
-        log.append((traj.position_m.copy(), traj.velocity_m_s.copy(), traj.acceleration_m_s2.copy()))
+        state = (traj.position_m, traj.velocity_m_s, traj.acceleration_m_s2)
+        log.append(tuple(s.copy() for s in state))
     return [np.array(x) for x in zip(*log, strict=True)]
 
 
