@@ -174,15 +174,16 @@ def test_position_with_velocity_feed_forward_and_acceleration(flying):
     lk.stream(moving, 6.0)
     assert np.linalg.norm(lk.ned() - (start + np.array([0.0, 6.0, 0.0]))) < 0.5
     # Horizontal acceleration, height held by a z position (axes mix, as in PX4), 1.5 m/s²
-    # north: not drag-compensated (as in PX4), so the Typhoon's rotor drag (about 1.2 /s)
-    # limits the speed to about 1.2 m/s; then the same south.
+    # north for 3 s: not drag-compensated (as in PX4), so the speed stays below the 4.5 m/s of
+    # drag-free flight but, with the identified (small) drag at these speeds, not far below;
+    # then the same south.
     z = start[2]
     north = local_ned(ACCELERATION_XY_HOLD_Z, z=z, afx=1.5)
     lk.stream(lambda: north, 3.0)
-    assert lk.velocity()[0] == pytest.approx(1.2, abs=0.4)
+    assert 2.5 < lk.velocity()[0] < 4.5
     south = local_ned(ACCELERATION_XY_HOLD_Z, z=z, afx=-1.5)
-    lk.stream(lambda: south, 3.0)
-    assert lk.velocity()[0] == pytest.approx(-1.2, abs=0.4)
+    lk.stream(lambda: south, 6.0)
+    assert -4.5 < lk.velocity()[0] < -1.0
     assert lk.ned()[2] == pytest.approx(z, abs=0.5)
 
 
