@@ -18,6 +18,7 @@ import numpy as np
 
 from autopilot_emu import geodesy
 from autopilot_emu.control.trajectory import braking_distance
+from autopilot_emu.estimator import GRAVITY_M_S2
 from autopilot_emu.failsafe import ACTION_NAMES, Action, FailsafeInput, FailsafeMonitor
 from autopilot_emu.mission.executor import LegKind, MissionExecutor, StepInput, Tolerances
 from autopilot_emu.mission.feasibility import (
@@ -64,6 +65,9 @@ class NavInput:
     """Latitude and longitude of the NED origin, deg (NaN before the first fix)."""
     battery_remaining: float = math.nan
     """Estimated state of charge, 0..1."""
+    hover_thrust: float = math.nan
+    """Hover thrust the position controller uses (the estimator's, once valid), 0..1; NaN:
+    MPC_THR_HOVER."""
 
 
 @dataclass
@@ -129,6 +133,7 @@ class Commander:
         self._gcs_heard_s: float | None = None
         self._rtl_dest_ned = np.zeros(2)
         self.offboard = OffboardControl()
+        self._takeoff_ramp_start_s: float | None = None
         self._offboard_fallback: tuple[MainMode, AutoSubMode] | None = None
         """Mode the offboard-loss failsafe switched to; Offboard resumes from it when the
         setpoint stream comes back (PX4's mode fallback clears with its condition)."""
@@ -141,6 +146,12 @@ class Commander:
     def in_air(self) -> bool:
         """True from takeoff detection until landing is detected."""
         return self.landed_state != LandedState.ON_GROUND
+
+    def _hover_thrust(self) -> float:
+        """The hover thrust in use: the estimate the fleet passes in, else MPC_THR_HOVER."""
+        if self._last is not None and math.isfinite(self._last.hover_thrust):
+            return self._last.hover_thrust
+        return float(self.params.get("MPC_THR_HOVER"))
 
     def _now(self) -> float:
         return self._last.time_s if self._last else 0.0
@@ -406,9 +417,7 @@ class Commander:
     def _offboard_output(self, nav: NavInput, out: NavOutput, dt_s: float) -> None:
         """Offboard mode: the last setpoint becomes the controller target."""
         p = self.params
-        target = self.offboard.target(
-            nav.position_ned_m, nav.yaw_rad, dt_s, float(p.get("MPC_THR_HOVER"))
-        )
+        target = self.offboard.target(nav.position_ned_m, nav.yaw_rad, dt_s, self._hover_thrust())
         out.position_ned_m = target.position_ned_m
         out.velocity_ff_m_s = target.velocity_ff_m_s
         out.acceleration_ff_m_s2 = target.acceleration_ff_m_s2
@@ -581,7 +590,7 @@ class Commander:
         offboard = self.main_mode == MainMode.OFFBOARD
         if offboard and self.landed_state in (LandedState.ON_GROUND, LandedState.TAKEOFF):
             # Offboard takes off when its setpoint lifts the vehicle, and gives up if it stops.
-            climb = self.offboard.wants_climb(nav.position_ned_m, float(p.get("MPC_THR_HOVER")))
+            climb = self.offboard.wants_climb(nav.position_ned_m, self._hover_thrust())
             self.landed_state = LandedState.TAKEOFF if climb else LandedState.ON_GROUND
         grounded = self.landed_state == LandedState.ON_GROUND
         if grounded and self.sub_mode != AutoSubMode.TAKEOFF:
@@ -606,7 +615,30 @@ class Commander:
             self._rtl_setpoint(nav, out)
         elif sub == AutoSubMode.MISSION:
             self._mission_setpoint(nav, out)
+        if self.landed_state == LandedState.TAKEOFF and not offboard:
+            self._takeoff_ramp(nav, out)
+        else:
+            self._takeoff_ramp_start_s = None
         return out
+
+    def _takeoff_ramp(self, nav: NavInput, out: NavOutput) -> None:
+        """Until lift-off, ramp the climb-rate setpoint instead of flying the trajectory.
+
+        As PX4's Takeoff (MPC_TKO_RAMP_T): the vertical velocity setpoint starts where the
+        velocity loop asks for zero thrust (g / MPC_Z_VEL_P_ACC downwards) and ramps linearly to
+        MPC_TKO_SPEED upwards, so a wrong MPC_THR_HOVER guess cannot throw the vehicle up.
+        """
+        p = self.params
+        if self._takeoff_ramp_start_s is None:
+            self._takeoff_ramp_start_s = nav.time_s
+        ramp_s = max(float(p.get("MPC_TKO_RAMP_T")), 1e-3)
+        frac = min(max((nav.time_s - self._takeoff_ramp_start_s) / ramp_s, 0.0), 1.0)
+        start = GRAVITY_M_S2 / max(float(p.get("MPC_Z_VEL_P_ACC")), 0.1)
+        end = -float(p.get("MPC_TKO_SPEED"))
+        out.position_ned_m[2] = np.nan
+        out.velocity_ff_m_s = np.array([0.0, 0.0, start + frac * (end - start)])
+        out.max_speed_down_m_s = max(out.max_speed_down_m_s, start)
+        out.smooth = False
 
     def _mission_setpoint(self, nav: NavInput, out: NavOutput) -> None:
         """One tick of the mission: the executor's leg becomes the controller setpoint."""
@@ -780,7 +812,7 @@ class Commander:
             ):
                 self.landed_state = LandedState.IN_AIR
             return
-        hover = float(self.params.get("MPC_THR_HOVER"))
+        hover = self._hover_thrust()
         descending = self._descending
         low_thrust = (not self.armed) or nav.thrust < 0.6 * hover
         # Without a position fix the horizontal velocity estimate drifts: judge by vertical only.

@@ -20,13 +20,15 @@ from autopilot_emu import quaternion as quat
 from autopilot_emu.battery import BatteryModel, FleetBattery
 from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
 from autopilot_emu.control.attitude import attitude_rate_setpoint
+from autopilot_emu.control.hover_thrust import HoverThrustEstimator, HoverThrustParams
 from autopilot_emu.control.mixer import MAX_ROTORS, Mixer, RotorGeometry
 from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
 from autopilot_emu.control.rate import RateController
 from autopilot_emu.control.trajectory import JerkLimitedTrajectory, TrajectoryLimits
-from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
+from autopilot_emu.estimator import GRAVITY_M_S2, EstimatorConfig, FleetEstimator
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
 from autopilot_emu.mission.items import MissionItem, MissionType
+from autopilot_emu.modes import LandedState
 from autopilot_emu.modes.offboard import (
     AltitudeReference,
     GlobalSetpoint,
@@ -106,6 +108,11 @@ class AutopilotFleet:
         self._nav_accum_s = self._nav_period_s  # run navigation on the first sample
         self._param_versions: tuple[int, ...] = ()
         self._gains: _Gains | None = None
+        self.hover_thrust_estimator: HoverThrustEstimator | None = None
+        """PX4's mc_hover_thrust_estimator for each vehicle (built with the gains)."""
+        self.hover_thrust = np.zeros(n)
+        """Hover thrust the position controller uses: the estimate once valid, else
+        MPC_THR_HOVER, (N,) 0..1."""
         self._controls = [0.0] * 16
         self._pressure_alt_m = np.zeros(n)
         self.metres_per_degree = np.ones((n, 2))
@@ -169,6 +176,7 @@ class AutopilotFleet:
         if self._nav_accum_s >= self._nav_period_s - 1e-9:
             self.battery.update(self.thrust, gains.hover_thrust, self.armed, self._nav_accum_s)
             est.update_acceleration(self._nav_accum_s)
+            self._update_hover_thrust(self._nav_accum_s, gains)
             self._navigate(self._nav_accum_s, gains)
             self._nav_accum_s = 0.0
         self._control(dt, gains)
@@ -198,6 +206,7 @@ class AutopilotFleet:
         ok = est.position_ok
         origin = est.origin_lla.tolist()
         remaining = self.battery.remaining.tolist()
+        hover = self.hover_thrust.tolist()
         sp = self._sp
         for i, cmd in enumerate(self.commanders):
             lat, lon, alt = origin[i] if est.origin_set[i] else (math.nan, math.nan, 0.0)
@@ -212,6 +221,7 @@ class AutopilotFleet:
                     alt,
                     (lat, lon),
                     remaining[i],
+                    hover[i],
                 )
             )
             sp.position_ned_m[i] = out.position_ned_m
@@ -248,6 +258,41 @@ class AutopilotFleet:
             with_att = override & np.isfinite(self._att_target_q[:, 0])
             self.q_sp[with_att] = self._att_target_q[with_att]
             self.thrust[override] = np.clip(self._att_target_thrust[override], 0.0, 1.0)
+
+    def _update_hover_thrust(self, dt: float, gains: _Gains) -> None:
+        """Fuse one sample into the hover-thrust estimators; hand the result to the controller.
+
+        Inputs are the autopilot's own: the estimated vertical acceleration and the upward part
+        of the last collective thrust command. While an estimate is not valid the controller
+        uses MPC_THR_HOVER. When the value in use changes, the vertical velocity integrator
+        absorbs the change so the thrust stays continuous (as PX4's updateHoverThrust).
+        """
+        hte = self.hover_thrust_estimator
+        assert hte is not None
+        est = self.estimator
+        flying = np.array(
+            [c.in_air and c.landed_state != LandedState.TAKEOFF for c in self.commanders]
+        )
+        flying &= self.armed
+        if not self.armed.all():
+            hte.reset(~self.armed)
+        hte.update(
+            flying,
+            -est.accel_ned_m_s2[:, 2],
+            self.thrust * est.r[:, 2, 2],
+            est.velocity_ned_m_s,
+            dt,
+        )
+        hover = np.where(hte.valid, hte.hover_thrust, hte.params.initial)
+        old = self.hover_thrust
+        changed = (hover != old) & (old > 0.0)
+        if changed.any():
+            integ = self.position_control.vel_int
+            adjusted = GRAVITY_M_S2 - old / hover * (GRAVITY_M_S2 - integ[:, 2])
+            integ[:, 2] = np.where(changed, adjusted, integ[:, 2])
+        self.hover_thrust = hover
+        gains.position.hover_thrust = hover
+        gains.hover_thrust = hover
 
     def _smoothed_setpoint(
         self, pos: np.ndarray, vel: np.ndarray, dt: float, gains: _Gains
@@ -332,6 +377,15 @@ class AutopilotFleet:
             self._param_versions = versions
             self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
             self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
+            hte_params = _hover_thrust_params(self.params)
+            if self.hover_thrust_estimator is None:
+                self.hover_thrust_estimator = HoverThrustEstimator(hte_params)
+            else:
+                self.hover_thrust_estimator.set_params(hte_params)
+            if not self.hover_thrust.any():
+                self.hover_thrust = hte_params.initial.copy()
+            self._gains.position.hover_thrust = self.hover_thrust
+            self._gains.hover_thrust = self.hover_thrust
             geometries = [RotorGeometry.from_params(p) for p in self.params]
             if any(
                 g.moment_ratio_m.tolist() != o.moment_ratio_m.tolist()
@@ -359,6 +413,21 @@ class AutopilotFleet:
             self.active[i] = False
             self.outputs[i] = 0.0
             self.thrust[i] = 0.0
+
+
+def _hover_thrust_params(params: list[ParamStore]) -> HoverThrustParams:
+    def col(name: str) -> np.ndarray:
+        return np.array([float(p.get(name)) for p in params])
+
+    return HoverThrustParams(
+        initial=col("MPC_THR_HOVER"),
+        process_noise=col("HTE_HT_NOISE"),
+        gate=col("HTE_ACC_GATE"),
+        error_init=col("HTE_HT_ERR_INIT"),
+        vxy_threshold_m_s=col("HTE_VXY_THR"),
+        vz_threshold_m_s=col("HTE_VZ_THR"),
+        range=col("HTE_THR_RANGE"),
+    )
 
 
 @dataclass

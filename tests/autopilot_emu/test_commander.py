@@ -44,7 +44,19 @@ def test_takeoff_denied_when_disarmed_and_climbs_to_mis_takeoff_alt(cmd):
     assert (cmd.main_mode, cmd.sub_mode) == (MainMode.AUTO, AutoSubMode.TAKEOFF)
     out = cmd.update(nav(0.1))
     assert out.active
-    assert out.position_ned_m[2] == pytest.approx(-2.5)  # MIS_TAKEOFF_ALT default
+    assert cmd._target[2] == pytest.approx(-2.5)  # MIS_TAKEOFF_ALT default
+    # Until lift-off the climb rate ramps (MPC_TKO_RAMP_T) from zero thrust (g / MPC_Z_VEL_P_ACC
+    # downwards) to MPC_TKO_SPEED upwards; then the trajectory climbs to the target.
+    assert np.isnan(out.position_ned_m[2]) and not out.smooth
+    assert out.velocity_ff_m_s[2] == pytest.approx(9.80665 / 4.0, rel=1e-3)
+    ramp = float(cmd.params.get("MPC_TKO_RAMP_T"))
+    out = cmd.update(nav(0.1 + ramp / 2))
+    assert out.velocity_ff_m_s[2] == pytest.approx((9.80665 / 4.0 - 1.5) / 2, rel=1e-3)
+    out = cmd.update(nav(0.1 + ramp))
+    assert out.velocity_ff_m_s[2] == pytest.approx(-1.5, rel=1e-3)
+    out = cmd.update(nav(0.2 + ramp, z=-1.0, vz=-1.0, thrust=0.3))
+    assert cmd.in_air and out.smooth
+    assert out.position_ned_m[2] == pytest.approx(-2.5)
 
 
 def test_disarm_in_air_denied_but_kill_works(cmd):
@@ -144,8 +156,10 @@ def test_kill_during_takeoff_on_the_ground_leaves_it_landed_and_rearming_does_no
 
 
 def takeoff_target_z(c, alt_amsl_m, t=0.1):
+    """The take-off target (the output ramps the climb rate until lift-off)."""
     assert c.takeoff(alt_amsl_m) == ACCEPTED
-    return float(c.update(nav(t)).position_ned_m[2])
+    c.update(nav(t))
+    return float(c._target[2])
 
 
 @pytest.mark.parametrize("alt_amsl_m", [488.0, 488.5, 490.0, 400.0, -1000.0])
@@ -280,7 +294,8 @@ def test_mission_mode_armed_on_the_ground_climbs_to_the_first_item_height(geo_cm
     assert c.set_mode(MainMode.AUTO, AutoSubMode.MISSION) == ACCEPTED
     out = c.update(geo_nav(0.1))
     assert out.active
-    assert out.position_ned_m == pytest.approx([0.0, 0.0, -8.0])  # straight up first
+    assert c._target == pytest.approx([0.0, 0.0, -8.0])  # straight up first
+    assert out.position_ned_m[:2] == pytest.approx([0.0, 0.0])  # (climb-rate ramp until lift-off)
     assert c.mission_status()[2] == MissionState.ACTIVE
 
 

@@ -26,7 +26,7 @@ REQUIRED = {
     "MIS_TAKEOFF_ALT": ("REAL32", 2.5),
     "RTL_RETURN_ALT": ("REAL32", 30.0),
     "MPC_XY_CRUISE": ("REAL32", 5.0),
-    "MPC_THR_HOVER": ("REAL32", 0.23),
+    "MPC_THR_HOVER": ("REAL32", 0.5),
     "MC_ROLLRATE_D": ("REAL32", 0.003),
     "COM_DISARM_LAND": ("REAL32", 2.0),
     "COM_OBL_RC_ACT": ("INT32", 0),

@@ -38,7 +38,7 @@ def test_roll_step_settles_within_overshoot_bound(hovering):
     fleet = sim.fleet
     yaw = float(quat.yaw_of(fleet.estimator.r)[0])
     q = quat.from_euler(np.array([[np.radians(STEP_DEG), 0.0, yaw]]))[0]
-    hover = float(fleet.params[0].get("MPC_THR_HOVER"))
+    hover = float(fleet.hover_thrust[0])  # learned by the hover-thrust estimator
     setpoint = OffboardSetpoint(attitude_wxyz=q, thrust=hover / np.cos(np.radians(STEP_DEG)))
     vehicle = fleet.vehicle(0)
     vehicle.offboard_setpoint(setpoint, LocalFrame.LOCAL_NED)

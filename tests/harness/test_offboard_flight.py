@@ -125,7 +125,7 @@ def test_setpoints_are_streamed_back_as_position_and_attitude_targets(flying):
     assert [echo.x, echo.y, echo.z] == pytest.approx(target.tolist(), abs=1e-3)
     assert echo.yaw == pytest.approx(math.radians(45), abs=1e-4)
     assert echo.type_mask & mavlink2.POSITION_TARGET_TYPEMASK_AX_IGNORE
-    hover = float(lk.sim.fleet.params[0].get("MPC_THR_HOVER"))
+    hover = float(lk.sim.fleet.hover_thrust[0])  # the learned hover thrust in use
     tilt = attitude_target(5.0, 0.0, 45.0, hover)
     lk.stream(lambda: tilt, 0.5)
     lk.inbox.clear()
@@ -204,7 +204,7 @@ def test_position_global_relative_altitude(flying):
 
 def test_attitude_and_body_rate_setpoints(flying):
     lk = flying
-    hover = float(lk.sim.fleet.params[0].get("MPC_THR_HOVER"))
+    hover = float(lk.sim.fleet.hover_thrust[0])  # the learned hover thrust in use
     yaw = lk.yaw_deg()
     # Roll right 15 deg with the thrust that holds the height: accelerate to the right.
     tilt = attitude_target(15.0, 0.0, yaw, hover / math.cos(math.radians(15.0)))
@@ -213,7 +213,7 @@ def test_attitude_and_body_rate_setpoints(flying):
     right = np.array([-math.sin(math.radians(yaw)), math.cos(math.radians(yaw))])
     gained = lk.velocity() - v0
     assert float(np.dot(gained[:2], right)) > 1.5
-    assert abs(gained[2]) < 2.0  # MPC_THR_HOVER is only an estimate of the hover thrust
+    assert abs(gained[2]) < 2.0  # the learned hover thrust is only an estimate
     roll = math.degrees(float(quat.euler_of(lk.sim.fleet.estimator.r)[0, 0]))
     assert roll == pytest.approx(15.0, abs=2.0)
     # Body rates: yaw at 30 deg/s for 2 s.

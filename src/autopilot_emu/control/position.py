@@ -4,7 +4,8 @@ Follows the structure of PX4's multicopter position controller (mc_pos_control):
 position produces a velocity setpoint (plus feed-forward), limited per axis and slew-limited by
 MPC_ACC_HOR; a PID loop on velocity produces an acceleration setpoint; the acceleration is turned
 into a body-z direction (tilt-limited by MPC_TILTMAX_AIR) and a collective thrust scaled by the
-hover thrust MPC_THR_HOVER. The attitude setpoint combines that body-z with the yaw setpoint.
+hover thrust (the hover-thrust estimate; MPC_THR_HOVER until it is valid). The attitude setpoint
+combines that body-z with the yaw setpoint.
 """
 
 from __future__ import annotations
