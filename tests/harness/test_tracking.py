@@ -1,0 +1,218 @@
+"""Closed loop on the simulated Typhoon H480: the vehicle flies the speeds its parameters ask for.
+
+Lockstep Simulation without MAVLink, driven through the fleet's vehicle port. Every speed, tilt
+and overshoot is read from the simulator's ground truth (``sim.world.truth``) in simulation
+time: goto, mission legs and RTL cruise at MPC_XY_CRUISE (within 10 % over the middle of the
+leg) and stop without overshoot (jerk-limited trajectory, MPC_JERK_AUTO / MPC_ACC_HOR); offboard
+velocity is capped by MPC_XY_VEL_MAX and MPC_Z_VEL_MAX_UP / _DN, auto climbs use MPC_Z_V_AUTO_*;
+the tilt never exceeds MPC_TILTMAX_AIR.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pymap3d
+import pytest
+from pymavlink.dialects.v20 import common as mavlink2
+
+from autopilot_emu.mission.items import MissionItem, MissionType
+from autopilot_emu.modes import AutoSubMode, MainMode
+from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
+from harness.simulation import Simulation, SimulationConfig
+
+LEG_M = 80.0
+SPEED_TOLERANCE = 0.10
+"""Cruise must be met within 10 % over the middle of a leg."""
+OVERSHOOT_M = 0.5
+
+
+def _airborne(params: dict[str, float] | None = None, seed: int = 2):
+    sim = Simulation(SimulationConfig(n_vehicles=1, mavlink=False, record_hz=0, seed=seed))
+    for name, value in (params or {}).items():
+        sim.fleet.params[0].set(name, value)
+    sim.run_lockstep(3.0)
+    v = sim.fleet.vehicle(0)
+    assert v.arm(False) == 0 and v.takeoff(None) == 0
+    sim.run_lockstep(10.0)
+    return sim, v
+
+
+def _record(sim, seconds: float, every_s: float = 0.1, each=None) -> np.ndarray:
+    """Rows (t, north, east, up, v_north, v_east, v_up, tilt, est_north, est_east) every
+    ``every_s``: the simulator's truth, then the autopilot's own position estimate."""
+    rows = []
+    t0 = sim.time_s
+    while sim.time_s - t0 < seconds:
+        if each is not None:
+            each()
+        sim.run_lockstep(every_s)
+        tr = sim.world.truth
+        e, n, u = tr.position_enu_m[0]
+        ve, vn, vu = tr.velocity_enu_m_s[0]
+        est_n, est_e, _ = sim.fleet.estimator.position_ned_m[0]
+        rows.append((tr.time_s, n, e, u, vn, ve, vu, tr.tilt_rad[0], est_n, est_e))
+    return np.array(rows)
+
+
+def _geodetic(v, north_m: float, east_m: float) -> tuple[float, float]:
+    """Latitude, longitude of a point given in the vehicle's local NED frame."""
+    home = v.telemetry().home
+    hn, he, _ = home.local_ned_m
+    lat, lon, _ = pymap3d.ned2geodetic(
+        north_m - hn, east_m - he, 0.0, home.lat_deg, home.lon_deg, home.alt_amsl_m
+    )
+    return float(lat), float(lon)
+
+
+def _goto(v, north_m: float, east_m: float, up_m: float = 0.0) -> int:
+    tel = v.telemetry()
+    n, e, _ = tel.position_ned_m
+    lat, lon = _geodetic(v, n + north_m, e + east_m)
+    return v.reposition(lat, lon, tel.alt_amsl_m + up_m, math.nan, math.nan)
+
+
+def _middle(progress: np.ndarray, length_m: float) -> np.ndarray:
+    """Samples over the middle third of a leg of ``length_m`` (by distance flown)."""
+    return (progress > length_m / 3.0) & (progress < 2.0 * length_m / 3.0)
+
+
+def _assert_cruise(speed: np.ndarray, cruise: float) -> None:
+    assert speed.size > 5
+    assert np.all(np.abs(speed - cruise) <= SPEED_TOLERANCE * cruise), (
+        speed.min(),
+        speed.max(),
+    )
+
+
+@pytest.mark.parametrize("cruise", [5.0, 10.0])
+def test_goto_cruises_at_mpc_xy_cruise_and_stops_without_overshoot(cruise):
+    sim, v = _airborne({"MPC_XY_CRUISE": cruise})
+    try:
+        start = sim.world.truth.position_enu_m[0]
+        target = v.telemetry().position_ned_m[0] + LEG_M  # in the autopilot's frame
+        assert _goto(v, LEG_M, 0.0) == 0
+        r = _record(sim, LEG_M / cruise + 20.0)
+        north = r[:, 1] - start[1]
+        speed = np.hypot(r[:, 4], r[:, 5])
+        _assert_cruise(speed[_middle(north, LEG_M)], cruise)
+        # The target in the truth frame: the autopilot's target plus its estimation offset while
+        # holding there (GPS noise moves where it holds, not how far it overshoots).
+        target_truth = target + float(np.mean(r[-50:, 1] - r[-50:, 8]))
+        assert r[:, 1].max() - target_truth < OVERSHOOT_M
+        assert abs(r[-1, 1] - target_truth) < 0.5  # it stops there
+        assert speed[-10:].max() < 0.3
+    finally:
+        sim.close()
+
+
+def _offboard_velocity(v, velocity_ned: tuple[float, float, float]):
+    setpoint = OffboardSetpoint(velocity_ned_m_s=np.array(velocity_ned, dtype=float))
+
+    def send() -> None:
+        v.offboard_setpoint(setpoint, LocalFrame.LOCAL_NED)
+
+    send()
+    assert v.set_mode(MainMode.OFFBOARD, 0) == 0
+    return send
+
+
+def test_offboard_velocity_above_mpc_xy_vel_max_is_limited_and_tilt_stays_in_bounds():
+    sim, v = _airborne()
+    try:
+        vel_max = float(sim.fleet.params[0].get("MPC_XY_VEL_MAX"))
+        tilt_max = float(sim.fleet.params[0].get("MPC_TILTMAX_AIR"))
+        r = _record(sim, 15.0, each=_offboard_velocity(v, (vel_max + 6.0, 0.0, 0.0)))
+        speed = np.hypot(r[:, 4], r[:, 5])
+        assert speed.max() <= vel_max * 1.03
+        assert speed[-20:].min() >= vel_max * (1.0 - SPEED_TOLERANCE)
+        assert np.degrees(r[:, 7].max()) <= tilt_max
+    finally:
+        sim.close()
+
+
+def test_tilt_never_exceeds_mpc_tiltmax_air():
+    """A 20 deg tilt limit caps a hard offboard acceleration (attitude overshoot under 2 deg)."""
+    sim, v = _airborne({"MPC_TILTMAX_AIR": 20.0})
+    try:
+        r = _record(sim, 8.0, each=_offboard_velocity(v, (12.0, 0.0, 0.0)))
+        tilt_deg = np.degrees(r[:, 7])
+        assert tilt_deg.max() > 15.0  # the limit is reached...
+        assert tilt_deg.max() <= 20.0 + 2.0  # ...and held
+    finally:
+        sim.close()
+
+
+def test_offboard_climb_and_descent_are_limited_by_mpc_z_vel_max():
+    sim, v = _airborne()
+    try:
+        p = sim.fleet.params[0]
+        up, down = float(p.get("MPC_Z_VEL_MAX_UP")), float(p.get("MPC_Z_VEL_MAX_DN"))
+        r = _record(sim, 8.0, each=_offboard_velocity(v, (0.0, 0.0, -(up + 3.0))))
+        climb = r[-30:, 6]
+        assert np.all(np.abs(climb - up) <= SPEED_TOLERANCE * up), climb
+        r = _record(sim, 8.0, each=_offboard_velocity(v, (0.0, 0.0, down + 3.0)))
+        descent = -r[-30:, 6]
+        assert np.all(np.abs(descent - down) <= SPEED_TOLERANCE * down), descent
+    finally:
+        sim.close()
+
+
+def test_auto_climb_and_descent_use_mpc_z_v_auto():
+    """Goto 20 m up / down: MPC_Z_V_AUTO_UP / _DN, not the offboard MPC_Z_VEL_MAX_UP / _DN."""
+    sim, v = _airborne({"MPC_Z_V_AUTO_UP": 2.0, "MPC_Z_V_AUTO_DN": 1.0})
+    try:
+        z0 = sim.world.truth.position_enu_m[0, 2]
+        assert _goto(v, 0.0, 0.0, 20.0) == 0
+        r = _record(sim, 20.0)
+        _assert_cruise(r[_middle(r[:, 3] - z0, 20.0), 6], 2.0)
+        top = r[-1, 3]
+        assert r[:, 3].max() - top < OVERSHOOT_M
+        assert _goto(v, 0.0, 0.0, -18.0) == 0
+        r = _record(sim, 28.0)
+        _assert_cruise(-r[_middle(top - r[:, 3], 18.0), 6], 1.0)
+    finally:
+        sim.close()
+
+
+def _item(v, north_m: float, east_m: float, rel_alt_m: float) -> MissionItem:
+    lat, lon = _geodetic(v, north_m, east_m)
+    return MissionItem(
+        mavlink2.MAV_CMD_NAV_WAYPOINT,
+        mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        (0.0, 1.0, 0.0, math.nan),
+        round(lat * 1e7),
+        round(lon * 1e7),
+        rel_alt_m,
+    )
+
+
+def test_mission_legs_and_rtl_fly_at_cruise():
+    sim, v = _airborne({"RTL_RETURN_ALT": 5.0})
+    try:
+        cruise = float(sim.fleet.params[0].get("MPC_XY_CRUISE"))
+        home = v.telemetry().home.local_ned_m
+        rel_alt = 2.5  # MIS_TAKEOFF_ALT: the legs stay level
+        items = (
+            _item(v, home[0] + LEG_M, home[1], rel_alt),
+            _item(v, home[0] + LEG_M, home[1] + LEG_M, rel_alt),
+        )
+        assert v.upload_mission(MissionType.MISSION, items) == 0
+        origin = sim.world.truth.position_enu_m[0]
+        assert v.set_mode(MainMode.AUTO, AutoSubMode.MISSION) == 0
+        r = _record(sim, 2 * LEG_M / cruise + 20.0)
+        north, east = r[:, 1] - origin[1], r[:, 2] - origin[0]
+        speed = np.hypot(r[:, 4], r[:, 5])
+        first = _middle(north, LEG_M) & (east < 5.0)
+        second = _middle(east, LEG_M) & (north > LEG_M - 5.0)
+        _assert_cruise(speed[first], cruise)
+        _assert_cruise(speed[second], cruise)
+        assert v.set_mode(MainMode.AUTO, AutoSubMode.RTL) == 0
+        r = _record(sim, math.hypot(LEG_M, LEG_M) / cruise + 20.0)
+        north, east = r[:, 1] - origin[1], r[:, 2] - origin[0]
+        flown = math.hypot(LEG_M, LEG_M) - np.hypot(north, east)
+        speed = np.hypot(r[:, 4], r[:, 5])
+        _assert_cruise(speed[_middle(flown, math.hypot(LEG_M, LEG_M))], cruise)
+    finally:
+        sim.close()
