@@ -88,3 +88,35 @@ def test_geometry_from_params_defaults_to_the_typhoon_and_follows_changes():
 def test_too_many_rotors_is_refused():
     with pytest.raises(ValueError, match="rotors"):
         RotorGeometry.from_rows(((0.1, 0.1, 0.05),) * (MAX_ROTORS + 1))
+
+
+def test_fleet_builds_each_vehicles_mixer_from_its_params_and_rebuilds_on_change():
+    """A hexa and a quad in one fleet: 6 and 4 motors driven, the other outputs 0."""
+    from pymavlink.dialects.v20 import common as mavlink2
+
+    from autopilot_emu.fleet import AutopilotFleet, FleetConfig
+
+    params = [ParamStore(), ParamStore()]
+    fleet = AutopilotFleet(FleetConfig(n_vehicles=2), params)
+
+    def sensors(t_usec):
+        msg = mavlink2.MAVLink_hil_sensor_message(
+            t_usec, 0, 0, -9.80665, 0, 0, 0, 0.2, 0, 0.4, 1013.0, 0, 0, 488.0, 0, 0x1FFF
+        )
+        return [msg, msg]
+
+    out = fleet.handle_sensors(sensors(4000))
+    assert list(fleet.mixer.rotor_counts) == [6, 6]
+    params[1].set("CA_ROTOR_COUNT", 4)
+    for i, (x, y, km) in enumerate(QUAD_X):
+        params[1].set(f"CA_ROTOR{i}_PX", x)
+        params[1].set(f"CA_ROTOR{i}_PY", y)
+        params[1].set(f"CA_ROTOR{i}_KM", km)
+    fleet.commanders[0].armed = fleet.commanders[1].armed = True
+    fleet.sync_commands(0)
+    fleet.sync_commands(1)
+    out = fleet.handle_sensors(sensors(8000))
+    assert list(fleet.mixer.rotor_counts) == [6, 4]
+    hexa, quad = (np.array(m.controls) for m in out)
+    assert np.all(hexa[:6] > 0) and np.all(hexa[6:] == 0)  # armed idle on six motors
+    assert np.all(quad[:4] > 0) and np.all(quad[4:] == 0)
