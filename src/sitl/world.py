@@ -13,6 +13,7 @@ import argparse
 import dataclasses
 import logging
 import math
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -101,6 +102,8 @@ class WorldConfig:
             raise ValueError(f"spawn_altitude_m must be positive or None: {self.spawn_altitude_m}")
         if not self.mag_strength_gauss > 0.0:
             raise ValueError(f"mag_strength_gauss must be positive: {self.mag_strength_gauss}")
+        if isinstance(self.airframe, os.PathLike):
+            object.__setattr__(self, "airframe", os.fspath(self.airframe))
         names = (self.airframe,) if isinstance(self.airframe, str) else tuple(self.airframe)
         if len(names) not in (1, self.n_vehicles):
             raise ValueError(
@@ -115,7 +118,7 @@ class WorldConfig:
         """The airframe of each vehicle, in vehicle order."""
         if isinstance(self.airframe, str):
             return (self.airframe,) * self.n_vehicles
-        names = tuple(self.airframe)
+        names = tuple(os.fspath(name) for name in self.airframe)
         return names * self.n_vehicles if len(names) == 1 else names
 
 
