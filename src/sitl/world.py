@@ -286,10 +286,10 @@ class World:
             log.warning("NaN motor command received; treating it as 0 (logged once per world)")
             self._nan_logged = True
         for group in self._groups:
-            u = group.controls
             if self._single is not None:
-                u = self._controls
+                u = self._controls  # every row is this group's: no copy
             else:
+                u = group.controls
                 u[:] = self._controls[group.rows, : u.shape[1]]
             np.fmax(u, group.zeros, out=u)  # fmax turns NaN into 0
             np.fmin(u, group.ones, out=u)
