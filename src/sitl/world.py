@@ -13,6 +13,7 @@ import argparse
 import dataclasses
 import logging
 import math
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -101,6 +102,8 @@ class WorldConfig:
             raise ValueError(f"spawn_altitude_m must be positive or None: {self.spawn_altitude_m}")
         if not self.mag_strength_gauss > 0.0:
             raise ValueError(f"mag_strength_gauss must be positive: {self.mag_strength_gauss}")
+        if isinstance(self.airframe, os.PathLike):
+            object.__setattr__(self, "airframe", os.fspath(self.airframe))
         names = (self.airframe,) if isinstance(self.airframe, str) else tuple(self.airframe)
         if len(names) not in (1, self.n_vehicles):
             raise ValueError(
@@ -115,7 +118,7 @@ class WorldConfig:
         """The airframe of each vehicle, in vehicle order."""
         if isinstance(self.airframe, str):
             return (self.airframe,) * self.n_vehicles
-        names = tuple(self.airframe)
+        names = tuple(os.fspath(name) for name in self.airframe)
         return names * self.n_vehicles if len(names) == 1 else names
 
 
@@ -283,10 +286,10 @@ class World:
             log.warning("NaN motor command received; treating it as 0 (logged once per world)")
             self._nan_logged = True
         for group in self._groups:
-            u = group.controls
             if self._single is not None:
-                u = self._controls
+                u = self._controls  # every row is this group's: no copy
             else:
+                u = group.controls
                 u[:] = self._controls[group.rows, : u.shape[1]]
             np.fmax(u, group.zeros, out=u)  # fmax turns NaN into 0
             np.fmin(u, group.ones, out=u)
@@ -472,7 +475,12 @@ def hover_actuator_message(
     )
 
 
-def profile(n_vehicles: int, n_steps: int, airborne_steps: int = 1000) -> dict[str, float]:
+def profile(
+    n_vehicles: int,
+    n_steps: int,
+    airborne_steps: int = 1000,
+    airframe: str | tuple[str, ...] = "typhoon_h480",
+) -> dict[str, float]:
     """Wall time per physics step, us (best 2 s chunk), with every rotor commanded to hover.
 
     Open-loop hover is unstable, so each measurement runs in fresh worlds spawned at 10 m for
@@ -488,8 +496,9 @@ def profile(n_vehicles: int, n_steps: int, airborne_steps: int = 1000) -> dict[s
         # Best chunk (least disturbed by other processes), as timeit does.
         best, done = math.inf, 0
         while done < n_steps:
-            with World(WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=10.0)) as world:
-                actuators = [hover_actuator_message(world.airframe)] * n_vehicles
+            config = WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=10.0, airframe=airframe)
+            with World(config) as world:
+                actuators = [hover_actuator_message(spec) for spec in world.airframes]
                 world.step(actuators)
                 world.poll_sensors()
                 t0 = time.perf_counter()
@@ -502,7 +511,8 @@ def profile(n_vehicles: int, n_steps: int, airborne_steps: int = 1000) -> dict[s
         return best * 1e6
 
     results = {"step": timed(poll=False), "step+poll": timed(poll=True)}
-    with World(WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=1000.0)) as world:
+    config = WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=1000.0, airframe=airframe)
+    with World(config) as world:
         cid = world._scene.client_id
         best = math.inf
         for _ in range(max(1, n_steps // airborne_steps)):
@@ -518,13 +528,20 @@ def _main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m sitl.world", description=__doc__)
     parser.add_argument("--profile", action="store_true", help="print us per step, N = 1 and 10")
     parser.add_argument("--steps", type=int, default=20000, help="steps per measurement")
+    parser.add_argument(
+        "--frame",
+        default="typhoon_h480",
+        help="airframe, or a comma-separated list cycled over the vehicles: typhoon_h480,x500",
+    )
     args = parser.parse_args(argv)
+    frames = tuple(args.frame.split(","))
     if not args.profile:
         parser.print_help()
         return
     print(f"{'N':>3} {'step us':>9} {'step+poll us':>13} {'pybullet us':>12} {'x real time':>12}")
     for n in (1, 10):
-        r = profile(n, args.steps)
+        airframe = frames if len(frames) == 1 else tuple(frames[i % len(frames)] for i in range(n))
+        r = profile(n, args.steps, airframe=airframe)
         speed = 1e6 / (r["step+poll"] * WorldConfig().physics_hz)
         print(
             f"{n:>3} {r['step']:>9.1f} {r['step+poll']:>13.1f} {r['pybullet']:>12.1f} "

@@ -175,6 +175,8 @@ def test_an_airframe_is_a_folder(tmp_path):
     assert spec.motor.max_speed_rad_s == 1100.0
     with make_world(airframe=str(folder), spawn_altitude_m=5.0) as world:
         assert world.airframe.name == "my_quad"
+    with make_world(n_vehicles=2, airframe=(folder, "x500"), spawn_altitude_m=5.0) as world:
+        assert [spec.name for spec in world.airframes] == ["my_quad", "x500"]
     with pytest.raises(ValueError, match=r"has no empty\.yaml"):
         (tmp_path / "empty").mkdir()
         multirotor.load_airframe(tmp_path / "empty")

@@ -259,16 +259,20 @@ def level_flight_closed_form(spec, tilt_rad: float):
     )
 
 
-@pytest.mark.parametrize("tilt_deg", [10.0, 20.0, 35.0])
-def test_level_flight_speed_matches_the_drag_closed_form(tilt_deg):
+@pytest.mark.parametrize(
+    ("airframe", "tilt_deg"),
+    [("typhoon_h480", 10.0), ("typhoon_h480", 20.0), ("typhoon_h480", 35.0), ("x500", 20.0)],
+)
+def test_level_flight_speed_matches_the_drag_closed_form(airframe, tilt_deg):
     """Held at a fixed tilt, the simulated vehicle settles at the closed-form level-flight speed."""
-    world = make_world(spawn_altitude_m=100.0)
+    world = make_world(airframe=airframe, spawn_altitude_m=100.0)
     tilt = np.radians(tilt_deg)
     speed = fly_level_at_fixed_tilt(world, tilt, 25.0)
     expected = level_flight_closed_form(world.airframe, tilt)
     assert speed == pytest.approx(expected.speed_m_s, rel=0.01)
+    n = len(world.airframe.rotors)
     assert world.truth.rotor_speed_rad_s[0] == pytest.approx(
-        [expected.rotor_speed_rad_s] * 6, rel=0.01
+        [expected.rotor_speed_rad_s] * n, rel=0.01
     )
     world.close()
 
