@@ -216,3 +216,43 @@ def test_mission_legs_and_rtl_fly_at_cruise():
         _assert_cruise(speed[_middle(flown, math.hypot(LEG_M, LEG_M))], cruise)
     finally:
         sim.close()
+
+
+def test_a_hexa_and_a_quad_fly_through_their_own_mixers_and_learn_their_hover_thrust():
+    """typhoon_h480 + x500 in one fleet: CA_* mixers from each airframe, cruise on a goto, and
+    the learned hover thrust is the thrust that actually holds each one's altitude."""
+    sim = Simulation(
+        SimulationConfig(
+            n_vehicles=2, mavlink=False, record_hz=0, seed=2, frames=("typhoon_h480", "x500")
+        )
+    )
+    try:
+        fleet = sim.fleet
+        assert list(fleet.mixer.rotor_counts) == [6, 4]
+        sim.run_lockstep(3.0)
+        for i in (0, 1):
+            v = fleet.vehicle(i)
+            assert v.arm(False) == 0 and v.takeoff(None) == 0
+        sim.run_lockstep(12.0)
+        thrust = []
+        for _ in range(50):  # hovering: the mean thrust command holds the altitude
+            sim.run_lockstep(0.1)
+            thrust.append(fleet.thrust.copy())
+        held = np.mean(thrust, axis=0)
+        assert fleet.hover_thrust_estimator.valid.all()
+        np.testing.assert_allclose(fleet.hover_thrust, held, rtol=0.05)
+        start = sim.world.truth.position_enu_m[:, 1].copy()
+        cruise = 5.0
+        for i in (0, 1):
+            assert _goto(fleet.vehicle(i), 60.0, 0.0) == 0
+        speeds, progress = [], []
+        for _ in range(150):
+            sim.run_lockstep(0.1)
+            tr = sim.world.truth
+            speeds.append(np.hypot(tr.velocity_enu_m_s[:, 0], tr.velocity_enu_m_s[:, 1]))
+            progress.append(tr.position_enu_m[:, 1] - start)
+        speeds, progress = np.array(speeds), np.array(progress)
+        for i in (0, 1):
+            _assert_cruise(speeds[_middle(progress[:, i], 60.0), i], cruise)
+    finally:
+        sim.close()
