@@ -125,8 +125,10 @@ def test_offboard_velocity_above_mpc_xy_vel_max_is_limited_and_tilt_stays_in_bou
         tilt_max = float(sim.fleet.params[0].get("MPC_TILTMAX_AIR"))
         r = _record(sim, 15.0, each=_offboard_velocity(v, (vel_max + 6.0, 0.0, 0.0)))
         speed = np.hypot(r[:, 4], r[:, 5])
-        assert speed.max() <= vel_max * 1.03
-        assert speed[-20:].min() >= vel_max * (1.0 - SPEED_TOLERANCE)
+        # The setpoint is capped at MPC_XY_VEL_MAX: the speed settles there (a transient of the
+        # velocity loop may pass it briefly, never by 10 %).
+        assert speed.max() <= vel_max * (1.0 + SPEED_TOLERANCE)
+        _assert_cruise(speed[-20:], vel_max)
         assert np.degrees(r[:, 7].max()) <= tilt_max
     finally:
         sim.close()
