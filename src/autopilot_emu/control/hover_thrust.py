@@ -33,6 +33,11 @@ _VALID_VAR = 1e-3
 _VALID_HOLD_S = 2.0
 
 
+def _clip(x: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> np.ndarray:
+    """np.clip without its per-call overhead (it dominates on (N,) arrays of a few vehicles)."""
+    return np.minimum(np.maximum(x, lo), hi)
+
+
 @dataclass
 class HoverThrustParams:
     """Per-vehicle HTE_* and MPC_THR_HOVER values, (N,) arrays."""
@@ -115,29 +120,33 @@ class HoverThrustEstimator:
         ratio = innov * innov / (p.gate * p.gate * innov_var)
         gain = var * jac / innov_var
         passing = ratio < 1.0
-        lo = np.clip(p.initial - p.range, 0.0, 0.8)
-        hi = np.clip(p.initial + p.range, 0.2, 0.9)
-        h_new = np.where(passing, np.clip(h + gain * innov, np.maximum(lo, 0.1), hi), h)
-        var_new = np.where(passing, np.clip((1.0 - gain * jac) * var, 1e-10, 1.0), var)
+        lo = _clip(p.initial - p.range, 0.0, 0.8)
+        hi = _clip(p.initial + p.range, 0.2, 0.9)
+        h_new = np.where(passing, _clip(h + gain * innov, np.maximum(lo, 0.1), hi), h)
+        var_new = np.where(passing, _clip((1.0 - gain * jac) * var, 1e-10, 1.0), var)
         bump = ~passing & (np.abs(self.ratio_lpf) > 0.2)
         var_new = np.where(bump, var_new + 1e3 * (p.process_noise**2) * dt_s, var_new)
         residual = np.where(passing, acc_up_m_s2 - (G_M_S2 * thrust_up / h_new - G_M_S2), innov)
         alpha = dt_s / (_LPF_TAU_S + dt_s)
         res_lpf = self.residual_lpf + alpha * (residual - self.residual_lpf)
-        signed = np.clip(np.sign(innov) * ratio, -1.0, 1.0)
+        signed = _clip(np.sign(innov) * ratio, -1.0, 1.0)
         ratio_lpf = self.ratio_lpf + alpha * (signed - self.ratio_lpf)
         beta = dt_s / (_NOISE_TAU_S + dt_s)
         unbiased = residual - res_lpf
-        acc_var = np.clip(
+        acc_var = _clip(
             (1.0 - beta) * self.acc_variance + beta * (unbiased * unbiased + jac * var_new * jac),
             _ACC_VAR_MIN,
             _ACC_VAR_MAX,
         )
-        self.hover_thrust = np.where(active, h_new, h)
-        self.variance = np.where(active, var_new, self.variance)
-        self.acc_variance = np.where(active, acc_var, self.acc_variance)
-        self.residual_lpf = np.where(active, res_lpf, self.residual_lpf)
-        self.ratio_lpf = np.where(active, ratio_lpf, self.ratio_lpf)
+        if active.all():
+            self.hover_thrust, self.variance, self.acc_variance = h_new, var_new, acc_var
+            self.residual_lpf, self.ratio_lpf = res_lpf, ratio_lpf
+        else:
+            self.hover_thrust = np.where(active, h_new, h)
+            self.variance = np.where(active, var_new, self.variance)
+            self.acc_variance = np.where(active, acc_var, self.acc_variance)
+            self.residual_lpf = np.where(active, res_lpf, self.residual_lpf)
+            self.ratio_lpf = np.where(active, ratio_lpf, self.ratio_lpf)
         good = active & (self.variance < _VALID_VAR) & (self.valid | passing)
         self._good_for_s = np.where(good, self._good_for_s + dt_s, 0.0)
         self.valid = good & (self.valid | (self._good_for_s >= _VALID_HOLD_S))

@@ -84,6 +84,7 @@ class Mixer:
     """(N, MAX_ROTORS) armed-idle output: idle_output on used rotors, 0 elsewhere."""
     rotor_counts: np.ndarray = field(init=False)
     """(N,) rotors of each vehicle."""
+    _used_f: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.geometries)
@@ -100,18 +101,19 @@ class Mixer:
             self.matrix[i, :m] = mix[:, :3] / peak
             self.thrust_column[i, :m] = mix[:, 3] / mix[:, 3].mean()
             self.used[i, :m] = True
-        self.idle_outputs = np.where(self.used, self.idle_output, 0.0)
+        self._used_f = self.used.astype(float)
+        self.idle_outputs = self.idle_output * self._used_f
         self.rotor_counts = self.used.sum(axis=1)
 
     def mix(self, torque: np.ndarray, thrust: np.ndarray) -> np.ndarray:
         """Outputs (N, MAX_ROTORS) for torque (N, 3) in -1..1 and collective thrust (N,) 0..1."""
         thr = thrust[:, None] * self.thrust_column
-        t_rp = np.einsum("nmk,nk->nm", self.matrix[:, :, :2], torque[:, :2])
-        t_y = self.matrix[:, :, 2] * torque[:, 2:3]
-        fractions = thr + t_rp + t_y
+        fractions = thr + np.matmul(self.matrix, torque[:, :, None])[:, :, 0]
         if fractions.max() > 1.0 or fractions.min() < 0.0:
+            t_y = self.matrix[:, :, 2] * torque[:, 2:3]
+            t_rp = fractions - thr - t_y
             fractions = self._desaturate(thr, t_rp, t_y, self.used)
-        return np.where(self.used, np.maximum(np.sqrt(fractions), self.idle_output), 0.0)
+        return np.maximum(np.sqrt(fractions), self.idle_output) * self._used_f
 
     @staticmethod
     def _desaturate(

@@ -24,6 +24,16 @@ from dataclasses import dataclass
 import numpy as np
 
 
+def _clip(x: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> np.ndarray:
+    """np.clip without its per-call overhead (it dominates on (N,) arrays of a few vehicles)."""
+    return np.minimum(np.maximum(x, lo), hi)
+
+
+def _finite_or_zero(x: np.ndarray) -> np.ndarray:
+    """NaN (not controlled) as 0."""
+    return np.where(np.isfinite(x), x, 0.0)
+
+
 @dataclass
 class TrajectoryLimits:
     """Per-vehicle constraints of the trajectory, (N,) arrays."""
@@ -102,13 +112,13 @@ class JerkLimitedTrajectory:
         err = target_position - pos
         has_xy = np.isfinite(err[:, 0]) & np.isfinite(err[:, 1])
         has_z = np.isfinite(err[:, 2])
-        err = np.nan_to_num(err)
+        err = _finite_or_zero(err)
         dist_xy = np.hypot(err[:, 0], err[:, 1])
         speed_xy = np.minimum(
             limits.speed_xy_m_s, max_speed_from_distance(dist_xy, limits.acc_xy_m_s2, jerk_max)
         )
         v_xy = err[:, :2] * (speed_xy / np.maximum(dist_xy, 1e-9))[:, None]
-        v_xy = np.where(has_xy[:, None], v_xy, np.nan_to_num(target_velocity[:, :2]))
+        v_xy = np.where(has_xy[:, None], v_xy, _finite_or_zero(target_velocity[:, :2]))
         v_xy_n = np.hypot(v_xy[:, 0], v_xy[:, 1])
         v_xy *= np.minimum(1.0, limits.speed_xy_m_s / np.maximum(v_xy_n, 1e-9))[:, None]
         down = err[:, 2] > 0
@@ -117,7 +127,7 @@ class JerkLimitedTrajectory:
         speed_z = np.minimum(
             speed_z, max_speed_from_distance(np.abs(err[:, 2]), acc_brake_z, jerk_max)
         )
-        v_z = np.where(has_z, np.sign(err[:, 2]) * speed_z, np.nan_to_num(target_velocity[:, 2]))
+        v_z = np.where(has_z, np.sign(err[:, 2]) * speed_z, _finite_or_zero(target_velocity[:, 2]))
         v_z = np.minimum(np.maximum(v_z, -limits.speed_up_m_s), limits.speed_down_m_s)
 
         # Time stretch: the trajectory waits for a vehicle that lags behind it (MPC_XY_ERR_MAX);
@@ -125,7 +135,7 @@ class JerkLimitedTrajectory:
         behind = pos[:, :2] - vehicle_position[:, :2]
         lagging = (behind * vel[:, :2]).sum(axis=1) > 0.0
         lag = np.where(lagging, np.hypot(behind[:, 0], behind[:, 1]), 0.0)
-        dt = dt_s * np.clip(1.0 - lag / np.maximum(limits.error_max_m, 1e-6), 0.0, 1.0)
+        dt = dt_s * _clip(1.0 - lag / np.maximum(limits.error_max_m, 1e-6), 0.0, 1.0)
 
         # Jerk that steers the acceleration towards the one reaching the target velocity: the
         # velocity error left once the present acceleration is ramped out at the jerk limit
@@ -144,8 +154,10 @@ class JerkLimitedTrajectory:
         j_xy = (a_des_xy - acc[:, :2]) * inv_dt
         j_xy_n = np.hypot(j_xy[:, 0], j_xy[:, 1])
         j_xy *= np.minimum(1.0, jerk_max / np.maximum(j_xy_n, 1e-9))[:, None]
-        j_z = np.clip((a_des_z - acc[:, 2]) * inv_dt, -jerk_max, jerk_max)
-        jerk = np.concatenate((j_xy, j_z[:, None]), axis=1)
+        j_z = _clip((a_des_z - acc[:, 2]) * inv_dt, -jerk_max, jerk_max)
+        jerk = np.empty_like(acc)
+        jerk[:, :2] = j_xy
+        jerk[:, 2] = j_z
 
         # Exact integration over dt at constant jerk.
         dt_c = dt[:, None]
