@@ -23,6 +23,7 @@ from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from harness.recorder import FlightRecorder
+from sitl.physics.wind import WindConfig
 from sitl.world import World, WorldConfig
 
 log = logging.getLogger(__name__)
@@ -97,6 +98,8 @@ class SimulationConfig:
     """Run directory for tlogs and recordings; None writes nothing."""
     record_hz: float = 20.0
     """Rate of the ground-truth recording, Hz (0 disables)."""
+    wind: WindConfig | None = None
+    """Wind of the world (steady, turbulence, gusts); None: calm air."""
     world_overrides: dict = field(default_factory=dict)
     """Extra WorldConfig fields (e.g. spawn_altitude_m)."""
     stream_rates_hz: dict[StreamProfile, dict[str, float]] = field(default_factory=dict)
@@ -127,6 +130,7 @@ class Simulation:
                 spacing_m=config.spacing_m,
                 physics_hz=config.physics_hz,
                 seed=config.seed,
+                wind=config.wind,
                 **config.world_overrides,
             )
         )

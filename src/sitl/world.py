@@ -24,6 +24,7 @@ from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import BulletScene
 from sitl.physics.earth import magnetic_field_ned_gauss
 from sitl.physics.rotors import RotorModel
+from sitl.physics.wind import WindConfig, WindField
 from sitl.sensors.baro import Barometer, BaroSample
 from sitl.sensors.gps import Gps
 from sitl.sensors.imu import Imu
@@ -73,6 +74,8 @@ class WorldConfig:
     """Magnetic inclination at the origin, degrees below the horizontal."""
     mag_strength_gauss: float = 0.48
     """Strength of the Earth magnetic field at the origin, gauss."""
+    wind: WindConfig | None = None
+    """Steady wind, turbulence and gusts; None: calm air."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -102,6 +105,10 @@ class WorldConfig:
         known = available_airframes()
         if self.airframe not in known:
             raise ValueError(f"unknown airframe {self.airframe!r}; available: {', '.join(known)}")
+        if self.wind is not None:
+            if not isinstance(self.wind, WindConfig):
+                raise ValueError(f"wind must be a WindConfig or None, got {self.wind!r}")
+            rate_divisor(self.physics_hz, self.wind.update_hz, "wind update_hz")
 
 
 class World:
@@ -157,6 +164,16 @@ class World:
         self._mag = Magnetometer(spec.mag, field, n, rng)
         self._baro = Barometer(spec.baro, n, rng)
         self._gps = Gps(spec.gps, self.origin, n, rng)
+        # The wind draws from a child of the world's generator, spawned after the sensors were
+        # built and whether or not there is wind: the sensors' draws are the same with and
+        # without wind, and the wind's own stream depends only on the seed.
+        wind_rng = rng.spawn(1)[0]
+        self._wind: WindField | None = None
+        self._air_row = np.zeros((n, 1, 3))
+        self._air_flu = np.zeros((n, 1, 3))
+        if config.wind is not None:
+            self._wind_div = rate_divisor(config.physics_hz, config.wind.update_hz, "update_hz")
+            self._wind = WindField(config.wind, n, self._wind_div * dt, wind_rng)
 
         self._last_poll_tick = -1
         self._last_tick = {"imu": -1, "mag": -1, "baro": -1, "gps": -1}
@@ -196,10 +213,21 @@ class World:
             if nan_seen is not None:
                 self._update_rotor_commands(nan_seen)
         scene = self._scene
-        wrench = self._rotors.body_wrench(scene.velocity_flu_m_s)
+        velocity_flu = scene.velocity_flu_m_s if self._wind is None else self._airspeed_flu()
+        wrench = self._rotors.body_wrench(velocity_flu)
         scene.apply_body_wrench_and_step(wrench)
         self._rotors.advance()
         self._clock.advance()
+
+    def _airspeed_flu(self) -> np.ndarray:
+        """Velocity relative to the air, body FLU, (N, 1, 3): what rotor and fuselage drag see."""
+        scene = self._scene
+        wind = self._wind
+        assert wind is not None
+        if self._clock.tick % self._wind_div == 0:
+            wind.update(scene.position_enu_m, scene.velocity_enu_m_s)
+        np.subtract(scene.velocity_enu_m_s, wind.velocity_enu_m_s, self._air_row[:, 0, :])
+        return np.matmul(self._air_row, scene.rotation, self._air_flu)
 
     def _update_rotor_commands(self, nan_seen: bool) -> None:
         if nan_seen and not self._nan_logged:
@@ -292,6 +320,11 @@ class World:
             rotor_speed_rad_s=self._rotors.speed_rad_s.copy(),
             rotor_shaft_power_w=self._rotors.shaft_power_w(),
             tilt_rad=np.arccos(np.clip(rotation[:, 2, 2], -1.0, 1.0)),
+            wind_enu_m_s=(
+                np.zeros((self.n_vehicles, 3))
+                if self._wind is None
+                else self._wind.velocity_enu_m_s.copy()
+            ),
             origin=self.origin,
         )
 
