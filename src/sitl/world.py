@@ -148,7 +148,7 @@ class World:
         facing_north = frames.quat_ned_frd_to_enu_flu(frames.quat_from_euler_ned_frd(0, 0, 0))
         self._scene = BulletScene(spec.urdf_path, self._spawn_enu, tuple(facing_north), dt)
 
-        self._rotors = RotorModel(spec.motor, spec.rotors, spec.fuselage_drag_n_s_m, n, dt)
+        self._rotors = RotorModel(spec.motor, spec.rotors, spec.fuselage, n, dt)
         self._controls = np.zeros((n, len(spec.rotors)))
         self._zeros = np.zeros_like(self._controls)
         self._ones = np.ones_like(self._controls)

@@ -47,19 +47,32 @@ def test_hover_thrust_equals_weight(hover_world):
 
 
 def test_free_fall_with_motors_off(hover_world):
-    """Disarmed from 20 m: z(1 s) = 20 - g/2 within 1 %, and the accelerometer reads ~0."""
+    """Disarmed from 20 m, level: the fall follows the closed form of a body with quadratic drag
+    ``z(t) = z0 - (m / k) ln cosh(t sqrt(g k / m))``, ``k = 1/2 rho (Cd A)_z``, and the
+    accelerometer reads the drag alone (specific force ``-k v^2 / m`` along FRD z)."""
     world = make_world(spawn_altitude_m=20.0)
+    spec = world.airframe
+    k = spec.fuselage.coefficients_n_s2_m2()[2]
+    m = spec.mass_kg
     disarmed = [actuator_message([1.0] * 6, armed=False)]
-    accel_z = []
+    accel_z, drag_accel = [], []
     for _ in range(500):
         world.step(disarmed)
         sensors, _ = world.poll_sensors()
         if sensors:
             accel_z.append(sensors[0].zacc)
-    z = world.truth.position_enu_m[0, 2]
-    assert z == pytest.approx(20.0 - 0.5 * GRAVITY_M_S2, rel=0.01)
-    assert np.all(world.truth.rotor_speed_rad_s == 0.0)
-    assert abs(np.mean(accel_z[1:])) < 0.2  # only the small fuselage drag
+            drag_accel.append(-k * world.truth.velocity_enu_m_s[0, 2] ** 2 / m)
+    t = 1.0
+    rate = np.sqrt(GRAVITY_M_S2 * k / m)
+    z = 20.0 - m / k * np.log(np.cosh(rate * t))
+    v = np.sqrt(m * GRAVITY_M_S2 / k) * np.tanh(rate * t)
+    truth = world.truth
+    assert truth.position_enu_m[0, 2] == pytest.approx(z, abs=0.01)
+    assert truth.velocity_enu_m_s[0, 2] == pytest.approx(-v, abs=0.01)
+    # The drag is what tells this from a vacuum fall (20 - g/2 = 15.095 m).
+    assert truth.position_enu_m[0, 2] - (20.0 - 0.5 * GRAVITY_M_S2) > 0.1
+    assert np.all(truth.rotor_speed_rad_s == 0.0)
+    assert np.mean(accel_z[-25:]) == pytest.approx(np.mean(drag_accel[-25:]), abs=0.05)
     world.close()
 
 
@@ -158,16 +171,31 @@ def test_disarmed_commands_zero_and_shaft_power(hover_world):
 
 
 def test_rotor_drag_opposes_horizontal_motion():
-    """Spinning rotors brake a sideways drift: F = -c sum(w) v in the rotor plane."""
+    """Spinning rotors brake a sideways drift: F = -c sum(w) v - 1/2 rho CdA v|v| in the plane."""
     world = make_world(spawn_altitude_m=50.0)
     u = hover_u(world)
     run(world, 0.3, [actuator_message([u] * 6)])
     rotors = world._rotors
-    wrench = rotors.body_wrench(np.array([[[1.0, 0.0, 0.0]]])).copy()  # 1 m/s forward (FLU)
-    c = world.airframe.motor.rotor_drag_coefficient_n_s_m_rad
-    expected = -c * rotors.speed_rad_s.sum() - world.airframe.fuselage_drag_n_s_m[0]
-    assert wrench[0, 0] == pytest.approx(expected, rel=1e-9)
-    assert wrench[0, 4] < 0.0  # drag at hubs above the CoM pitches the nose up (FLU -y)
+    spec = world.airframe
+    c = spec.motor.rotor_drag_coefficient_n_s_m_rad
+    kx, _, kz = spec.fuselage.coefficients_n_s2_m2()
+    for v in (1.0, -3.0):
+        wrench = rotors.body_wrench(np.array([[[v, 0.0, 0.0]]])).copy()  # forward (FLU)
+        expected = -c * rotors.speed_rad_s.sum() * v - kx * v * abs(v)
+        assert wrench[0, 0] == pytest.approx(expected, rel=1e-9)
+        assert wrench[0, 2] == pytest.approx(
+            rotors.speed_rad_s[0]
+            @ rotors.speed_rad_s[0]
+            * (spec.motor.thrust_coefficient_n_s2_rad2),
+            rel=1e-9,
+        )  # no vertical drag from a horizontal velocity
+        # drag at hubs above the CoM pitches the nose up (FLU -y) when flying forward
+        assert np.sign(wrench[0, 4]) == -np.sign(v)
+    climb = rotors.body_wrench(np.array([[[0.0, 0.0, 2.0]]])).copy()
+    thrust = spec.motor.thrust_coefficient_n_s2_rad2 * float(
+        rotors.speed_rad_s[0] @ rotors.speed_rad_s[0]
+    )
+    assert climb[0, 2] == pytest.approx(thrust - kz * 4.0, rel=1e-9)  # parasite drag only
     world.close()
 
 
@@ -203,3 +231,77 @@ def test_fleet_vehicles_move_as_if_alone():
         )
         alone.close()
     fleet.close()
+
+
+def fly_level_at_fixed_tilt(world, tilt_rad: float, seconds: float) -> float:
+    """Fly north with the attitude held at ``tilt_rad`` nose-down and return the final speed.
+
+    The attitude is reset every step (rotations frozen, as an ideal attitude loop would); the equal
+    rotor speeds come from a vertical position/velocity loop, so the vehicle settles into the level
+    flight where only drag balances the horizontal thrust.
+    """
+    import pybullet as p
+
+    from sitl import frames
+
+    spec = world.airframe
+    n = len(spec.rotors)
+    k_f = spec.motor.thrust_coefficient_n_s2_rad2
+    scene = world._scene
+    body, cid = scene.body_ids[0], scene.client_id
+    attitude = frames.quat_ned_frd_to_enu_flu(frames.quat_from_euler_ned_frd(0.0, -tilt_rad, 0.0))
+    z0 = world.truth.position_enu_m[0, 2]
+    for _ in range(round(seconds * world.config.physics_hz)):
+        position, _ = p.getBasePositionAndOrientation(body, physicsClientId=cid)
+        velocity, _ = p.getBaseVelocity(body, physicsClientId=cid)
+        p.resetBasePositionAndOrientation(body, position, attitude.tolist(), physicsClientId=cid)
+        p.resetBaseVelocity(body, velocity, [0.0, 0.0, 0.0], physicsClientId=cid)
+        scene.read_state()
+        accel = -4.0 * velocity[2] - 4.0 * (position[2] - z0)
+        thrust = spec.mass_kg * (GRAVITY_M_S2 + accel) / np.cos(tilt_rad)
+        u = np.sqrt(max(thrust, 0.0) / (n * k_f)) / spec.motor.max_speed_rad_s
+        world.step([actuator_message([u] * n)])
+    truth = world.truth
+    assert abs(truth.velocity_enu_m_s[0, 2]) < 0.01  # level
+    assert abs(truth.velocity_enu_m_s[0, 0]) < 1e-6  # straight north
+    return float(truth.velocity_enu_m_s[0, 1])
+
+
+def level_flight_closed_form(spec, tilt_rad: float):
+    from sitl.physics.drag import level_flight_speed_m_s
+
+    return level_flight_speed_m_s(
+        tilt_rad,
+        spec.mass_kg,
+        len(spec.rotors),
+        spec.motor.thrust_coefficient_n_s2_rad2,
+        spec.motor.rotor_drag_coefficient_n_s_m_rad,
+        spec.fuselage,
+    )
+
+
+@pytest.mark.parametrize("tilt_deg", [10.0, 20.0, 35.0])
+def test_level_flight_speed_matches_the_drag_closed_form(tilt_deg):
+    """Held at a fixed tilt, the simulated vehicle settles at the closed-form level-flight speed."""
+    world = make_world(spawn_altitude_m=100.0)
+    tilt = np.radians(tilt_deg)
+    speed = fly_level_at_fixed_tilt(world, tilt, 25.0)
+    expected = level_flight_closed_form(world.airframe, tilt)
+    assert speed == pytest.approx(expected.speed_m_s, rel=0.01)
+    assert world.truth.rotor_speed_rad_s[0] == pytest.approx(
+        [expected.rotor_speed_rad_s] * 6, rel=0.01
+    )
+    world.close()
+
+
+def test_typhoon_reaches_the_published_top_speed_at_35_degrees():
+    """The identified drag: Yuneec's 70 km/h (19.4 m/s) at 35 deg of tilt; cruise 5 m/s < 10 deg."""
+    from sitl.vehicles.multirotor import load_airframe
+
+    spec = load_airframe("typhoon_h480")
+    assert level_flight_closed_form(spec, np.radians(35.0)).speed_m_s == pytest.approx(
+        19.4, rel=0.02
+    )
+    assert level_flight_closed_form(spec, np.radians(10.0)).speed_m_s > 5.0
+    # PX4's MPC_XY_VEL_MAX (12 m/s) is reachable well inside MPC_TILTMAX_AIR (45 deg).
+    assert level_flight_closed_form(spec, np.radians(25.0)).speed_m_s > 12.0

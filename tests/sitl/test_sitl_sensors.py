@@ -100,12 +100,13 @@ def test_gps_near_the_origin_at_rest(at_rest):
 
 
 def test_gps_tracks_a_falling_vehicle():
-    """Falling with motors off, GPS down velocity follows g t (less the fuselage drag)."""
+    """Falling with motors off, GPS down velocity follows g t (less the quadratic drag)."""
     world = make_world(spawn_altitude_m=50.0, seed=2)
     _, gps = collect(world, 2.0, [actuator_message([0.0] * 6, armed=False)])
     last = gps[-1][0]
-    k = world.airframe.fuselage_drag_n_s_m[2] / world.airframe.mass_kg
-    assert last.vd / 100.0 == pytest.approx(9.81 / k * (1.0 - np.exp(-k * 2.0)), abs=0.5)
+    k = world.airframe.fuselage.coefficients_n_s2_m2()[2] / world.airframe.mass_kg
+    terminal = np.sqrt(9.81 / k)
+    assert last.vd / 100.0 == pytest.approx(terminal * np.tanh(2.0 * 9.81 / terminal), abs=0.5)
     assert last.alt / 1000.0 == pytest.approx(488.0 + 50.0 - 0.5 * 9.81 * 4.0, abs=5.0)
     world.close()
 

@@ -11,8 +11,8 @@ for arrays of shape ``(N, n_rotors)`` so that one numpy call advances every vehi
   counter-clockwise, i.e. about +z FLU;
 - rotor drag ``-w * rotor_drag_coefficient * v_perp`` (v_perp: airspeed in the rotor plane),
   applied at the hub, and rolling moment ``-w * rolling_moment_coefficient * v_perp``;
-- a constant linear fuselage drag ``-c * v`` per body axis (not in the Gazebo model; documented in
-  the airframe YAML).
+- quadratic parasite drag ``-1/2 rho (Cd A)_j v_j |v_j|`` per body axis (not in the Gazebo model;
+  see :mod:`sitl.physics.drag` and the airframe YAML).
 
 Not modelled: PX4 Gazebo's ad-hoc thrust reduction with axial speed (its own comment says it "has to
 be modelled better"), blade flapping, ground effect, wind. The airspeed of every rotor is taken as
@@ -29,6 +29,7 @@ from enum import StrEnum
 import numpy as np
 
 from sitl import frames
+from sitl.physics.drag import AIR_DENSITY_KG_M3, FuselageDrag
 
 
 class Spin(StrEnum):
@@ -83,17 +84,19 @@ class RotorSpec:
 class RotorModel:
     """Rotor speeds and the body wrench they produce, for N vehicles at once.
 
-    The wrench is linear in the features ``[w_i^2, w_i v_j, v_j]``, so one matrix product maps
-    them all: ``wrench (N, 6) = features (N, n + 3 (n + 1)) @ wrench_map``.
+    The rotor part of the wrench is linear in the features ``[w_i^2, w_i v_j]``, so one matrix
+    product maps them all: ``wrench (N, 6) = features (N, n + 3 n) @ wrench_map``; the quadratic
+    parasite drag is added per body axis on the ``(N, 3)`` velocities.
     """
 
     def __init__(
         self,
         motor: MotorParams,
         rotors: tuple[RotorSpec, ...],
-        fuselage_drag_n_s_m: tuple[float, float, float],
+        fuselage: FuselageDrag,
         n_vehicles: int,
         dt_s: float,
+        air_density_kg_m3: float = AIR_DENSITY_KG_M3,
     ) -> None:
         n_rot = len(rotors)
         self.motor = motor
@@ -112,19 +115,19 @@ class RotorModel:
         thrust_map[:, 4] = -pos_flu[:, 0] * k_f
         thrust_map[:, 5] = spin_sign * self.yaw_coefficient_n_m_s2_rad2
 
-        # Wrench (6) per unit rotor speed per unit body velocity component (3): (n_rot + 1, 6, 3);
-        # the extra "rotor", whose speed is a constant 1, holds the fuselage drag.
+        # Wrench (6) per unit rotor speed per unit body velocity component (3): (n_rot, 6, 3).
         in_plane = np.diag([1.0, 1.0, 0.0])
         c_d = motor.rotor_drag_coefficient_n_s_m_rad
         c_roll = motor.rolling_moment_coefficient_n_s_rad
-        drag_map = np.zeros((n_rot + 1, 6, 3))
+        drag_map = np.zeros((n_rot, 6, 3))
         for i, r in enumerate(pos_flu):
             cross = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
             drag_map[i, :3] = -c_d * in_plane
             drag_map[i, 3:] = -c_d * cross @ in_plane - c_roll * in_plane
-        drag_map[n_rot, :3] = -np.diag(np.asarray(fuselage_drag_n_s_m, dtype=float))
-        drag_rows = drag_map.transpose(0, 2, 1).reshape(3 * (n_rot + 1), 6)
+        drag_rows = drag_map.transpose(0, 2, 1).reshape(3 * n_rot, 6)
         self._wrench_map = np.vstack([thrust_map, drag_rows])
+        # -1/2 rho CdA per body axis, full (N, 3) shape (same-shape ufuncs are the cheapest).
+        self._parasite = -np.tile(fuselage.coefficients_n_s2_m2(air_density_kg_m3), (n_vehicles, 1))
 
         alpha_up = -np.expm1(-dt_s / motor.time_constant_up_s)
         alpha_down = -np.expm1(-dt_s / motor.time_constant_down_s)
@@ -135,18 +138,18 @@ class RotorModel:
         self._pick = np.maximum if alpha_up >= alpha_down else np.minimum
 
         # State and scratch buffers, allocated once (none in the hot loop).
-        self._speed_aug = np.zeros((n_vehicles, n_rot + 1))
-        self._speed_aug[:, n_rot] = 1.0
-        self._speed_aug_col = self._speed_aug[:, :, None]
-        self.speed_rad_s = self._speed_aug[:, :n_rot]
-        """Rotor speeds, rad/s, (N, n_rotors) view into the state buffer."""
+        self.speed_rad_s = np.zeros((n_vehicles, n_rot))
+        """Rotor speeds, rad/s, (N, n_rotors)."""
+        self._speed_col = self.speed_rad_s[:, :, None]
         self.command_rad_s = np.zeros((n_vehicles, n_rot))
         """Commanded rotor speeds, rad/s, (N, n_rotors); write into it."""
-        self._features = np.zeros((n_vehicles, n_rot + 3 * (n_rot + 1)))
+        self._features = np.zeros((n_vehicles, 4 * n_rot))
         self._features_sq = self._features[:, :n_rot]
-        self._features_drag = self._features[:, n_rot:].reshape(n_vehicles, n_rot + 1, 3)
+        self._features_drag = self._features[:, n_rot:].reshape(n_vehicles, n_rot, 3)
         assert np.shares_memory(self._features_drag, self._features), "must be a view"
         self._wrench = np.zeros((n_vehicles, 6))
+        self._force = self._wrench[:, :3]
+        self._quadratic = np.zeros((n_vehicles, 3))
         self._diff = np.zeros((n_vehicles, n_rot))
         self._diff_up = np.zeros((n_vehicles, n_rot))
 
@@ -154,14 +157,21 @@ class RotorModel:
         """Force and torque on each body, ``(N, 6)`` = [F_flu (N), tau_flu (N m)].
 
         Args:
-            velocity_flu_m_s: velocity of each centre of mass in its body FLU frame, ``(N, 1, 3)``.
+            velocity_flu_m_s: velocity of each centre of mass relative to the air, in its body FLU
+                frame, ``(N, 1, 3)``.
 
         Returns:
             A buffer owned by this object, overwritten by the next call.
         """
         np.multiply(self.speed_rad_s, self.speed_rad_s, self._features_sq)
-        np.multiply(self._speed_aug_col, velocity_flu_m_s, self._features_drag)
-        return self._features.dot(self._wrench_map, self._wrench)  # 2-D dot: cheapest product
+        np.multiply(self._speed_col, velocity_flu_m_s, self._features_drag)
+        wrench = self._features.dot(self._wrench_map, self._wrench)  # 2-D dot: cheapest product
+        v = velocity_flu_m_s[:, 0, :]
+        q = np.abs(v, self._quadratic)
+        np.multiply(q, v, q)
+        np.multiply(q, self._parasite, q)
+        np.add(self._force, q, self._force)
+        return wrench
 
     def advance(self) -> None:
         """Move the rotor speeds one physics step towards their commands (first-order lag)."""

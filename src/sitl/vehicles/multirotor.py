@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from sitl.physics.drag import FuselageDrag
 from sitl.physics.earth import GRAVITY_M_S2
 from sitl.physics.rotors import MotorParams, RotorSpec, Spin
 from sitl.sensors.baro import BaroParams
@@ -50,8 +51,8 @@ class MultirotorSpec:
     """Motor and propeller parameters, shared by every rotor."""
     rotors: tuple[RotorSpec, ...]
     """Rotor layout table, ordered by actuator output."""
-    fuselage_drag_n_s_m: tuple[float, float, float]
-    """Linear fuselage drag per body axis (x, y, z), N/(m/s)."""
+    fuselage: FuselageDrag
+    """Quadratic parasite drag per body axis."""
     imu: ImuParams
     """IMU noise."""
     mag: MagParams
@@ -140,14 +141,11 @@ def load_airframe(name: str) -> MultirotorSpec:
         raise ValueError(f"{yaml_path}: expected a mapping at the top level")
     try:
         urdf_path = (yaml_path.parent / str(data["urdf"])).resolve()
-        fuselage = data["fuselage"]["linear_drag_n_s_m"]
-        fuselage_drag = (float(fuselage[0]), float(fuselage[1]), float(fuselage[2]))
-        sections = {key: data[key] for key in ("motor", "imu", "mag", "baro", "gps")}
+        sections = {key: data[key] for key in ("motor", "fuselage", "imu", "mag", "baro", "gps")}
         rotor_rows = data["rotors"]
     except (KeyError, TypeError, IndexError, ValueError) as exc:
         raise ValueError(
-            f"{yaml_path}: needs urdf, rotors, motor, fuselage.linear_drag_n_s_m [x, y, z], imu, "
-            f"mag, baro and gps ({exc!r})"
+            f"{yaml_path}: needs urdf, rotors, motor, fuselage, imu, mag, baro and gps ({exc!r})"
         ) from exc
     body = inspect_urdf(urdf_path)
     return MultirotorSpec(
@@ -161,7 +159,7 @@ def load_airframe(name: str) -> MultirotorSpec:
         ground_clearance_m=-body.lowest_point_m,
         motor=_build(MotorParams, sections["motor"], "motor", yaml_path),
         rotors=_rotors(rotor_rows, yaml_path),
-        fuselage_drag_n_s_m=fuselage_drag,
+        fuselage=_build(FuselageDrag, sections["fuselage"], "fuselage", yaml_path),
         imu=_build(ImuParams, sections["imu"], "imu", yaml_path),
         mag=_build(MagParams, sections["mag"], "mag", yaml_path),
         baro=_build(BaroParams, sections["baro"], "baro", yaml_path),
