@@ -209,16 +209,17 @@ def test_turbulent_wind_keeps_the_first_sensor_draws():
     assert first[0] == first[1]
 
 
-def test_falling_body_is_carried_by_the_wind_as_the_fuselage_drag_predicts():
+def test_falling_body_is_carried_by_the_wind_as_the_parasite_drag_predicts():
     """Motors off, spawned level at 100 m in a steady 8 m/s west wind: the only horizontal force
-    is the fuselage drag c (w - v), so v_east(t) = w (1 - exp(-c t / m)) and v_north = 0."""
+    is the quadratic parasite drag k (w - v)^2 (k = 1/2 rho (Cd A)_x), so the airspeed decays as
+    u(t) = w / (1 + k w t / m): v_east(t) = w - u(t), and v_north = 0."""
     wind = 8.0
     with make_world(wind=WindConfig(wind, 270.0), spawn_altitude_m=100.0) as world:
-        c = world.airframe.fuselage_drag_n_s_m[0]
+        k = world.airframe.fuselage.coefficients_n_s2_m2()[0]
         m = world.airframe.mass_kg
         run(world, 2.0, [actuator_message([0.0] * 6, armed=False)])
         truth = world.truth
-        expected = wind * (1.0 - math.exp(-c * truth.time_s / m))
+        expected = wind - wind / (1.0 + k * wind * truth.time_s / m)
         assert truth.velocity_enu_m_s[0, 0] == pytest.approx(expected, rel=0.02)
         assert abs(truth.velocity_enu_m_s[0, 1]) < 1e-3 * expected
         np.testing.assert_allclose(truth.wind_enu_m_s[0], [wind, 0.0, 0.0], atol=1e-12)
@@ -226,7 +227,7 @@ def test_falling_body_is_carried_by_the_wind_as_the_fuselage_drag_predicts():
 
 def test_rotors_at_rest_in_wind_feel_the_rotor_drag_of_the_airspeed():
     """Rotors at hover speed, body at rest in a 6 m/s south wind (blowing north): the first
-    step accelerates it north by (sum_i w_i c_d + c_fuselage) * 6 / m, the drag model's closed
+    step accelerates it north by (c_d sum_i w_i * 6 + k_y 6^2) / m, the drag model's closed
     form with the airspeed (relative velocity) in place of the velocity."""
     wind = 6.0
     with make_world(wind=WindConfig(wind, 180.0), spawn_altitude_m=50.0) as world:
@@ -236,7 +237,7 @@ def test_rotors_at_rest_in_wind_feel_the_rotor_drag_of_the_airspeed():
         speeds = world.truth.rotor_speed_rad_s[0]
         world.step(hover)
         accel = world.truth.velocity_enu_m_s[0] * world.config.physics_hz
-        c_total = speeds.sum() * spec.motor.rotor_drag_coefficient_n_s_m_rad
-        c_total += spec.fuselage_drag_n_s_m[1]
-        assert accel[1] == pytest.approx(c_total * wind / spec.mass_kg, rel=1e-3)
+        force = speeds.sum() * spec.motor.rotor_drag_coefficient_n_s_m_rad * wind
+        force += spec.fuselage.coefficients_n_s2_m2()[1] * wind**2
+        assert accel[1] == pytest.approx(force / spec.mass_kg, rel=1e-3)
         assert abs(accel[0]) < 1e-3 * accel[1]
