@@ -1,0 +1,115 @@
+"""Position hold in wind: the full stack (physics, sensors, estimator, controllers) holds a point.
+
+The emulated autopilot takes off to 10 m and loiters (lockstep, no sockets) in an 8 m/s wind
+from the west, i.e. from the vehicle's left side. Everything is measured on the simulator's
+ground truth. The tilt the hold needs is checked against the drag model's closed form
+(``sitl.physics.drag``: steady flight at the airspeed of the wind), so a wind that were ignored,
+or applied with the wrong sign, would fail it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from harness.simulation import Simulation, SimulationConfig
+from sitl.physics.drag import level_flight_speed_m_s
+from sitl.physics.wind import TURBULENCE_W20_M_S, WindConfig
+from sitl.vehicles.multirotor import load_airframe
+
+WIND_M_S = 8.0
+HOLD_ALT_M = 10.0
+WINDOW_S = 20.0
+POSITION_BOUND_M = 1.5
+"""Stated bound: horizontal distance of the true position from the take-off point while holding."""
+
+
+def _fly_and_hold(wind: WindConfig, seed: int) -> dict[str, np.ndarray | float]:
+    """Take off to 10 m, settle 20 s, then sample the truth at 50 Hz for WINDOW_S seconds.
+
+    Vehicle 0 spawns at ENU x = y = 0 and takes off straight up: the hold point is (0, 0).
+    """
+    config = SimulationConfig(n_vehicles=1, mavlink=False, record_hz=0, seed=seed, wind=wind)
+    with Simulation(config) as sim:
+        params = sim.fleet.params[0]
+        params.set("MIS_TAKEOFF_ALT", HOLD_ALT_M)
+        sim.run_lockstep(3.0)
+        vehicle = sim.fleet.vehicle(0)
+        assert vehicle.arm(False) == 0 and vehicle.takeoff(None) == 0
+        sim.run_lockstep(20.0)
+        position, tilt, wind_enu = [], [], []
+        steps_per_sample = round(config.physics_hz / 50)
+        t0 = sim.time_s
+        while sim.time_s - t0 < WINDOW_S:
+            for _ in range(steps_per_sample):
+                sim.step()
+            truth = sim.world.truth
+            position.append(truth.position_enu_m[0])
+            tilt.append(truth.tilt_rad[0])
+            wind_enu.append(truth.wind_enu_m_s[0])
+        assert sim.fleet.commanders[0].in_air
+        return {
+            "position": np.array(position),
+            "tilt_deg": np.degrees(tilt),
+            "wind": np.array(wind_enu),
+            "tilt_max_deg": float(params.get("MPC_TILTMAX_AIR")),
+        }
+
+
+def _closed_form_tilt_deg(airspeed_m_s: float) -> float:
+    """Tilt at which the airframe's drag at this airspeed balances the tilted thrust."""
+    spec = load_airframe("typhoon_h480")
+
+    def speed(tilt_rad: float) -> float:
+        return level_flight_speed_m_s(
+            tilt_rad,
+            spec.mass_kg,
+            len(spec.rotors),
+            spec.motor.thrust_coefficient_n_s2_rad2,
+            spec.motor.rotor_drag_coefficient_n_s_m_rad,
+            spec.fuselage,
+        ).speed_m_s
+
+    lo, hi = 0.0, math.radians(80.0)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if speed(mid) < airspeed_m_s else (lo, mid)
+    return math.degrees(0.5 * (lo + hi))
+
+
+@pytest.fixture(scope="module")
+def steady():
+    return _fly_and_hold(WindConfig(speed_m_s=WIND_M_S, from_deg=270.0), seed=5)
+
+
+@pytest.fixture(scope="module")
+def turbulent():
+    wind = WindConfig(
+        speed_m_s=WIND_M_S, from_deg=270.0, turbulence_w20_m_s=TURBULENCE_W20_M_S["light"]
+    )
+    return _fly_and_hold(wind, seed=5)
+
+
+def test_steady_wind_hold_tilts_as_the_drag_model_predicts(steady):
+    """In steady 8 m/s wind the vehicle holds its point, leaning into the wind (rolled towards
+    the west) by the tilt of steady flight at 8 m/s airspeed (within 10 %)."""
+    r = steady
+    error = np.linalg.norm(r["position"][:, :2], axis=1)
+    assert error.max() < POSITION_BOUND_M, error.max()
+    expected = _closed_form_tilt_deg(WIND_M_S)
+    assert np.mean(r["tilt_deg"]) == pytest.approx(expected, rel=0.10), expected
+    np.testing.assert_allclose(r["wind"], [[WIND_M_S, 0.0, 0.0]] * len(r["wind"]), atol=1e-9)
+
+
+def test_light_turbulence_hold_stays_within_bound_and_tilt_limit(turbulent):
+    """8 m/s from the side with light turbulence (MIL-F-8785C, W20 = 15 kt): over 20 s the true
+    horizontal position stays within 1.5 m of the take-off point and the tilt below
+    MPC_TILTMAX_AIR; the wind really was turbulent (its RMS about its mean is not small)."""
+    r = turbulent
+    error = np.linalg.norm(r["position"][:, :2], axis=1)
+    assert error.max() < POSITION_BOUND_M, error.max()
+    assert r["tilt_deg"].max() < r["tilt_max_deg"], r["tilt_deg"].max()
+    assert np.all(np.std(r["wind"][:, :2], axis=0) > 0.3)
+    assert abs(np.mean(r["position"][:, 2]) - HOLD_ALT_M) < 1.0
