@@ -356,7 +356,9 @@ def hover_actuator_message(
     )
 
 
-def profile(n_vehicles: int, n_steps: int, airborne_steps: int = 1000) -> dict[str, float]:
+def profile(
+    n_vehicles: int, n_steps: int, airborne_steps: int = 1000, wind: WindConfig | None = None
+) -> dict[str, float]:
     """Wall time per physics step, us (best 2 s chunk), with every rotor commanded to hover.
 
     Open-loop hover is unstable, so each measurement runs in fresh worlds spawned at 10 m for
@@ -372,7 +374,8 @@ def profile(n_vehicles: int, n_steps: int, airborne_steps: int = 1000) -> dict[s
         # Best chunk (least disturbed by other processes), as timeit does.
         best, done = math.inf, 0
         while done < n_steps:
-            with World(WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=10.0)) as world:
+            config = WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=10.0, wind=wind)
+            with World(config) as world:
                 actuators = [hover_actuator_message(world.airframe)] * n_vehicles
                 world.step(actuators)
                 world.poll_sensors()
@@ -402,19 +405,30 @@ def _main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m sitl.world", description=__doc__)
     parser.add_argument("--profile", action="store_true", help="print us per step, N = 1 and 10")
     parser.add_argument("--steps", type=int, default=20000, help="steps per measurement")
+    parser.add_argument(
+        "--wind", action="store_true", help="in 8 m/s wind with moderate turbulence and gusts"
+    )
     args = parser.parse_args(argv)
     if not args.profile:
         parser.print_help()
         return
+    wind = (
+        WindConfig(8.0, 270.0, turbulence_w20_m_s=15.4, gust_peak_m_s=3.0, gust_interval_s=5.0)
+        if args.wind
+        else None
+    )
     print(f"{'N':>3} {'step us':>9} {'step+poll us':>13} {'pybullet us':>12} {'x real time':>12}")
     for n in (1, 10):
-        r = profile(n, args.steps)
+        r = profile(n, args.steps, wind=wind)
         speed = 1e6 / (r["step+poll"] * WorldConfig().physics_hz)
         print(
             f"{n:>3} {r['step']:>9.1f} {r['step+poll']:>13.1f} {r['pybullet']:>12.1f} "
             f"{speed:>12.0f}"
         )
-    print("(hover at 10 m, 500 Hz physics; 'x real time' counts the simulator alone)")
+    print(
+        f"(hover at 10 m{' in wind' if wind else ''}, 500 Hz physics; 'x real time' counts the "
+        "simulator alone)"
+    )
 
 
 if __name__ == "__main__":

@@ -10,9 +10,10 @@ clockwise from true north), so the air moves towards ``from_deg + 180``::
 
 It is the same at every height (no wind-shear profile).
 
-**Dryden turbulence**, low-altitude form of MIL-F-8785C (section 3.7.2; also MIL-HDBK-1797
-appendix A, Dryden variant), with h the height in feet clipped to [10, 1000] ft (the low-altitude
-range of the specification; 10 ft is the floor MATLAB's Dryden block also uses):
+**Dryden turbulence**, low-altitude form of MIL-F-8785C (1980, "Atmospheric disturbances",
+continuous random turbulence, Dryden form; the same in MIL-HDBK-1797), with h the height in
+feet clipped to [10, 1000] ft (the low-altitude range of the specification; 10 ft is the floor
+MATLAB's Dryden block also uses):
 
     sigma_w = 0.1 W20,     sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h)^0.4      (1)
     L_w = h,               L_u = L_v = h / (0.177 + 0.000823 h)^1.2                     (2)
@@ -20,31 +21,37 @@ range of the specification; 10 ft is the floor MATLAB's Dryden block also uses):
 W20 is the wind speed 6 m (20 ft) above ground; the specification's light / moderate / severe
 turbulence has W20 = 15 / 30 / 45 kt. The components are aligned with the mean wind (u along the
 direction the air moves, v to its left, w up), as the specification does at low altitude. Their
-spatial spectra (Omega in rad/m) are, eq. (3)-(4)::
+spatial spectra (Omega in rad/m) are::
 
-    Phi_u = sigma_u^2 (2 L_u / pi) / (1 + (L_u Omega)^2)
-    Phi_v = sigma_v^2 (L_v / pi) (1 + 3 (L_v Omega)^2) / (1 + (L_v Omega)^2)^2   (same for w)
+    Phi_u = sigma_u^2 (2 L_u / pi) / (1 + (L_u Omega)^2)                              (3)
+    Phi_v = sigma_v^2 (L_v / pi) (1 + 3 (L_v Omega)^2) / (1 + (L_v Omega)^2)^2        (4)
+
+and Phi_w as Phi_v with (sigma_w, L_w).
 
 A vehicle crosses the frozen field at V, the norm of its velocity relative to the mean wind
 (Taylor's hypothesis, omega = V Omega), floored at ``min_airspeed_m_s`` so that a vehicle drifting
-with the air still sees the field change. With T = L / V the temporal shaping filters are
+with the air still sees the field change. With T = L / V the temporal shaping filters (driven
+by unit white noise) are
 
-    H_u(s) = sigma_u sqrt(2T) / (1 + T s),     H_v(s) = sigma_v sqrt(T) (1 + sqrt(3) T s) / (1 + T s)^2.
+    H_u(s) = sigma_u sqrt(2 T) / (1 + T s)
+    H_v(s) = sigma_v sqrt(T) (1 + sqrt(3) T s) / (1 + T s)^2          (same for w)
 
 Both are realised with two unit-variance states per axis: y1, a first-order Gauss-Markov process
 (autocorrelation exp(-|tau| / T)), and y2 = y1 / (1 + T s). Then u = sigma_u y1 and, since
 (1 + sqrt(3) T s) / (1 + T s)^2 = sqrt(3) / (1 + T s) + (1 - sqrt(3)) / (1 + T s)^2,
 v = sigma_v (sqrt(3) y1 + (1 - sqrt(3)) y2) / sqrt(2) (the stationary covariance of (y1, y2) is
 P = [[1, 1/2], [1/2, 1/2]], which makes the bracket's variance 2). The states are discretised
-exactly (zero-order hold of nothing: the exact transition of the linear SDE over one update,
-a = exp(-dt / T)):
+exactly (the transition of the linear stochastic differential equation over one update of dt,
+with a = exp(-dt / T)):
 
     [y1, y2]_{k+1} = [[a, 0], [a dt / T, a]] [y1, y2]_k + chol(Q) n_k,   Q = P - Phi P Phi^T,
 
 n_k standard normal. Q keeps the covariance at P for any T, so the variance stays exact when T
 changes with height and airspeed, and the state starts drawn from P (stationary from t = 0).
+The wind is advanced at ``update_hz`` (default 100 Hz) and held between updates; one update costs
+about 26 us for turbulence, 10 us for gusts, whatever N (one numpy call per operation).
 
-**Gusts**: the "1 - cosine" discrete gust of MIL-F-8785C (section 3.7.3): over the distance x the
+**Gusts**: the "1 - cosine" discrete gust model of MIL-F-8785C: over the distance x the
 vehicle moves relative to the air after the gust front, the wind rises by
 ``(V_m / 2)(1 - cos(pi x / d_m))``; the specification holds V_m after x = d_m, here the gust falls
 back symmetrically (a gust 2 d_m long, as the 1-cosine gust of EASA CS-25.341) so that gusts are
@@ -179,6 +186,8 @@ class WindField:
         left = np.array([-along[1], along[0], 0.0])
         self._axes = np.array([along, left, [0.0, 0.0, 1.0]])
 
+        self._rel = np.zeros((n, 3))
+        self._speed = np.zeros(n)
         self._turbulent = config.turbulence_w20_m_s > 0.0
         if self._turbulent:
             # Unit-variance states (y1, y2) per axis, drawn from their stationary covariance P.
@@ -190,6 +199,11 @@ class WindField:
                 [0.0, (1.0 - _SQRT3) / math.sqrt(2.0), (1.0 - _SQRT3) / math.sqrt(2.0)]
             )
             self._noise = np.zeros((2, n, 3))
+            self._sigma_w = 0.1 * config.turbulence_w20_m_s
+            self._h_ft = np.zeros(n)
+            self._d = np.zeros(n)
+            self._buffers = np.zeros((8, n, 3))
+            self._buffers[0, :, 2] = self._sigma_w  # sigma_w does not depend on height
 
         self._gusty = config.gust_peak_m_s > 0.0
         if self._gusty:
@@ -211,8 +225,9 @@ class WindField:
         if not (self._turbulent or self._gusty):
             return self.velocity_enu_m_s
         # Speed through the air mass (Taylor's frozen-field hypothesis), floored.
-        rel = velocity_enu_m_s - self._steady
-        speed = np.sqrt(np.einsum("ij,ij->i", rel, rel))
+        rel = np.subtract(velocity_enu_m_s, self._steady, out=self._rel)
+        speed = np.einsum("ij,ij->i", rel, rel, out=self._speed)
+        np.sqrt(speed, out=speed)
         np.maximum(speed, cfg.min_airspeed_m_s, out=speed)
         if self._turbulent:
             self._advance_turbulence(position_enu_m[:, 2], speed)
@@ -223,23 +238,59 @@ class WindField:
         return self.velocity_enu_m_s
 
     def _advance_turbulence(self, height_m: np.ndarray, speed_m_s: np.ndarray) -> None:
-        sigma, length = dryden_low_altitude(height_m, self.config.turbulence_w20_m_s)
-        r = self.dt_s * speed_m_s[:, None] / length  # dt / T, (N, 3)
-        a = np.exp(-r)
-        b = r * a
-        # Q = P - Phi P Phi^T for P = [[1, 1/2], [1/2, 1/2]], Phi = [[a, 0], [b, a]].
-        q11 = -np.expm1(-2.0 * r)
-        q12 = 0.5 - a * b - 0.5 * a * a
-        q22 = 0.5 - b * b - a * b - 0.5 * a * a
-        l11 = np.sqrt(q11)
-        l21 = q12 / l11
-        l22 = np.sqrt(np.maximum(q22 - l21 * l21, 0.0))
+        """One exact step of the shaping filters (module docstring), in preallocated buffers."""
+        sigma, r, a, b, q, l21, l22, tmp = self._buffers
+        # Eq. (1)-(2) with d = (0.177 + 0.000823 h)^0.4: sigma_uv = sigma_w / d, L_w = h,
+        # L_uv = h / d^3; r = dt / T = dt V / L per axis.
+        h_ft = np.multiply(height_m, FEET_PER_M, out=self._h_ft)
+        np.clip(h_ft, _H_MIN_FT, _H_MAX_FT, out=h_ft)
+        d = np.multiply(h_ft, 0.000823, out=self._d)
+        d += 0.177
+        np.power(d, 0.4, out=d)
+        np.divide(self._sigma_w, d, out=sigma[:, 0])
+        sigma[:, 1] = sigma[:, 0]
+        np.divide(speed_m_s, h_ft, out=r[:, 2])
+        r[:, 2] *= self.dt_s * FEET_PER_M
+        np.power(d, 3.0, out=d)
+        np.multiply(r[:, 2], d, out=r[:, 0])
+        r[:, 1] = r[:, 0]
+        # Phi = [[a, 0], [b, a]]; chol(Q) of Q = P - Phi P Phi^T, P = [[1, 1/2], [1/2, 1/2]]:
+        # q11 = 1 - a^2, q12 = q11 / 2 - a b, q22 = q12 - b^2.
+        np.negative(r, out=a)
+        np.exp(a, out=a)
+        np.multiply(r, a, out=b)
+        np.multiply(a, a, out=q)
+        np.subtract(1.0, q, out=q)  # q11
+        np.multiply(a, b, out=tmp)
+        np.multiply(q, 0.5, out=l21)
+        l21 -= tmp  # q12
+        np.multiply(b, b, out=l22)
+        np.subtract(l21, l22, out=l22)  # q22
+        np.sqrt(q, out=q)  # l11
+        l21 /= q
+        np.multiply(l21, l21, out=tmp)
+        l22 -= tmp
+        np.maximum(l22, 0.0, out=l22)
+        np.sqrt(l22, out=l22)
         n1, n2 = self._rng.standard_normal(out=self._noise)
-        y1_old = self._y1
-        self._y1 = a * y1_old + l11 * n1
-        self._y2 = b * y1_old + a * self._y2 + l21 * n1 + l22 * n2
-        uvw = sigma * (self._c1 * self._y1 + self._c2 * self._y2)
-        np.matmul(uvw, self._axes, out=self.turbulence_enu_m_s)
+        y1, y2 = self._y1, self._y2
+        # y2 <- b y1 + a y2 + l21 n1 + l22 n2, then y1 <- a y1 + l11 n1.
+        y2 *= a
+        np.multiply(b, y1, out=tmp)
+        y2 += tmp
+        l21 *= n1
+        y2 += l21
+        l22 *= n2
+        y2 += l22
+        y1 *= a
+        q *= n1
+        y1 += q
+        # (u, v, w) = sigma (c1 y1 + c2 y2), then to ENU.
+        np.multiply(self._c1, y1, out=tmp)
+        np.multiply(self._c2, y2, out=b)
+        tmp += b
+        tmp *= sigma
+        np.matmul(tmp, self._axes, out=self.turbulence_enu_m_s)
 
     def _advance_gusts(self, speed_m_s: np.ndarray) -> None:
         cfg = self.config
