@@ -48,8 +48,9 @@ with a = exp(-dt / T)):
 
 n_k standard normal. Q keeps the covariance at P for any T, so the variance stays exact when T
 changes with height and airspeed, and the state starts drawn from P (stationary from t = 0).
-The wind is advanced at ``update_hz`` (default 100 Hz) and held between updates; one update costs
-about 26 us for turbulence, 10 us for gusts, whatever N (one numpy call per operation).
+The wind is advanced at ``update_hz`` (default 100 Hz) and held between updates; sigma and T are
+re-evaluated every ``COEFFICIENT_EVERY`` updates (Q stays consistent with the T in use, so the
+variance stays exact). One update costs about 10 us for turbulence and 10 us for gusts, whatever N.
 
 **Gusts**: the "1 - cosine" discrete gust model of MIL-F-8785C: over the distance x the
 vehicle moves relative to the air after the gust front, the wind rises by
@@ -82,6 +83,9 @@ TURBULENCE_W20_M_S = {
     "severe": 45.0 * KNOT_M_S,
 }
 """W20 (wind 20 ft above ground) of MIL-F-8785C's low-altitude turbulence intensities, m/s."""
+COEFFICIENT_EVERY = 10
+"""The turbulence intensities and time constants (functions of height and airspeed, which change
+slowly) are recomputed every this many updates, 0.1 s at 100 Hz; the states advance every update."""
 _H_MIN_FT = 10.0
 _H_MAX_FT = 1000.0
 _SQRT3 = math.sqrt(3.0)
@@ -202,8 +206,10 @@ class WindField:
             self._sigma_w = 0.1 * config.turbulence_w20_m_s
             self._h_ft = np.zeros(n)
             self._d = np.zeros(n)
-            self._buffers = np.zeros((8, n, 3))
-            self._buffers[0, :, 2] = self._sigma_w  # sigma_w does not depend on height
+            self._coefficients = np.zeros((7, n, 3))  # sigma, r, a, b, l11, l21, l22
+            self._coefficients[0, :, 2] = self._sigma_w  # sigma_w does not depend on height
+            self._scratch = np.zeros((3, n, 3))
+            self._updates = 0
 
         self._gusty = config.gust_peak_m_s > 0.0
         if self._gusty:
@@ -239,7 +245,35 @@ class WindField:
 
     def _advance_turbulence(self, height_m: np.ndarray, speed_m_s: np.ndarray) -> None:
         """One exact step of the shaping filters (module docstring), in preallocated buffers."""
-        sigma, r, a, b, q, l21, l22, tmp = self._buffers
+        if self._updates % COEFFICIENT_EVERY == 0:
+            self._update_coefficients(height_m, speed_m_s)
+        self._updates += 1
+        sigma, _, a, b, l11, l21, l22 = self._coefficients
+        tmp, noise1, noise2 = self._scratch
+        n1, n2 = self._rng.standard_normal(out=self._noise)
+        y1, y2 = self._y1, self._y2
+        # y2 <- b y1 + a y2 + l21 n1 + l22 n2, then y1 <- a y1 + l11 n1.
+        y2 *= a
+        np.multiply(b, y1, out=tmp)
+        y2 += tmp
+        np.multiply(l21, n1, out=noise2)
+        y2 += noise2
+        np.multiply(l22, n2, out=noise2)
+        y2 += noise2
+        y1 *= a
+        np.multiply(l11, n1, out=noise1)
+        y1 += noise1
+        # (u, v, w) = sigma (c1 y1 + c2 y2), then to ENU.
+        np.multiply(self._c1, y1, out=tmp)
+        np.multiply(self._c2, y2, out=noise1)
+        tmp += noise1
+        tmp *= sigma
+        np.matmul(tmp, self._axes, out=self.turbulence_enu_m_s)
+
+    def _update_coefficients(self, height_m: np.ndarray, speed_m_s: np.ndarray) -> None:
+        """sigma, T and the transition Phi = [[a, 0], [b, a]] with chol(Q) at this height/speed."""
+        sigma, r, a, b, l11, l21, l22 = self._coefficients
+        tmp = self._scratch[0]
         # Eq. (1)-(2) with d = (0.177 + 0.000823 h)^0.4: sigma_uv = sigma_w / d, L_w = h,
         # L_uv = h / d^3; r = dt / T = dt V / L per axis.
         h_ft = np.multiply(height_m, FEET_PER_M, out=self._h_ft)
@@ -254,43 +288,24 @@ class WindField:
         np.power(d, 3.0, out=d)
         np.multiply(r[:, 2], d, out=r[:, 0])
         r[:, 1] = r[:, 0]
-        # Phi = [[a, 0], [b, a]]; chol(Q) of Q = P - Phi P Phi^T, P = [[1, 1/2], [1/2, 1/2]]:
+        # chol(Q), Q = P - Phi P Phi^T, P = [[1, 1/2], [1/2, 1/2]]:
         # q11 = 1 - a^2, q12 = q11 / 2 - a b, q22 = q12 - b^2.
         np.negative(r, out=a)
         np.exp(a, out=a)
         np.multiply(r, a, out=b)
-        np.multiply(a, a, out=q)
-        np.subtract(1.0, q, out=q)  # q11
+        np.multiply(a, a, out=l11)
+        np.subtract(1.0, l11, out=l11)  # q11
         np.multiply(a, b, out=tmp)
-        np.multiply(q, 0.5, out=l21)
+        np.multiply(l11, 0.5, out=l21)
         l21 -= tmp  # q12
         np.multiply(b, b, out=l22)
         np.subtract(l21, l22, out=l22)  # q22
-        np.sqrt(q, out=q)  # l11
-        l21 /= q
+        np.sqrt(l11, out=l11)
+        l21 /= l11
         np.multiply(l21, l21, out=tmp)
         l22 -= tmp
         np.maximum(l22, 0.0, out=l22)
         np.sqrt(l22, out=l22)
-        n1, n2 = self._rng.standard_normal(out=self._noise)
-        y1, y2 = self._y1, self._y2
-        # y2 <- b y1 + a y2 + l21 n1 + l22 n2, then y1 <- a y1 + l11 n1.
-        y2 *= a
-        np.multiply(b, y1, out=tmp)
-        y2 += tmp
-        l21 *= n1
-        y2 += l21
-        l22 *= n2
-        y2 += l22
-        y1 *= a
-        q *= n1
-        y1 += q
-        # (u, v, w) = sigma (c1 y1 + c2 y2), then to ENU.
-        np.multiply(self._c1, y1, out=tmp)
-        np.multiply(self._c2, y2, out=b)
-        tmp += b
-        tmp *= sigma
-        np.matmul(tmp, self._axes, out=self.turbulence_enu_m_s)
 
     def _advance_gusts(self, speed_m_s: np.ndarray) -> None:
         cfg = self.config
