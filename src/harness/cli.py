@@ -29,6 +29,7 @@ from harness.wind_options import (
     parse_wind,
     wind_config,
 )
+from sitl.vehicles.multirotor import airframe_yaml_path
 
 app = typer.Typer(
     add_completion=False,
@@ -89,6 +90,23 @@ def parse_stream_rates(specs: list[str]) -> dict[StreamProfile, dict[str, float]
     return rates
 
 
+def parse_frames(spec: str, n_vehicles: int) -> tuple[str, ...]:
+    """``--frame`` -> one airframe per vehicle: one name for all, or exactly one per vehicle."""
+    names = tuple(name.strip() for name in spec.split(","))
+    if any(not name for name in names) or len(names) not in (1, n_vehicles):
+        raise typer.BadParameter(
+            f"{spec!r}: give one airframe for all vehicles or one per vehicle ({n_vehicles}), "
+            "separated by commas, e.g. --frame typhoon_h480,x500",
+            param_hint="--frame",
+        )
+    for name in names:
+        try:
+            airframe_yaml_path(name)
+        except ValueError as exc:
+            raise typer.BadParameter(str(exc), param_hint="--frame") from exc
+    return names
+
+
 @app.command()
 def up(
     vehicles: Annotated[int, typer.Option("--vehicles", "-n", min=1, max=255)] = 1,
@@ -108,6 +126,13 @@ def up(
     ] = 18570,
     spacing: Annotated[float, typer.Option(help="metres between vehicles")] = 5.0,
     seed: Annotated[int, typer.Option(help="seed of every random draw")] = 0,
+    frame: Annotated[
+        str,
+        typer.Option(
+            help="airframe of every vehicle, or one per vehicle separated by commas (e.g. "
+            "typhoon_h480,x500); a name from sitl/vehicles or the path of an airframe folder"
+        ),
+    ] = "typhoon_h480",
     out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
     duration: Annotated[float, typer.Option(help="stop after this many sim seconds")] = 0.0,
     stream_rate: Annotated[
@@ -121,7 +146,7 @@ def up(
     turbulence: Annotated[str | None, typer.Option(help=TURBULENCE_HELP)] = None,
     gusts: Annotated[str | None, typer.Option(help=GUSTS_HELP)] = None,
 ) -> None:
-    """Start N emulated PX4 hexacopters and serve MAVLink until Ctrl-C.
+    """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
     Vehicle i (0-based) is MAVLink system i+1 with PX4 SITL's two links: the onboard link
     (PX4's onboard stream profile: ATTITUDE 100 Hz, positions 30-50 Hz, ...) listens on UDP
@@ -134,8 +159,11 @@ def up(
 
     Example:  swarmsitl up --vehicles 20 --stream-rate ATTITUDE=20 --stream-rate HIGHRES_IMU=0
 
+    Example:  swarmsitl up --vehicles 3 --frame typhoon_h480,x500,x500
+
     Example:  swarmsitl up --wind 5@270 --turbulence light --gusts 3,length=30,every=20
     """
+    frames = parse_frames(frame, vehicles)
     run_dir = out or default_run_dir()
     ports = PortPlan(
         bind_addr=bind,
@@ -147,6 +175,7 @@ def up(
     cfg = SimulationConfig(
         n_vehicles=vehicles,
         seed=seed,
+        frames=frames,
         spacing_m=spacing,
         ports=ports,
         out_dir=run_dir,
@@ -155,7 +184,14 @@ def up(
     )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
-    columns = ("sysid", "onboard link", "MAVSDK connects with", "GCS link", "home lat, lon, alt")
+    columns = (
+        "sysid",
+        "airframe",
+        "onboard link",
+        "MAVSDK connects with",
+        "GCS link",
+        "home lat, lon, alt",
+    )
     for col in columns:
         table.add_column(col, no_wrap=True)
     for i in range(vehicles):
@@ -167,6 +203,7 @@ def up(
         )
         table.add_row(
             str(i + 1),
+            sim.world.airframes[i].name,
             f"{bind}:{ports.listen_port(i)} -> {ports.peer_addr}:{ports.sdk_port(i)}",
             f"udpin://0.0.0.0:{ports.sdk_port(i)}",
             gcs,

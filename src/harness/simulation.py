@@ -22,8 +22,10 @@ from autopilot_emu.fleet import AutopilotFleet, FleetConfig
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
+from autopilot_emu.params import ParamStore
 from harness.recorder import FlightRecorder
 from sitl.physics.wind import WindConfig
+from sitl.vehicles.multirotor import MultirotorSpec
 from sitl.world import World, WorldConfig
 
 log = logging.getLogger(__name__)
@@ -87,6 +89,9 @@ class SimulationConfig:
     n_vehicles: int = 1
     seed: int = 0
     physics_hz: float = 500.0
+    frames: tuple[str, ...] = ("typhoon_h480",)
+    """Airframe of every vehicle (one name), or one per vehicle in vehicle order: names of
+    ``sitl/vehicles`` folders or paths of airframe folders (``swarmsitl up --frame``)."""
     spacing_m: float = 5.0
     """Distance between neighbouring vehicles at spawn, m."""
     mavlink: bool = True
@@ -110,12 +115,35 @@ class SimulationConfig:
     def __post_init__(self) -> None:
         if self.n_vehicles < 1:
             raise ValueError(f"n_vehicles must be >= 1, got {self.n_vehicles}")
+        if isinstance(self.frames, str) or len(self.frames) not in (1, self.n_vehicles):
+            raise ValueError(
+                f"frames: give one airframe for all vehicles or one per vehicle "
+                f"({self.n_vehicles}), got {self.frames!r}"
+            )
+        if "airframe" in self.world_overrides:
+            raise ValueError("set the airframe with frames, not world_overrides")
         ratio = self.physics_hz / self.mavlink_poll_hz
         if abs(ratio - round(ratio)) > 1e-9 or ratio < 1:
             raise ValueError(
                 f"mavlink_poll_hz ({self.mavlink_poll_hz}) must divide physics_hz "
                 f"({self.physics_hz})"
             )
+
+
+def apply_airframe_params(store: ParamStore, airframe: MultirotorSpec) -> set[str]:
+    """Set the parameters PX4's airframe file sets (the YAML's ``px4`` section) in ``store``.
+
+    Returns:
+        The names ``store`` does not know (left out); a known name with a bad value raises.
+    """
+    known = set(store.names)
+    unknown = set()
+    for name, value in airframe.px4_params.items():
+        if name in known:
+            store.set(name, value)
+        else:
+            unknown.add(name)
+    return unknown
 
 
 class Simulation:
@@ -131,10 +159,21 @@ class Simulation:
                 physics_hz=config.physics_hz,
                 seed=config.seed,
                 wind=config.wind,
+                airframe=tuple(config.frames),
                 **config.world_overrides,
             )
         )
-        self.fleet = AutopilotFleet(FleetConfig(n_vehicles=n))
+        stores = [ParamStore() for _ in range(n)]
+        self.airframe_params_skipped: set[str] = set()
+        """Parameters of the airframes' ``px4`` sections this autopilot does not know (skipped)."""
+        for store, spec in zip(stores, self.world.airframes, strict=True):
+            self.airframe_params_skipped |= apply_airframe_params(store, spec)
+        if self.airframe_params_skipped:
+            log.warning(
+                "airframe parameters unknown to the autopilot, not set: %s",
+                ", ".join(sorted(self.airframe_params_skipped)),
+            )
+        self.fleet = AutopilotFleet(FleetConfig(n_vehicles=n), params=stores)
         for i, p in enumerate(self.fleet.params):
             p.set("MAV_SYS_ID", i + 1)
         self.epoch_start_s = time.time()

@@ -10,8 +10,10 @@ Profile the hot loop with ``python -m sitl.world --profile``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import math
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -30,7 +32,7 @@ from sitl.sensors.gps import Gps
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer
 from sitl.truth import TruthState
-from sitl.vehicles.multirotor import MultirotorSpec, available_airframes, load_airframe
+from sitl.vehicles.multirotor import MultirotorSpec, airframe_yaml_path, load_airframe
 
 log = logging.getLogger(__name__)
 
@@ -64,8 +66,9 @@ class WorldConfig:
     """Longitude of the world origin, degrees."""
     origin_alt_amsl_m: float = 488.0
     """Altitude of the ground plane above mean sea level, m."""
-    airframe: str = "typhoon_h480"
-    """Airframe name, a folder of ``sitl/vehicles``."""
+    airframe: str | tuple[str, ...] = "typhoon_h480"
+    """Airframe of every vehicle, or a tuple with one per vehicle (vehicle order). Each is the name
+    of a folder of ``sitl/vehicles`` or the path of a user's airframe folder."""
     spawn_altitude_m: float | None = None
     """None: spawn resting on the ground; else height of the centre of mass above ground, m."""
     mag_declination_deg: float = 2.6
@@ -102,30 +105,85 @@ class WorldConfig:
             raise ValueError(f"spawn_altitude_m must be positive or None: {self.spawn_altitude_m}")
         if not self.mag_strength_gauss > 0.0:
             raise ValueError(f"mag_strength_gauss must be positive: {self.mag_strength_gauss}")
-        known = available_airframes()
-        if self.airframe not in known:
-            raise ValueError(f"unknown airframe {self.airframe!r}; available: {', '.join(known)}")
+        if isinstance(self.airframe, os.PathLike):
+            object.__setattr__(self, "airframe", os.fspath(self.airframe))
+        names = (self.airframe,) if isinstance(self.airframe, str) else tuple(self.airframe)
+        if len(names) not in (1, self.n_vehicles):
+            raise ValueError(
+                f"airframe: {len(names)} names for {self.n_vehicles} vehicles (give one for all, "
+                "or one per vehicle)"
+            )
+        for name in names:
+            airframe_yaml_path(name)  # ValueError naming the unknown airframe
         if self.wind is not None:
             if not isinstance(self.wind, WindConfig):
                 raise ValueError(f"wind must be a WindConfig or None, got {self.wind!r}")
             rate_divisor(self.physics_hz, self.wind.update_hz, "wind update_hz")
 
+    @property
+    def airframes(self) -> tuple[str, ...]:
+        """The airframe of each vehicle, in vehicle order."""
+        if isinstance(self.airframe, str):
+            return (self.airframe,) * self.n_vehicles
+        names = tuple(os.fspath(name) for name in self.airframe)
+        return names * self.n_vehicles if len(names) == 1 else names
+
+
+@dataclass(eq=False)
+class _AirframeGroup:
+    """The vehicles of one airframe: their rotors, commands and sensors (arrays of the group)."""
+
+    spec: MultirotorSpec
+    rows: slice | np.ndarray
+    """Vehicle indices of the group: a slice when contiguous (views), else an index array."""
+    n: int
+    rotors: RotorModel
+    imu: Imu
+    mag: Magnetometer
+    baro: Barometer
+    gps: Gps
+
+    def __post_init__(self) -> None:
+        shape = (self.n, len(self.spec.rotors))
+        self.zeros = np.zeros(shape)
+        self.ones = np.ones(shape)
+        self.max_speed_rad_s = np.full(shape, self.spec.motor.max_speed_rad_s)
+        self.controls = np.zeros(shape)
+
+
+def _group_rows(indices: list[int]) -> slice | np.ndarray:
+    if indices == list(range(indices[0], indices[-1] + 1)):
+        return slice(indices[0], indices[-1] + 1)
+    return np.array(indices)
+
 
 class World:
-    """N multirotors of one airframe in a PyBullet DIRECT world, advanced in lockstep.
+    """N multirotors in a PyBullet DIRECT world, advanced in lockstep.
 
     Vehicle i spawns at ENU (i * spacing_m, 0, h), facing north, with h the resting height of the
     centre of mass (or ``spawn_altitude_m``). Commands arrive as HIL_ACTUATOR_CONTROLS (controls in
     [0, 1] in the airframe's output order; zero unless the mode has SAFETY_ARMED); sensors leave as
-    HIL_SENSOR and HIL_GPS.
+    HIL_SENSOR and HIL_GPS, one message per vehicle in vehicle order.
+
+    Vehicles may have different airframes (rotor counts, URDFs, sensor parameters): the vehicles of
+    one airframe form a group with its own rotor model and sensors, each vectorised over the group.
     """
 
     def __init__(self, config: WorldConfig) -> None:
         self.config = config
-        self.airframe: MultirotorSpec = load_airframe(config.airframe)
-        spec = self.airframe
         n = config.n_vehicles
         self.n_vehicles = n
+        loaded: dict[str, MultirotorSpec] = {}
+        members: dict[str, list[int]] = {}
+        for i, name in enumerate(config.airframes):
+            if name not in loaded:
+                loaded[name] = load_airframe(name)
+                members[name] = []
+            members[name].append(i)
+        self.airframes: tuple[MultirotorSpec, ...] = tuple(loaded[a] for a in config.airframes)
+        """The airframe of each vehicle, in vehicle order."""
+        self.airframe: MultirotorSpec = self.airframes[0]
+        """Vehicle 0's airframe (every vehicle's with a single airframe)."""
         self._clock = SimClock(config.physics_hz)
         dt = self._clock.dt_s
         self._imu_div = rate_divisor(config.physics_hz, config.imu_hz, "imu_hz")
@@ -136,34 +194,48 @@ class World:
             config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_amsl_m
         )
 
-        height = spec.ground_clearance_m
+        heights = np.array([spec.ground_clearance_m for spec in self.airframes])
         if config.spawn_altitude_m is not None:
-            if config.spawn_altitude_m < height:
+            lowest = int(np.argmax(heights))
+            if config.spawn_altitude_m < heights[lowest]:
+                spec = self.airframes[lowest]
                 raise ValueError(
                     f"spawn_altitude_m={config.spawn_altitude_m} m is below the resting height "
-                    f"{height:.3f} m of {spec.name}'s centre of mass"
+                    f"{heights[lowest]:.3f} m of {spec.name}'s centre of mass"
                 )
-            height = float(config.spawn_altitude_m)
-        self._spawn_enu = np.array([[i * config.spacing_m, 0.0, height] for i in range(n)])
+            heights[:] = float(config.spawn_altitude_m)
+        self._spawn_enu = np.array([[i * config.spacing_m, 0.0, heights[i]] for i in range(n)])
         facing_north = frames.quat_ned_frd_to_enu_flu(frames.quat_from_euler_ned_frd(0, 0, 0))
-        self._scene = BulletScene(spec.urdf_path, self._spawn_enu, tuple(facing_north), dt)
+        self._scene = BulletScene(
+            [spec.urdf_path for spec in self.airframes], self._spawn_enu, tuple(facing_north), dt
+        )
 
-        self._rotors = RotorModel(spec.motor, spec.rotors, spec.fuselage, n, dt)
-        self._controls = np.zeros((n, len(spec.rotors)))
-        self._zeros = np.zeros_like(self._controls)
-        self._ones = np.ones_like(self._controls)
-        self._max_speed_rad_s = np.full_like(self._controls, spec.motor.max_speed_rad_s)
-        self._nan_logged = False
-
-        # Sensor construction order fixes the order of random draws: keep it.
+        # Sensor construction order fixes the order of random draws: keep it (group by group in
+        # order of first appearance; one group is the single-airframe world).
         rng = np.random.default_rng(config.seed)
         field = magnetic_field_ned_gauss(
             config.mag_declination_deg, config.mag_inclination_deg, config.mag_strength_gauss
         )
-        self._imu = Imu(spec.imu, n, rng)
-        self._mag = Magnetometer(spec.mag, field, n, rng)
-        self._baro = Barometer(spec.baro, n, rng)
-        self._gps = Gps(spec.gps, self.origin, n, rng)
+        self._groups: list[_AirframeGroup] = []
+        for name, spec in loaded.items():
+            size = len(members[name])
+            self._groups.append(
+                _AirframeGroup(
+                    spec=spec,
+                    rows=_group_rows(members[name]),
+                    n=size,
+                    rotors=RotorModel(spec.motor, spec.rotors, spec.fuselage, size, dt),
+                    imu=Imu(spec.imu, size, rng),
+                    mag=Magnetometer(spec.mag, field, size, rng),
+                    baro=Barometer(spec.baro, size, rng),
+                    gps=Gps(spec.gps, self.origin, size, rng),
+                )
+            )
+        self._single = self._groups[0] if len(self._groups) == 1 else None
+        self._max_rotors = max(len(spec.rotors) for spec in loaded.values())
+        self._controls = np.zeros((n, self._max_rotors))
+        self._wrench = np.zeros((n, 6))
+        self._nan_logged = False
         # The wind draws from a child of the world's generator, spawned after the sensors were
         # built and whether or not there is wind: the sensors' draws are the same with and
         # without wind, and the wind's own stream depends only on the seed.
@@ -214,9 +286,17 @@ class World:
                 self._update_rotor_commands(nan_seen)
         scene = self._scene
         velocity_flu = scene.velocity_flu_m_s if self._wind is None else self._airspeed_flu()
-        wrench = self._rotors.body_wrench(velocity_flu)
-        scene.apply_body_wrench_and_step(wrench)
-        self._rotors.advance()
+        single = self._single
+        if single is not None:
+            scene.apply_body_wrench_and_step(single.rotors.body_wrench(velocity_flu))
+            single.rotors.advance()
+        else:
+            for group in self._groups:
+                rows = group.rows
+                self._wrench[rows] = group.rotors.body_wrench(velocity_flu[rows])
+            scene.apply_body_wrench_and_step(self._wrench)
+            for group in self._groups:
+                group.rotors.advance()
         self._clock.advance()
 
     def _airspeed_flu(self) -> np.ndarray:
@@ -233,10 +313,15 @@ class World:
         if nan_seen and not self._nan_logged:
             log.warning("NaN motor command received; treating it as 0 (logged once per world)")
             self._nan_logged = True
-        u = self._controls
-        np.fmax(u, self._zeros, out=u)  # fmax turns NaN into 0
-        np.fmin(u, self._ones, out=u)
-        np.multiply(u, self._max_speed_rad_s, out=self._rotors.command_rad_s)
+        for group in self._groups:
+            u = group.controls
+            if self._single is not None:
+                u = self._controls
+            else:
+                u[:] = self._controls[group.rows, : u.shape[1]]
+            np.fmax(u, group.zeros, out=u)  # fmax turns NaN into 0
+            np.fmin(u, group.ones, out=u)
+            np.multiply(u, group.max_speed_rad_s, out=group.rotors.command_rad_s)
 
     # -- sensors ------------------------------------------------------------------------------
 
@@ -269,23 +354,52 @@ class World:
 
     def _sample_hil_sensor(self, tick: int) -> list[mavlink2.MAVLink_hil_sensor_message]:
         scene = self._scene
-        self._imu.sample(
-            scene.rotation,
-            scene.velocity_enu_m_s,
-            scene.angular_velocity_enu_rad_s,
-            self._interval_s("imu", tick, self._imu_div),
-            out=self._imu_frd,
-        )
+        single = self._single
+        dt_imu = self._interval_s("imu", tick, self._imu_div)
+        mag_due = tick >= self._next_mag_tick
+        baro_due = tick >= self._next_baro_tick
+        dt_mag = self._interval_s("mag", tick, self._mag_div) if mag_due else 0.0
+        dt_baro = self._interval_s("baro", tick, self._baro_div) if baro_due else 0.0
+        alt = self.origin.alt_amsl_m + scene.position_enu_m[:, 2] if baro_due else None
+        if single is not None:
+            single.imu.sample(
+                scene.rotation,
+                scene.velocity_enu_m_s,
+                scene.angular_velocity_enu_rad_s,
+                dt_imu,
+                out=self._imu_frd,
+            )
+            if mag_due:
+                single.mag.sample(scene.rotation, dt_mag, out=self._mag_frd)
+            if baro_due:
+                self._baro_sample = single.baro.sample(alt, dt_baro)
+        else:
+            baro_parts = []
+            for group in self._groups:
+                rows = group.rows
+                rotation = scene.rotation[rows]
+                imu_out = np.empty((group.n, 2, 3))
+                group.imu.sample(
+                    rotation,
+                    scene.velocity_enu_m_s[rows],
+                    scene.angular_velocity_enu_rad_s[rows],
+                    dt_imu,
+                    out=imu_out,
+                )
+                self._imu_frd[rows] = imu_out
+                if mag_due:
+                    mag_out = np.empty((group.n, 3))
+                    group.mag.sample(rotation, dt_mag, out=mag_out)
+                    self._mag_frd[rows] = mag_out
+                if baro_due:
+                    baro_parts.append((rows, group.baro.sample(alt[rows], dt_baro)))
+            if baro_due:
+                self._baro_sample = self._merge_baro(baro_parts)
         fields = hil.FIELDS_IMU
-        if tick >= self._next_mag_tick:
-            dt = self._interval_s("mag", tick, self._mag_div)
-            self._mag.sample(scene.rotation, dt, out=self._mag_frd)
+        if mag_due:
             self._next_mag_tick = (tick // self._mag_div + 1) * self._mag_div
             fields |= hil.FIELDS_MAG
-        if tick >= self._next_baro_tick:
-            dt = self._interval_s("baro", tick, self._baro_div)
-            alt = self.origin.alt_amsl_m + scene.position_enu_m[:, 2]
-            self._baro_sample = self._baro.sample(alt, dt)
+        if baro_due:
             self._next_baro_tick = (tick // self._baro_div + 1) * self._baro_div
             fields |= hil.FIELDS_BARO
         assert self._baro_sample is not None  # due at tick 0
@@ -293,14 +407,35 @@ class World:
             self._clock.time_usec, self._imu_mag_frd, self._baro_sample, fields
         )
 
+    def _merge_baro(self, parts: list[tuple[slice | np.ndarray, BaroSample]]) -> BaroSample:
+        """One BaroSample in vehicle order from the groups' samples."""
+        merged = {f.name: np.empty(self.n_vehicles) for f in dataclasses.fields(BaroSample)}
+        for rows, sample in parts:
+            for name, values in merged.items():
+                values[rows] = getattr(sample, name)
+        return BaroSample(**merged)
+
     def _sample_hil_gps(self, tick: int) -> list[mavlink2.MAVLink_hil_gps_message]:
         scene = self._scene
         dt = self._interval_s("gps", tick, self._gps_div)
-        fix = self._gps.sample(scene.position_enu_m, scene.velocity_enu_m_s, dt)
-        p = self._gps.params
-        return hil.hil_gps_messages(
-            self._clock.time_usec, fix, p.eph_m, p.epv_m, p.satellites_visible
-        )
+        time_usec = self._clock.time_usec
+        if self._single is not None:
+            gps = self._single.gps
+            fix = gps.sample(scene.position_enu_m, scene.velocity_enu_m_s, dt)
+            p = gps.params
+            return hil.hil_gps_messages(time_usec, fix, p.eph_m, p.epv_m, p.satellites_visible)
+        messages: list = [None] * self.n_vehicles
+        for group in self._groups:
+            rows = group.rows
+            fix = group.gps.sample(scene.position_enu_m[rows], scene.velocity_enu_m_s[rows], dt)
+            p = group.gps.params
+            indices = range(self.n_vehicles)[rows] if isinstance(rows, slice) else rows.tolist()
+            group_messages = hil.hil_gps_messages(
+                time_usec, fix, p.eph_m, p.epv_m, p.satellites_visible
+            )
+            for i, msg in zip(indices, group_messages, strict=True):
+                messages[i] = msg
+        return messages
 
     # -- truth and geometry -------------------------------------------------------------------
 
@@ -317,8 +452,8 @@ class World:
             angular_velocity_body_frd_rad_s=frames.world_enu_to_body_frd(
                 rotation, scene.angular_velocity_enu_rad_s
             ),
-            rotor_speed_rad_s=self._rotors.speed_rad_s.copy(),
-            rotor_shaft_power_w=self._rotors.shaft_power_w(),
+            rotor_speed_rad_s=self._rotor_speeds(),
+            rotor_shaft_power_w=self._shaft_power_w(),
             tilt_rad=np.arccos(np.clip(rotation[:, 2, 2], -1.0, 1.0)),
             wind_enu_m_s=(
                 np.zeros((self.n_vehicles, 3))
@@ -327,6 +462,23 @@ class World:
             ),
             origin=self.origin,
         )
+
+    def _rotor_speeds(self) -> np.ndarray:
+        """(N, most rotors of any airframe), rad/s; absent rotors of smaller airframes read 0."""
+        if self._single is not None:
+            return self._single.rotors.speed_rad_s.copy()
+        speeds = np.zeros((self.n_vehicles, self._max_rotors))
+        for group in self._groups:
+            speeds[group.rows, : group.rotors.n_rotors] = group.rotors.speed_rad_s
+        return speeds
+
+    def _shaft_power_w(self) -> np.ndarray:
+        if self._single is not None:
+            return self._single.rotors.shaft_power_w()
+        power = np.zeros(self.n_vehicles)
+        for group in self._groups:
+            power[group.rows] = group.rotors.shaft_power_w()
+        return power
 
     def home_geodetic(self, i: int) -> tuple[float, float, float]:
         """Latitude (deg), longitude (deg), altitude AMSL (m) of vehicle i's spawn point (CoM)."""
@@ -357,7 +509,11 @@ def hover_actuator_message(
 
 
 def profile(
-    n_vehicles: int, n_steps: int, airborne_steps: int = 1000, wind: WindConfig | None = None
+    n_vehicles: int,
+    n_steps: int,
+    airborne_steps: int = 1000,
+    airframe: str | tuple[str, ...] = "typhoon_h480",
+    wind: WindConfig | None = None,
 ) -> dict[str, float]:
     """Wall time per physics step, us (best 2 s chunk), with every rotor commanded to hover.
 
@@ -378,9 +534,11 @@ def profile(
         # Best chunk (least disturbed by other processes), as timeit does.
         best, done = math.inf, 0
         while done < n_steps:
-            config = WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=height_m, wind=wind)
+            config = WorldConfig(
+                n_vehicles=n_vehicles, spawn_altitude_m=height_m, airframe=airframe, wind=wind
+            )
             with World(config) as world:
-                actuators = [hover_actuator_message(world.airframe)] * n_vehicles
+                actuators = [hover_actuator_message(spec) for spec in world.airframes]
                 world.step(actuators)
                 world.poll_sensors()
                 t0 = time.perf_counter()
@@ -393,7 +551,8 @@ def profile(
         return best * 1e6
 
     results = {"step": timed(poll=False), "step+poll": timed(poll=True)}
-    with World(WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=1000.0)) as world:
+    config = WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=1000.0, airframe=airframe)
+    with World(config) as world:
         cid = world._scene.client_id
         best = math.inf
         for _ in range(max(1, n_steps // airborne_steps)):
@@ -410,9 +569,15 @@ def _main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--profile", action="store_true", help="print us per step, N = 1 and 10")
     parser.add_argument("--steps", type=int, default=20000, help="steps per measurement")
     parser.add_argument(
+        "--frame",
+        default="typhoon_h480",
+        help="airframe, or a comma-separated list cycled over the vehicles: typhoon_h480,x500",
+    )
+    parser.add_argument(
         "--wind", action="store_true", help="in 8 m/s wind with moderate turbulence and gusts"
     )
     args = parser.parse_args(argv)
+    frames = tuple(args.frame.split(","))
     if not args.profile:
         parser.print_help()
         return
@@ -423,7 +588,8 @@ def _main(argv: Sequence[str] | None = None) -> None:
     )
     print(f"{'N':>3} {'step us':>9} {'step+poll us':>13} {'pybullet us':>12} {'x real time':>12}")
     for n in (1, 10):
-        r = profile(n, args.steps, wind=wind)
+        airframe = frames if len(frames) == 1 else tuple(frames[i % len(frames)] for i in range(n))
+        r = profile(n, args.steps, airframe=airframe, wind=wind)
         speed = 1e6 / (r["step+poll"] * WorldConfig().physics_hz)
         print(
             f"{n:>3} {r['step']:>9.1f} {r['step+poll']:>13.1f} {r['pybullet']:>12.1f} "

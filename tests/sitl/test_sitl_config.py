@@ -37,8 +37,8 @@ def test_invalid_config_is_rejected_with_the_reason(overrides, message):
 
 def test_unknown_airframe_lists_the_available_ones():
     """An unknown airframe name is rejected with the list of known airframes."""
-    with pytest.raises(ValueError, match=r"unknown airframe 'x500'; available: .*typhoon_h480"):
-        WorldConfig(airframe="x500")
+    with pytest.raises(ValueError, match=r"unknown airframe 'x600': neither a folder nor .*x500"):
+        WorldConfig(airframe="x600")
 
 
 def test_spawn_below_resting_height_is_rejected():
@@ -108,8 +108,10 @@ def test_shipped_airframe_facts():
     """The Typhoon H480 is loaded with the PX4 numbers and a hover command near 0.48."""
     spec = multirotor.load_airframe("typhoon_h480")
     assert spec.mass_kg == pytest.approx(2.665)
-    assert spec.inertia_diag_kg_m2 == pytest.approx((0.011, 0.015, 0.021))
-    assert spec.ground_clearance_m == pytest.approx(0.207252 + 0.012209)
+    # Composite of the SDF's links (was base_link's 0.011, 0.015, 0.021: 2.4-3.2x too low).
+    assert spec.inertia_diag_kg_m2 == pytest.approx((0.0354, 0.0359, 0.0351), abs=1e-4)
+    # Skids 0.207252 m below base_link, whose origin is 0.042728 m above the centre of mass.
+    assert spec.ground_clearance_m == pytest.approx(0.207252 - 0.042728 + 0.012209, abs=1e-6)
     assert [r.output for r in spec.rotors] == list(range(6))
     assert [r.spin.value for r in spec.rotors] == ["cw", "ccw", "cw", "ccw", "ccw", "cw"]
     assert spec.motor.max_speed_rad_s == 1500.0

@@ -233,7 +233,7 @@ def test_rotors_at_rest_in_wind_feel_the_rotor_drag_of_the_airspeed():
     with make_world(wind=WindConfig(wind, 180.0), spawn_altitude_m=50.0) as world:
         spec = world.airframe
         hover = [actuator_message([spec.hover_command] * len(spec.rotors))]
-        world._rotors.speed_rad_s[:] = spec.hover_command * spec.motor.max_speed_rad_s
+        world._groups[0].rotors.speed_rad_s[:] = spec.hover_command * spec.motor.max_speed_rad_s
         speeds = world.truth.rotor_speed_rad_s[0]
         world.step(hover)
         accel = world.truth.velocity_enu_m_s[0] * world.config.physics_hz

@@ -8,6 +8,7 @@ the WORLD frame (PyBullet's LINK_FRAME torque on a base is unreliable).
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -19,11 +20,11 @@ _STATE_WIDTH = 22  # position 3, quaternion 4, velocity 3, angular velocity 3, r
 
 
 class BulletScene:
-    """PyBullet world (ENU, z up, ground plane at z = 0) holding N identical rigid bodies."""
+    """PyBullet world (ENU, z up, ground plane at z = 0) holding one rigid body per vehicle."""
 
     def __init__(
         self,
-        urdf_path: Path,
+        urdf_paths: Sequence[Path],
         spawn_positions_enu_m: np.ndarray,
         spawn_quaternion_xyzw: tuple[float, float, float, float],
         dt_s: float,
@@ -57,8 +58,12 @@ class BulletScene:
             physicsClientId=cid,
         )
 
+        positions = np.asarray(spawn_positions_enu_m, dtype=float)
+        if len(urdf_paths) != len(positions):
+            self.close()
+            raise ValueError(f"{len(urdf_paths)} URDF paths for {len(positions)} spawn positions")
         self.body_ids: list[int] = []
-        for position in np.asarray(spawn_positions_enu_m, dtype=float):
+        for urdf_path, position in zip(urdf_paths, positions, strict=True):
             try:
                 body = p.loadURDF(
                     str(urdf_path),

@@ -84,9 +84,8 @@ class RotorSpec:
 class RotorModel:
     """Rotor speeds and the body wrench they produce, for N vehicles at once.
 
-    The rotor part of the wrench is linear in the features ``[w_i^2, w_i v_j]``, so one matrix
-    product maps them all: ``wrench (N, 6) = features (N, n + 3 n) @ wrench_map``; the quadratic
-    parasite drag is added per body axis on the ``(N, 3)`` velocities.
+    The wrench is linear in the features ``[w_i^2, w_i v_j, v_j |v_j|]``, so one matrix product
+    maps them all: ``wrench (N, 6) = features (N, 4 n + 3) @ wrench_map``.
     """
 
     def __init__(
@@ -125,9 +124,10 @@ class RotorModel:
             drag_map[i, :3] = -c_d * in_plane
             drag_map[i, 3:] = -c_d * cross @ in_plane - c_roll * in_plane
         drag_rows = drag_map.transpose(0, 2, 1).reshape(3 * n_rot, 6)
-        self._wrench_map = np.vstack([thrust_map, drag_rows])
-        # -1/2 rho CdA per body axis, full (N, 3) shape (same-shape ufuncs are the cheapest).
-        self._parasite = -np.tile(fuselage.coefficients_n_s2_m2(air_density_kg_m3), (n_vehicles, 1))
+        # Wrench per v_j |v_j| (3): -1/2 rho (Cd A)_j on force axis j.
+        parasite_rows = np.zeros((3, 6))
+        parasite_rows[:, :3] = -np.diag(fuselage.coefficients_n_s2_m2(air_density_kg_m3))
+        self._wrench_map = np.vstack([thrust_map, drag_rows, parasite_rows])
 
         alpha_up = -np.expm1(-dt_s / motor.time_constant_up_s)
         alpha_down = -np.expm1(-dt_s / motor.time_constant_down_s)
@@ -143,13 +143,12 @@ class RotorModel:
         self._speed_col = self.speed_rad_s[:, :, None]
         self.command_rad_s = np.zeros((n_vehicles, n_rot))
         """Commanded rotor speeds, rad/s, (N, n_rotors); write into it."""
-        self._features = np.zeros((n_vehicles, 4 * n_rot))
+        self._features = np.zeros((n_vehicles, 4 * n_rot + 3))
         self._features_sq = self._features[:, :n_rot]
-        self._features_drag = self._features[:, n_rot:].reshape(n_vehicles, n_rot, 3)
+        self._features_drag = self._features[:, n_rot : 4 * n_rot].reshape(n_vehicles, n_rot, 3)
+        self._features_quad = self._features[:, 4 * n_rot :]
         assert np.shares_memory(self._features_drag, self._features), "must be a view"
         self._wrench = np.zeros((n_vehicles, 6))
-        self._force = self._wrench[:, :3]
-        self._quadratic = np.zeros((n_vehicles, 3))
         self._diff = np.zeros((n_vehicles, n_rot))
         self._diff_up = np.zeros((n_vehicles, n_rot))
 
@@ -165,13 +164,10 @@ class RotorModel:
         """
         np.multiply(self.speed_rad_s, self.speed_rad_s, self._features_sq)
         np.multiply(self._speed_col, velocity_flu_m_s, self._features_drag)
-        wrench = self._features.dot(self._wrench_map, self._wrench)  # 2-D dot: cheapest product
         v = velocity_flu_m_s[:, 0, :]
-        q = np.abs(v, self._quadratic)
-        np.multiply(q, v, q)
-        np.multiply(q, self._parasite, q)
-        np.add(self._force, q, self._force)
-        return wrench
+        np.abs(v, self._features_quad)
+        np.multiply(self._features_quad, v, self._features_quad)
+        return self._features.dot(self._wrench_map, self._wrench)  # 2-D dot: cheapest product
 
     def advance(self) -> None:
         """Move the rotor speeds one physics step towards their commands (first-order lag)."""
