@@ -209,20 +209,26 @@ def test_turbulent_wind_keeps_the_first_sensor_draws():
     assert first[0] == first[1]
 
 
-def test_falling_body_is_carried_by_the_wind_as_the_parasite_drag_predicts():
-    """Motors off, spawned level at 100 m in a steady 8 m/s west wind: the only horizontal force
-    is the quadratic parasite drag k (w - v)^2 (k = 1/2 rho (Cd A)_x), so the airspeed decays as
-    u(t) = w / (1 + k w t / m): v_east(t) = w - u(t), and v_north = 0."""
+def test_falling_bodies_are_carried_by_the_wind_as_the_parasite_drag_predicts():
+    """Motors off, spawned level at 100 m in a steady 8 m/s west wind, a Typhoon and an x500
+    (two airframe groups): the only horizontal force is the quadratic parasite drag
+    k (w - v)^2 (k = 1/2 rho (Cd A)_x), so the airspeed decays as u(t) = w / (1 + k w t / m):
+    v_east(t) = w - u(t), and v_north = 0."""
     wind = 8.0
-    with make_world(wind=WindConfig(wind, 270.0), spawn_altitude_m=100.0) as world:
-        k = world.airframe.fuselage.coefficients_n_s2_m2()[0]
-        m = world.airframe.mass_kg
-        run(world, 2.0, [actuator_message([0.0] * 6, armed=False)])
+    with make_world(
+        n_vehicles=2,
+        airframe=("typhoon_h480", "x500"),
+        wind=WindConfig(wind, 270.0),
+        spawn_altitude_m=100.0,
+    ) as world:
+        run(world, 2.0, [actuator_message([0.0] * 6, armed=False)] * 2)
         truth = world.truth
-        expected = wind - wind / (1.0 + k * wind * truth.time_s / m)
-        assert truth.velocity_enu_m_s[0, 0] == pytest.approx(expected, rel=0.02)
-        assert abs(truth.velocity_enu_m_s[0, 1]) < 1e-3 * expected
-        np.testing.assert_allclose(truth.wind_enu_m_s[0], [wind, 0.0, 0.0], atol=1e-12)
+        for i, spec in enumerate(world.airframes):
+            k = spec.fuselage.coefficients_n_s2_m2()[0]
+            expected = wind - wind / (1.0 + k * wind * truth.time_s / spec.mass_kg)
+            assert truth.velocity_enu_m_s[i, 0] == pytest.approx(expected, rel=0.02), spec.name
+            assert abs(truth.velocity_enu_m_s[i, 1]) < 1e-3 * expected
+            np.testing.assert_allclose(truth.wind_enu_m_s[i], [wind, 0.0, 0.0], atol=1e-12)
 
 
 def test_rotors_at_rest_in_wind_feel_the_rotor_drag_of_the_airspeed():
