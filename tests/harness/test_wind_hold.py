@@ -45,7 +45,7 @@ def _fly_and_hold(wind: WindConfig | None, seed: int) -> dict[str, np.ndarray | 
         vehicle = sim.fleet.vehicle(0)
         assert vehicle.arm(False) == 0 and vehicle.takeoff(None) == 0
         sim.run_lockstep(20.0)
-        position, tilt, wind_enu = [], [], []
+        position, tilt, roll, wind_enu = [], [], [], []
         steps_per_sample = round(config.physics_hz / 50)
         t0 = sim.time_s
         while sim.time_s - t0 < WINDOW_S:
@@ -54,11 +54,13 @@ def _fly_and_hold(wind: WindConfig | None, seed: int) -> dict[str, np.ndarray | 
             truth = sim.world.truth
             position.append(truth.position_enu_m[0])
             tilt.append(truth.tilt_rad[0])
+            roll.append(truth.euler_ned_frd_rad[0, 0])
             wind_enu.append(truth.wind_enu_m_s[0])
         assert sim.fleet.commanders[0].in_air
         return {
             "position": np.array(position),
             "tilt_deg": np.degrees(tilt),
+            "roll_deg": np.degrees(roll),
             "wind": np.array(wind_enu),
             "tilt_max_deg": float(params.get("MPC_TILTMAX_AIR")),
         }
@@ -111,6 +113,8 @@ def test_steady_wind_hold_tilts_as_the_drag_model_predicts(steady):
     assert error.max() < POSITION_BOUND_M, error.max()
     expected = _closed_form_tilt_deg(WIND_M_S)
     assert np.mean(r["tilt_deg"]) == pytest.approx(expected, rel=0.10), expected
+    # Facing north with the wind from the west: left side down, i.e. negative roll (FRD).
+    assert np.mean(r["roll_deg"]) == pytest.approx(-expected, rel=0.10)
     np.testing.assert_allclose(r["wind"], [[WIND_M_S, 0.0, 0.0]] * len(r["wind"]), atol=1e-9)
 
 
