@@ -139,31 +139,6 @@ class WindConfig:
         a = math.radians(self.from_deg)
         return np.array([-self.speed_m_s * math.sin(a), -self.speed_m_s * math.cos(a), self.up_m_s])
 
-    @property
-    def varies(self) -> bool:
-        """True if turbulence or gusts make the wind change with time."""
-        return self.turbulence_w20_m_s > 0.0 or self.gust_peak_m_s > 0.0
-
-
-def dryden_low_altitude(height_m: np.ndarray, w20_m_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """MIL-F-8785C low-altitude Dryden intensities and scale lengths, eq. (1)-(2).
-
-    Args:
-        height_m: heights above ground, m, any shape (clipped to [10, 1000] ft).
-        w20_m_s: wind speed 6 m (20 ft) above ground, m/s.
-
-    Returns:
-        ``sigma`` (..., 3), m/s, and ``length`` (..., 3), m, for the (u, v, w) components.
-    """
-    h_ft = np.clip(np.asarray(height_m, dtype=float) * FEET_PER_M, _H_MIN_FT, _H_MAX_FT)
-    d = 0.177 + 0.000823 * h_ft
-    sigma_w = 0.1 * w20_m_s
-    sigma_uv = sigma_w / d**0.4
-    length_uv_m = h_ft / d**1.2 / FEET_PER_M
-    sigma = np.stack([sigma_uv, sigma_uv, np.full_like(h_ft, sigma_w)], axis=-1)
-    length = np.stack([length_uv_m, length_uv_m, h_ft / FEET_PER_M], axis=-1)
-    return sigma, length
-
 
 class WindField:
     """The wind velocity at each of N vehicles; ``update`` advances turbulence and gusts."""
