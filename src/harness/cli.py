@@ -20,6 +20,15 @@ from rich.table import Table
 from autopilot_emu.mavlink.endpoint import PortInUseError
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.wind_options import (
+    GUSTS_HELP,
+    TURBULENCE_HELP,
+    WIND_HELP,
+    parse_gusts,
+    parse_turbulence,
+    parse_wind,
+    wind_config,
+)
 from sitl.vehicles.multirotor import airframe_yaml_path
 
 app = typer.Typer(
@@ -133,6 +142,9 @@ def up(
             "GCS link, 0 = off (repeatable; e.g. ATTITUDE=20)"
         ),
     ] = None,
+    wind: Annotated[str | None, typer.Option(help=WIND_HELP)] = None,
+    turbulence: Annotated[str | None, typer.Option(help=TURBULENCE_HELP)] = None,
+    gusts: Annotated[str | None, typer.Option(help=GUSTS_HELP)] = None,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -148,6 +160,8 @@ def up(
     Example:  swarmsitl up --vehicles 20 --stream-rate ATTITUDE=20 --stream-rate HIGHRES_IMU=0
 
     Example:  swarmsitl up --vehicles 3 --frame typhoon_h480,x500,x500
+
+    Example:  swarmsitl up --wind 5@270 --turbulence light --gusts 3,length=30,every=20
     """
     frames = parse_frames(frame, vehicles)
     run_dir = out or default_run_dir()
@@ -166,6 +180,7 @@ def up(
         ports=ports,
         out_dir=run_dir,
         stream_rates_hz=parse_stream_rates(stream_rate or []),
+        wind=wind_config(parse_wind(wind), parse_turbulence(turbulence), parse_gusts(gusts)),
     )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")

@@ -24,6 +24,7 @@ from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.params import ParamStore
 from harness.recorder import FlightRecorder
+from sitl.physics.wind import WindConfig
 from sitl.vehicles.multirotor import MultirotorSpec
 from sitl.world import World, WorldConfig
 
@@ -102,6 +103,8 @@ class SimulationConfig:
     """Run directory for tlogs and recordings; None writes nothing."""
     record_hz: float = 20.0
     """Rate of the ground-truth recording, Hz (0 disables)."""
+    wind: WindConfig | None = None
+    """Wind of the world (steady, turbulence, gusts); None: calm air."""
     world_overrides: dict = field(default_factory=dict)
     """Extra WorldConfig fields (e.g. spawn_altitude_m)."""
     stream_rates_hz: dict[StreamProfile, dict[str, float]] = field(default_factory=dict)
@@ -155,6 +158,7 @@ class Simulation:
                 spacing_m=config.spacing_m,
                 physics_hz=config.physics_hz,
                 seed=config.seed,
+                wind=config.wind,
                 airframe=tuple(config.frames),
                 **config.world_overrides,
             )

@@ -30,6 +30,8 @@ class TruthState:
     """Mechanical power of all rotors of each vehicle, sum of k_m w^3, W, (N,)."""
     tilt_rad: np.ndarray
     """Angle between body up and world up, rad, (N,)."""
+    wind_enu_m_s: np.ndarray
+    """Wind velocity at each centre of mass (steady + turbulence + gusts), ENU, m/s, (N, 3)."""
     origin: frames.GeodeticOrigin
     """Geodetic position of the world origin."""
 

@@ -26,6 +26,7 @@ from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import BulletScene
 from sitl.physics.earth import magnetic_field_ned_gauss
 from sitl.physics.rotors import RotorModel
+from sitl.physics.wind import WindConfig, WindField
 from sitl.sensors.baro import Barometer, BaroSample
 from sitl.sensors.gps import Gps
 from sitl.sensors.imu import Imu
@@ -76,6 +77,8 @@ class WorldConfig:
     """Magnetic inclination at the origin, degrees below the horizontal."""
     mag_strength_gauss: float = 0.48
     """Strength of the Earth magnetic field at the origin, gauss."""
+    wind: WindConfig | None = None
+    """Steady wind, turbulence and gusts; None: calm air."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -112,6 +115,10 @@ class WorldConfig:
             )
         for name in names:
             airframe_yaml_path(name)  # ValueError naming the unknown airframe
+        if self.wind is not None:
+            if not isinstance(self.wind, WindConfig):
+                raise ValueError(f"wind must be a WindConfig or None, got {self.wind!r}")
+            rate_divisor(self.physics_hz, self.wind.update_hz, "wind update_hz")
 
     @property
     def airframes(self) -> tuple[str, ...]:
@@ -229,6 +236,16 @@ class World:
         self._controls = np.zeros((n, self._max_rotors))
         self._wrench = np.zeros((n, 6))
         self._nan_logged = False
+        # The wind draws from a child of the world's generator, spawned after the sensors were
+        # built and whether or not there is wind: the sensors' draws are the same with and
+        # without wind, and the wind's own stream depends only on the seed.
+        wind_rng = rng.spawn(1)[0]
+        self._wind: WindField | None = None
+        self._air_row = np.zeros((n, 1, 3))
+        self._air_flu = np.zeros((n, 1, 3))
+        if config.wind is not None:
+            self._wind_div = rate_divisor(config.physics_hz, config.wind.update_hz, "update_hz")
+            self._wind = WindField(config.wind, n, self._wind_div * dt, wind_rng)
 
         self._last_poll_tick = -1
         self._last_tick = {"imu": -1, "mag": -1, "baro": -1, "gps": -1}
@@ -268,18 +285,29 @@ class World:
             if nan_seen is not None:
                 self._update_rotor_commands(nan_seen)
         scene = self._scene
+        velocity_flu = scene.velocity_flu_m_s if self._wind is None else self._airspeed_flu()
         single = self._single
         if single is not None:
-            scene.apply_body_wrench_and_step(single.rotors.body_wrench(scene.velocity_flu_m_s))
+            scene.apply_body_wrench_and_step(single.rotors.body_wrench(velocity_flu))
             single.rotors.advance()
         else:
             for group in self._groups:
                 rows = group.rows
-                self._wrench[rows] = group.rotors.body_wrench(scene.velocity_flu_m_s[rows])
+                self._wrench[rows] = group.rotors.body_wrench(velocity_flu[rows])
             scene.apply_body_wrench_and_step(self._wrench)
             for group in self._groups:
                 group.rotors.advance()
         self._clock.advance()
+
+    def _airspeed_flu(self) -> np.ndarray:
+        """Velocity relative to the air, body FLU, (N, 1, 3): what rotor and fuselage drag see."""
+        scene = self._scene
+        wind = self._wind
+        assert wind is not None
+        if self._clock.tick % self._wind_div == 0:
+            wind.update(scene.position_enu_m, scene.velocity_enu_m_s)
+        np.subtract(scene.velocity_enu_m_s, wind.velocity_enu_m_s, self._air_row[:, 0, :])
+        return np.matmul(self._air_row, scene.rotation, self._air_flu)
 
     def _update_rotor_commands(self, nan_seen: bool) -> None:
         if nan_seen and not self._nan_logged:
@@ -427,6 +455,11 @@ class World:
             rotor_speed_rad_s=self._rotor_speeds(),
             rotor_shaft_power_w=self._shaft_power_w(),
             tilt_rad=np.arccos(np.clip(rotation[:, 2, 2], -1.0, 1.0)),
+            wind_enu_m_s=(
+                np.zeros((self.n_vehicles, 3))
+                if self._wind is None
+                else self._wind.velocity_enu_m_s.copy()
+            ),
             origin=self.origin,
         )
 
@@ -480,11 +513,13 @@ def profile(
     n_steps: int,
     airborne_steps: int = 1000,
     airframe: str | tuple[str, ...] = "typhoon_h480",
+    wind: WindConfig | None = None,
 ) -> dict[str, float]:
     """Wall time per physics step, us (best 2 s chunk), with every rotor commanded to hover.
 
     Open-loop hover is unstable, so each measurement runs in fresh worlds spawned at 10 m for
-    ``airborne_steps`` steps (2 s), before any vehicle could tip over and reach the ground.
+    ``airborne_steps`` steps (2 s), before any vehicle could tip over and reach the ground (at
+    100 m with ``wind``).
 
     Returns:
         ``step``: ``World.step`` alone; ``step+poll``: with ``poll_sensors`` after each step;
@@ -492,11 +527,16 @@ def profile(
     """
     import pybullet as p  # only the profiler calls PyBullet directly
 
+    # Wind tips an open-loop hover over within the 2 s: start high enough not to land.
+    height_m = 10.0 if wind is None else 100.0
+
     def timed(poll: bool) -> float:
         # Best chunk (least disturbed by other processes), as timeit does.
         best, done = math.inf, 0
         while done < n_steps:
-            config = WorldConfig(n_vehicles=n_vehicles, spawn_altitude_m=10.0, airframe=airframe)
+            config = WorldConfig(
+                n_vehicles=n_vehicles, spawn_altitude_m=height_m, airframe=airframe, wind=wind
+            )
             with World(config) as world:
                 actuators = [hover_actuator_message(spec) for spec in world.airframes]
                 world.step(actuators)
@@ -533,21 +573,32 @@ def _main(argv: Sequence[str] | None = None) -> None:
         default="typhoon_h480",
         help="airframe, or a comma-separated list cycled over the vehicles: typhoon_h480,x500",
     )
+    parser.add_argument(
+        "--wind", action="store_true", help="in 8 m/s wind with moderate turbulence and gusts"
+    )
     args = parser.parse_args(argv)
     frames = tuple(args.frame.split(","))
     if not args.profile:
         parser.print_help()
         return
+    wind = (
+        WindConfig(8.0, 270.0, turbulence_w20_m_s=15.4, gust_peak_m_s=3.0, gust_interval_s=5.0)
+        if args.wind
+        else None
+    )
     print(f"{'N':>3} {'step us':>9} {'step+poll us':>13} {'pybullet us':>12} {'x real time':>12}")
     for n in (1, 10):
         airframe = frames if len(frames) == 1 else tuple(frames[i % len(frames)] for i in range(n))
-        r = profile(n, args.steps, airframe=airframe)
+        r = profile(n, args.steps, airframe=airframe, wind=wind)
         speed = 1e6 / (r["step+poll"] * WorldConfig().physics_hz)
         print(
             f"{n:>3} {r['step']:>9.1f} {r['step+poll']:>13.1f} {r['pybullet']:>12.1f} "
             f"{speed:>12.0f}"
         )
-    print("(hover at 10 m, 500 Hz physics; 'x real time' counts the simulator alone)")
+    print(
+        f"(hover at {'100 m in wind' if wind else '10 m'}, 500 Hz physics; 'x real time' counts "
+        "the simulator alone)"
+    )
 
 
 if __name__ == "__main__":
