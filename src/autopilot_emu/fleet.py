@@ -24,6 +24,7 @@ from autopilot_emu.control.mixer import Mixer
 from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
 from autopilot_emu.control.rate import RateController
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
+from autopilot_emu.estimator_params import EstimatorParams
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes.offboard import (
@@ -41,7 +42,11 @@ _PRESSURE_ALT_BIT = 0x800
 _ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
 _CUSTOM_FLAG = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 _FAILURE_UNIT_GPS = mavlink2.FAILURE_UNIT_SENSOR_GPS
+_FAILURE_UNIT_MAG = mavlink2.FAILURE_UNIT_SENSOR_MAG
 _FAILURE_OK, _FAILURE_OFF = mavlink2.FAILURE_TYPE_OK, mavlink2.FAILURE_TYPE_OFF
+_FAILURE_WRONG = mavlink2.FAILURE_TYPE_WRONG
+_MAG_WRONG = np.array([-1.0, -1.0, 1.0])
+"""A WRONG magnetometer reads its x and y axes reversed (mounted 180 deg off in yaw)."""
 
 
 @dataclass(frozen=True)
@@ -92,6 +97,8 @@ class AutopilotFleet:
         self.last_gps: list[mavlink2.MAVLink_hil_gps_message | None] = [None] * n
         self.gps_failed = np.zeros(n, dtype=bool)
         """GPS switched off by MAV_CMD_INJECT_FAILURE: its samples are dropped."""
+        self.mag_failure = np.full(n, _FAILURE_OK)
+        """MAV_CMD_INJECT_FAILURE type of each magnetometer (OK, OFF or WRONG)."""
         self._sp = PositionSetpoint.hold(n)
         self._nav_period_s = 1.0 / config.nav_hz
         self._nav_accum_s = self._nav_period_s  # run navigation on the first sample
@@ -147,6 +154,10 @@ class AutopilotFleet:
         flags = raw[:, 10].astype(np.int64)
         acc, gyro, mag = raw[:, 0:3], raw[:, 3:6], raw[:, 6:9]
         has_mag = (flags & _MAG_BITS) != 0
+        if (self.mag_failure != _FAILURE_OK).any():
+            has_mag &= self.mag_failure != _FAILURE_OFF
+            wrong = self.mag_failure == _FAILURE_WRONG
+            mag = np.where(wrong[:, None], mag * _MAG_WRONG, mag)
         if not est.attitude_ok.all():
             est.align_heading(acc, mag, has_mag & ~est.attitude_ok)
         est.update_mag(mag, has_mag)
@@ -159,7 +170,6 @@ class AutopilotFleet:
         self._nav_accum_s += dt
         if self._nav_accum_s >= self._nav_period_s - 1e-9:
             self.battery.update(self.thrust, gains.hover_thrust, self.armed, self._nav_accum_s)
-            est.update_acceleration(self._nav_accum_s)
             self._navigate(self._nav_accum_s, gains)
             self._nav_accum_s = 0.0
         self._control(dt, gains)
@@ -169,7 +179,22 @@ class AutopilotFleet:
         """Consume one HIL_GPS per vehicle."""
         est = self.estimator
         g = np.array(
-            [(m.lat, m.lon, m.alt, m.vn, m.ve, m.vd, m.fix_type) for m in msgs], dtype=float
+            [
+                (
+                    m.lat,
+                    m.lon,
+                    m.alt,
+                    m.vn,
+                    m.ve,
+                    m.vd,
+                    m.fix_type,
+                    m.eph,
+                    m.epv,
+                    m.satellites_visible,
+                )
+                for m in msgs
+            ],
+            dtype=float,
         )
         if self.gps_failed.any():
             g[self.gps_failed, 6] = 0  # no fix: the estimator ignores the sample
@@ -178,7 +203,11 @@ class AutopilotFleet:
         lla = np.stack((g[:, 0] * 1e-7, g[:, 1] * 1e-7, g[:, 2] * 1e-3), axis=1)
         vel = g[:, 3:6] * 0.01
         ned = geodesy.geodetic_to_ned(lla, est.origin_lla)
-        if est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m).any():
+        # HIL_GPS eph/epv are cm (UINT16_MAX: unknown -> not usable); satellites 255: unknown.
+        eph = np.where(g[:, 7] >= 65535, np.inf, g[:, 7] * 0.01)
+        epv = np.where(g[:, 8] >= 65535, np.inf, g[:, 8] * 0.01)
+        sats = np.where(g[:, 9] >= 255, 0.0, g[:, 9])
+        if est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m, eph, epv, sats).any():
             self.metres_per_degree = geodesy.metres_per_degree(est.origin_lla)
 
     # -- loops ------------------------------------------------------------------------------------
@@ -272,7 +301,7 @@ class AutopilotFleet:
         if versions != self._param_versions or self._gains is None:
             self._gains = _Gains.from_params(self.params)
             self._param_versions = versions
-            self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
+            self.estimator.set_params(EstimatorParams.from_params(self.params))
             self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
         return self._gains
 
@@ -372,7 +401,15 @@ class FleetVehicle:
 
     # -- commands ----------------------------------------------------------------------------
     def arm(self, force: bool) -> int:
-        """Arm (see Commander.arm)."""
+        """Arm (see Commander.arm), after the estimator's preflight heading check."""
+        est = self.fleet.estimator
+        if not force and not self.commander.armed and est.heading_failure[self.index]:
+            # PX4's estimator check (pre_flt_fail_innov_heading): magnetometer data keep
+            # failing the heading innovation gate.
+            self.commander.status_texts.append(
+                (mavlink2.MAV_SEVERITY_CRITICAL, "Preflight Fail: heading estimate not stable")
+            )
+            return mavlink2.MAV_RESULT_DENIED
         return self._sync(self.commander.arm(force))
 
     def disarm(self, force: bool) -> int:
@@ -488,9 +525,20 @@ class FleetVehicle:
         )
 
     def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
-        """GPS off / back on (PX4's failure injection; needs SYS_FAILURE_EN = 1)."""
+        """GPS off / on, magnetometer off / wrong / ok (PX4's failure injection; SYS_FAILURE_EN)."""
         if int(self.params.get("SYS_FAILURE_EN")) != 1:
             return mavlink2.MAV_RESULT_DENIED
+        if unit == _FAILURE_UNIT_MAG and failure_type in (
+            _FAILURE_OK,
+            _FAILURE_OFF,
+            _FAILURE_WRONG,
+        ):
+            self.fleet.mag_failure[self.index] = failure_type
+            text = {_FAILURE_OK: "Mag ok", _FAILURE_OFF: "Mag off", _FAILURE_WRONG: "Mag wrong"}
+            self.commander.status_texts.append(
+                (mavlink2.MAV_SEVERITY_WARNING, "Failure injected: " + text[failure_type])
+            )
+            return mavlink2.MAV_RESULT_ACCEPTED
         if unit != _FAILURE_UNIT_GPS or failure_type not in (_FAILURE_OK, _FAILURE_OFF):
             return mavlink2.MAV_RESULT_UNSUPPORTED
         failed = failure_type == _FAILURE_OFF
