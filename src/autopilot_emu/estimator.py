@@ -149,7 +149,8 @@ class FleetEstimator:
         self._pred_dv = np.zeros((n, 3))
         self._eye = np.broadcast_to(np.eye(_K), (n, _K, _K))
         self._idx = np.arange(n)
-        self._baro_rejected_s = np.full(n, -np.inf)
+        self._baro_ref = np.zeros(n, dtype=bool)
+        """The barometer has a reference height (set at its first sample or by the origin)."""
         # Delayed-state ring buffer (one row per IMU sample): time, position, velocity, attitude.
         length = self.config.buffer_samples
         self._buf_t = np.full(length, -np.inf)
@@ -387,8 +388,18 @@ class FleetEstimator:
 
     # -- height ---------------------------------------------------------------------------------
     def update_baro(self, pressure_alt_m: np.ndarray, mask: np.ndarray) -> None:
-        """Barometric height fusion (vehicles with an origin only), gated by EKF2_BARO_GATE."""
-        use = mask & self.origin_set
+        """Barometric height fusion, gated by EKF2_BARO_GATE.
+
+        Before an origin the barometer is referenced to the height estimate at its first sample
+        (a GNSS-denied vehicle still holds height on it); the first GNSS fix re-references it
+        to the fix's altitude.
+        """
+        new = mask & ~self.origin_set & ~self._baro_ref & self.attitude_ok
+        if new.any():
+            self.baro_offset_m[new] = pressure_alt_m[new] + self.position_ned_m[new, 2]
+            self._baro_ref |= new
+            self.height_aided_s[new] = self.time_s
+        use = mask & (self.origin_set | self._baro_ref)
         if not use.any():
             return
         prm = self.params
@@ -502,6 +513,7 @@ class FleetEstimator:
         """The first good fix sets the EKF origin: position zero, velocity from GNSS."""
         self.origin_lla[mask] = lla[mask]
         self.baro_offset_m[mask] = pressure_alt_m[mask] - lla[mask, 2]
+        self._baro_ref |= mask
         self.origin_set |= mask
         self.first_fix_s[mask] = self.time_s
         var = np.maximum(self.params.gps_p_noise_m, eph_m) ** 2
@@ -553,8 +565,9 @@ class FleetEstimator:
         yaw_var_rad2: np.ndarray,
         velocity_ned_m_s: np.ndarray,
         velocity_var_m2_s2: np.ndarray,
+        age_s: np.ndarray | float = 0.0,
     ) -> None:
-        """Fuse external-vision samples taken EKF2_EV_DELAY ago under EKF2_EV_CTRL.
+        """Fuse external-vision samples taken ``age_s`` + EKF2_EV_DELAY ago under EKF2_EV_CTRL.
 
         All arrays are (N, ...) with ``mask`` selecting the vehicles that have a sample; NaN
         entries (no yaw, no velocity) are not fused. Noise is max(reported, EKF2_EV*_NOISE);
@@ -565,7 +578,7 @@ class FleetEstimator:
         use = mask & self.attitude_ok
         if not use.any():
             return
-        slot = self._delayed_slot(prm.ev_delay_s)
+        slot = self._delayed_slot(prm.ev_delay_s + age_s)
         idx = self._idx
         gate = prm.ev_gate
         pos_var = np.maximum(position_var_m2, (prm.evp_noise_m**2)[:, None])
