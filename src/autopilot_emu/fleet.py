@@ -574,10 +574,12 @@ class FleetVehicle:
             _FAILURE_WRONG,
         ):
             self.fleet.mag_failure[self.index] = failure_type
-            text = {_FAILURE_OK: "Mag ok", _FAILURE_OFF: "Mag off", _FAILURE_WRONG: "Mag wrong"}
-            self.commander.status_texts.append(
-                (mavlink2.MAV_SEVERITY_WARNING, "Failure injected: " + text[failure_type])
-            )
+            text = {
+                _FAILURE_OK: "Mag ok",
+                _FAILURE_OFF: "Failure injected: Mag off",
+                _FAILURE_WRONG: "Failure injected: Mag wrong",
+            }
+            self.commander.status_texts.append((mavlink2.MAV_SEVERITY_WARNING, text[failure_type]))
             return mavlink2.MAV_RESULT_ACCEPTED
         if unit != _FAILURE_UNIT_GPS or failure_type not in (_FAILURE_OK, _FAILURE_OFF):
             return mavlink2.MAV_RESULT_UNSUPPORTED
