@@ -90,8 +90,8 @@ class FleetEstimator:
         self.params = params or EstimatorParams.defaults(n)
         self.q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
         """Attitude body FRD -> NED, [w, x, y, z]."""
-        self.r = quat.to_rotation_matrix(self.q)
-        """Rotation matrices of ``q``."""
+        self._r = quat.to_rotation_matrix(self.q)
+        self._r_stale = False
         self.position_ned_m = np.zeros((n, 3))
         """(N, 3) position in each vehicle's NED frame, m."""
         self.velocity_ned_m_s = np.zeros((n, 3))
@@ -147,7 +147,6 @@ class FleetEstimator:
         self._fake_next_s = 0.0
         self._pred_dt = 0.0
         self._pred_dv = np.zeros((n, 3))
-        self._eye = np.broadcast_to(np.eye(_K), (n, _K, _K))
         self._idx = np.arange(n)
         self._baro_ref = np.zeros(n, dtype=bool)
         """The barometer has a reference height (set at its first sample or by the origin)."""
@@ -158,9 +157,23 @@ class FleetEstimator:
         self._buf_v = np.zeros((length, n, 3))
         self._buf_q = np.tile([1.0, 0.0, 0.0, 0.0], (length, n, 1))
         self._buf_head = length - 1
+        self._corr_p = np.zeros((n, 3))
+        self._corr_v = np.zeros((n, 3))
+        """Corrections applied since the start: a buffered state is its row plus these."""
+        self._corr_yaw = np.zeros(n)
+        self._buf_corr_yaw = np.zeros((length, n))
+        """Yaw corrections applied since the start, now and when each row was written, rad."""
         self._reset_covariance(np.ones(n, dtype=bool))
 
     # -- read-only views ---------------------------------------------------------------------
+    @property
+    def r(self) -> np.ndarray:
+        """(N, 3, 3) rotation matrices of ``q`` (body FRD -> NED)."""
+        if self._r_stale:
+            self._r = quat.to_rotation_matrix(self.q)
+            self._r_stale = False
+        return self._r
+
     @property
     def local_position_ok(self) -> np.ndarray:
         """(N,) the local position is aided (or dead-reckoned for < EKF2_NOAID_TOUT) and settled."""
@@ -211,7 +224,7 @@ class FleetEstimator:
         v += acc * dt_s
         self.rates_rad_s = rates
         self.q = quat.integrate(self.q, rates, dt_s)
-        self.r = quat.to_rotation_matrix(self.q)
+        self._r_stale = True
         alpha = dt_s / (self.config.accel_lpf_tau_s + dt_s)
         self.accel_ned_m_s2 += alpha * (acc - self.accel_ned_m_s2)
         self._pred_dt += dt_s
@@ -221,9 +234,10 @@ class FleetEstimator:
         head = (self._buf_head + 1) % self._buf_t.shape[0]
         self._buf_head = head
         self._buf_t[head] = self.time_s
-        self._buf_p[head] = p
-        self._buf_v[head] = v
+        np.subtract(p, self._corr_p, out=self._buf_p[head])
+        np.subtract(v, self._corr_v, out=self._buf_v[head])
         self._buf_q[head] = self.q
+        self._buf_corr_yaw[head] = self._corr_yaw
         if self.time_s >= self._fake_next_s:
             self._fake_next_s = self.time_s + self.config.fake_position_period_s
             self._fuse_fake_position()
@@ -231,15 +245,19 @@ class FleetEstimator:
     def _predict_covariance(self) -> None:
         """P <- Phi P Phi^T + Q over the interval since the last prediction (EKF2 downsampled)."""
         dt = self._pred_dt
-        f_ned = self._pred_dv / dt
         r_dt = self.r * dt
-        phi = self._eye.copy()
-        phi[:, _TH : _TH + 3, _BG : _BG + 3] = -r_dt
-        phi[:, _VEL : _VEL + 3, _TH : _TH + 3] = -_skew(f_ned) * dt
-        phi[:, _VEL : _VEL + 3, _BA : _BA + 3] = -r_dt
-        for k in range(3):
-            phi[:, _POS + k, _VEL + k] = dt
-        p = phi @ self.P @ phi.transpose(0, 2, 1)
+        s_dt = _skew(self._pred_dv)  # [f_ned]x dt
+
+        def phi_times(m: np.ndarray) -> np.ndarray:
+            # Phi m with Phi = I + F dt applied block by block (Phi is sparse: 4 3x3 blocks).
+            out = m.copy()
+            out[:, _TH : _TH + 3] -= r_dt @ m[:, _BG : _BG + 3]
+            out[:, _VEL : _VEL + 3] -= s_dt @ m[:, _TH : _TH + 3] + r_dt @ m[:, _BA : _BA + 3]
+            out[:, _POS : _POS + 3] += dt * m[:, _VEL : _VEL + 3]
+            return out
+
+        m = np.ascontiguousarray(phi_times(self.P).transpose(0, 2, 1))
+        p = phi_times(m).transpose(0, 2, 1)
         prm = self.params
         q_diag = np.repeat(
             np.stack(
@@ -288,16 +306,19 @@ class FleetEstimator:
         dq[:, 0] = 1.0
         dq[:, 1:] = 0.5 * dx[:, _TH : _TH + 3]
         self.q = quat.normalize(quat.multiply(dq, self.q))
-        self.r = quat.to_rotation_matrix(self.q)
+        self._r_stale = True
+        self._corr_yaw += dx[:, _TH + 2]
         dv, dp = dx[:, _VEL : _VEL + 3], dx[:, _POS : _POS + 3]
         self.velocity_ned_m_s += dv
         self.position_ned_m += dp
-        self._buf_v += dv
-        self._buf_p += dp
+        self._corr_v += dv
+        self._corr_p += dp
         lim_g = self.config.gyro_bias_limit_rad_s
         lim_a = self.params.abias_lim_m_s2[:, None]
-        self.gyro_bias_rad_s = np.clip(self.gyro_bias_rad_s + dx[:, _BG : _BG + 3], -lim_g, lim_g)
-        self.accel_bias_m_s2 = np.clip(self.accel_bias_m_s2 + dx[:, _BA : _BA + 3], -lim_a, lim_a)
+        bg = self.gyro_bias_rad_s + dx[:, _BG : _BG + 3]
+        self.gyro_bias_rad_s = np.minimum(np.maximum(bg, -lim_g), lim_g)
+        ba = self.accel_bias_m_s2 + dx[:, _BA : _BA + 3]
+        self.accel_bias_m_s2 = np.minimum(np.maximum(ba, -lim_a), lim_a)
 
     def _test_ratio(
         self, j: int, innov: np.ndarray, var: np.ndarray, gate: np.ndarray
@@ -313,7 +334,7 @@ class FleetEstimator:
         cur = self.position_ned_m if j == _POS else self.velocity_ned_m_s
         delta = np.where(mask[:, None], values - cur, 0.0)
         cur += delta
-        (self._buf_p if j == _POS else self._buf_v)[:] += delta
+        (self._corr_p if j == _POS else self._corr_v)[:] += delta
         self.P[mask, sl, :] = 0.0
         self.P[mask, :, sl] = 0.0
         for k in range(3):
@@ -340,6 +361,14 @@ class FleetEstimator:
         k = np.searchsorted(self._buf_t[order], self.time_s - delay_s + 1e-9, side="right") - 1
         return order[np.clip(k, 0, length - 1)]
 
+    def _delayed_p(self, slot: np.ndarray) -> np.ndarray:
+        """(N, 3) corrected position buffered at ``slot``."""
+        return self._buf_p[slot, self._idx] + self._corr_p
+
+    def _delayed_v(self, slot: np.ndarray) -> np.ndarray:
+        """(N, 3) corrected velocity buffered at ``slot``."""
+        return self._buf_v[slot, self._idx] + self._corr_v
+
     # -- attitude -------------------------------------------------------------------------------
     def align_heading(self, accel_frd: np.ndarray, mag_frd: np.ndarray, mask: np.ndarray) -> None:
         """Initial alignment (roll/pitch from gravity, yaw from the magnetometer)."""
@@ -353,7 +382,7 @@ class FleetEstimator:
         m_h = np.einsum("nij,nj->ni", tilt, mag_frd[mask])
         yaw = quat.wrap_pi(self.params.mag_decl_rad[mask] - np.arctan2(m_h[:, 1], m_h[:, 0]))
         self.q[mask] = quat.from_euler(np.stack((roll, pitch, yaw), axis=1))
-        self.r = quat.to_rotation_matrix(self.q)
+        self._r_stale = True
         self._buf_q[:, mask] = self.q[mask]
         self.attitude_ok[mask] = True
 
@@ -411,8 +440,8 @@ class FleetEstimator:
         ok = use & (ratio <= 1.0)
         stale = use & ~ok & (self.time_s - self.height_aided_s > self.config.reset_timeout_s)
         if stale.any():  # rejected too long: reset the height to the barometer (EKF2)
+            self._corr_p[stale, 2] += z[stale] - self.position_ned_m[stale, 2]
             self.position_ned_m[stale, 2] = z[stale]
-            self._buf_p[:, stale, 2] = z[stale]
             self.P[stale, _POS + 2, :] = 0.0
             self.P[stale, :, _POS + 2] = 0.0
             self.P[stale, _POS + 2, _POS + 2] = var[stale]
@@ -462,13 +491,12 @@ class FleetEstimator:
             self.gps_glitch[:] = False
             return new_origin
         slot = self._delayed_slot(prm.gps_delay_s)
-        idx = self._idx
         other_aiding = (self.time_s - self.ev_fused_s) <= prm.noaid_tout_s
         cap = np.where(other_aiding, np.inf, np.maximum(prm.noaid_noise_m, prm.gps_p_noise_m))
         pos_var = np.minimum(np.maximum(prm.gps_p_noise_m, eph), cap) ** 2
         vel_var = prm.gps_v_noise_m_s**2
-        innov_v = vel_ned_m_s - self._buf_v[slot, idx]
-        innov_p = ned_m[:, :2] - self._buf_p[slot, idx, :2]
+        innov_v = vel_ned_m_s - self._delayed_v(slot)
+        innov_p = ned_m[:, :2] - self._delayed_p(slot)[:, :2]
         ratio_v = np.max(
             [self._test_ratio(_VEL + k, innov_v[:, k], vel_var, prm.gps_v_gate) for k in range(3)],
             axis=0,
@@ -485,17 +513,17 @@ class FleetEstimator:
         # Rejected for longer than the reset timeout: reset to GNSS (delay-compensated), as EKF2.
         stale = use & ~ok_p & (self.time_s - self.gps_fused_s > cfg.reset_timeout_s)
         if stale.any():
-            shift = self.position_ned_m - self._buf_p[slot, idx]
+            shift = self.position_ned_m - self._delayed_p(slot)
             target = self.position_ned_m.copy()
             target[:, :2] = ned_m[:, :2] + shift[:, :2]
             self._reset_horizontal(stale, target, pos_var)
-            vshift = self.velocity_ned_m_s - self._buf_v[slot, idx]
+            vshift = self.velocity_ned_m_s - self._delayed_v(slot)
             self._reset_block(_VEL, vel_ned_m_s + vshift, vel_var, stale)
         for k in range(3):
-            innov = vel_ned_m_s[:, k] - self._buf_v[slot, idx, k]
+            innov = vel_ned_m_s[:, k] - self._delayed_v(slot)[:, k]
             self._fuse_axis(_VEL + k, innov, vel_var, ok_v)
         for k in range(2):
-            innov = ned_m[:, k] - self._buf_p[slot, idx, k]
+            innov = ned_m[:, k] - self._delayed_p(slot)[:, k]
             self._fuse_axis(_POS + k, innov, pos_var, ok_p)
         aided = ok_p | stale
         self.gps_fused_s[aided] = self.time_s
@@ -579,13 +607,12 @@ class FleetEstimator:
         if not use.any():
             return
         slot = self._delayed_slot(prm.ev_delay_s + age_s)
-        idx = self._idx
         gate = prm.ev_gate
         pos_var = np.maximum(position_var_m2, (prm.evp_noise_m**2)[:, None])
         horiz = use & ((ctrl & EV_HORIZONTAL_POSITION) != 0)
         horiz &= np.isfinite(position_ned_m[:, :2]).all(axis=1)
         if horiz.any():
-            innov = position_ned_m[:, :2] - self._buf_p[slot, idx, :2]
+            innov = position_ned_m[:, :2] - self._delayed_p(slot)[:, :2]
             ratio = np.maximum(
                 self._test_ratio(_POS, innov[:, 0], pos_var[:, 0], gate),
                 self._test_ratio(_POS + 1, innov[:, 1], pos_var[:, 1], gate),
@@ -595,19 +622,19 @@ class FleetEstimator:
             stale = horiz & ~ok & (self.time_s - self.ev_fused_s > self.config.reset_timeout_s)
             stale |= horiz & ~np.isfinite(self.first_aiding_s)  # first sample: start there
             if stale.any():
-                shift = self.position_ned_m - self._buf_p[slot, idx]
+                shift = self.position_ned_m - self._delayed_p(slot)
                 target = self.position_ned_m.copy()
                 target[:, :2] = position_ned_m[:, :2] + shift[:, :2]
                 self._reset_horizontal(stale, target, pos_var[:, 0])
                 ok &= ~stale
             for k in range(2):
-                innov_k = position_ned_m[:, k] - self._buf_p[slot, idx, k]
+                innov_k = position_ned_m[:, k] - self._delayed_p(slot)[:, k]
                 self._fuse_axis(_POS + k, innov_k, pos_var[:, k], ok)
             self.ev_fused_s[ok | stale] = self.time_s
             self._mark_aided(ok | stale)
         vert = use & ((ctrl & EV_VERTICAL_POSITION) != 0) & np.isfinite(position_ned_m[:, 2])
         if vert.any():
-            innov = position_ned_m[:, 2] - self._buf_p[slot, idx, 2]
+            innov = position_ned_m[:, 2] - self._delayed_p(slot)[:, 2]
             ratio = self._test_ratio(_POS + 2, innov, pos_var[:, 2], gate)
             self.pos_vert_ratio = np.where(vert, np.sqrt(ratio), self.pos_vert_ratio)
             ok = vert & (ratio <= 1.0)
@@ -616,7 +643,7 @@ class FleetEstimator:
         vel = use & ((ctrl & EV_VELOCITY) != 0) & np.isfinite(velocity_ned_m_s).all(axis=1)
         if vel.any():
             vel_var = np.maximum(velocity_var_m2_s2, (prm.evv_noise_m_s**2)[:, None])
-            innov = velocity_ned_m_s - self._buf_v[slot, idx]
+            innov = velocity_ned_m_s - self._delayed_v(slot)
             ratio = np.max(
                 [self._test_ratio(_VEL + k, innov[:, k], vel_var[:, k], gate) for k in range(3)],
                 axis=0,
@@ -624,12 +651,13 @@ class FleetEstimator:
             self.vel_ratio = np.where(vel, np.sqrt(ratio), self.vel_ratio)
             ok = vel & (ratio <= 1.0)
             for k in range(3):
-                innov_k = velocity_ned_m_s[:, k] - self._buf_v[slot, idx, k]
+                innov_k = velocity_ned_m_s[:, k] - self._delayed_v(slot)[:, k]
                 self._fuse_axis(_VEL + k, innov_k, vel_var[:, k], ok)
         yaw = use & ((ctrl & EV_YAW) != 0) & np.isfinite(yaw_rad)
         if yaw.any():
-            r_d = quat.to_rotation_matrix(self._buf_q[slot, idx])
-            innov = quat.wrap_pi(np.nan_to_num(yaw_rad) - quat.yaw_of(r_d))
+            r_d = quat.to_rotation_matrix(self._buf_q[slot, self._idx])
+            yaw_d = quat.yaw_of(r_d) + self._corr_yaw - self._buf_corr_yaw[slot, self._idx]
+            innov = quat.wrap_pi(np.nan_to_num(yaw_rad) - yaw_d)
             var = np.maximum(np.nan_to_num(yaw_var_rad2), prm.eva_noise_rad**2)
             h = self._yaw_row()
             s = np.einsum("ni,nij,nj->n", h, self.P, h) + var
