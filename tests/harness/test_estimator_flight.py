@@ -17,6 +17,7 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu import quaternion as quat
+from autopilot_emu.mavlink import messages
 from autopilot_emu.modes import AutoSubMode, MainMode
 from harness.simulation import Simulation, SimulationConfig
 
@@ -173,6 +174,12 @@ def test_wrong_magnetometer_fails_heading_check_and_refuses_arming():
         snap = vehicle.telemetry()
         assert snap.estimator.mag_ratio > 1.0
         assert not snap.sensors_health & mavlink2.MAV_SYS_STATUS_SENSOR_3D_MAG
+        # What a ground station reads: ESTIMATOR_STATUS.mag_ratio and SYS_STATUS health.
+        context = messages.MessageContext(sysid=1, params=sim.fleet.params[0], epoch_start_us=0)
+        status = messages.estimator_status(snap, context)
+        assert status.mag_ratio > 1.0 and status.pos_horiz_ratio < 1.0
+        sys_status = messages.sys_status(snap, context)
+        assert not sys_status.onboard_control_sensors_health & mavlink2.MAV_SYS_STATUS_SENSOR_3D_MAG
         vehicle.pop_status_texts()
         assert vehicle.arm(False) == mavlink2.MAV_RESULT_DENIED
         texts = [t for _, t in vehicle.pop_status_texts()]
