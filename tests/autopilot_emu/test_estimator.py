@@ -216,3 +216,33 @@ def test_fleet_members_do_not_interact(n):
     a, b = (f.est.position_ned_m for f in flights)
     assert np.array_equal(a[1:], b[1:])
     assert abs(a[0, 1] - b[0, 1]) > 0.5
+
+
+def test_delayed_vision_is_compared_with_the_delayed_state():
+    """Vision positions 100 ms old: their age plus EKF2_EV_DELAY selects the buffered state."""
+    velocity = np.array([0.0, 4.0, 0.0])
+    lags = {}
+    for age_s in (0.0, 0.1):  # the age the fleet passes on from the sample's timestamp
+        est = estimator(1, ev_ctrl=1)
+        flight = Flight(est, velocity)
+        flight.sats[:] = 0.0  # no GNSS: vision is the only horizontal aiding
+        east = []
+        for tick in range(15 * IMU_HZ):
+            flight.step()
+            if tick % 8 == 0:
+                taken = flight.truth((flight.tick / IMU_HZ) - 0.1)
+                est.update_vision(
+                    np.ones(1, dtype=bool),
+                    taken,
+                    np.full((1, 3), 0.05**2),
+                    np.full(1, np.nan),
+                    np.full(1, np.inf),
+                    np.full((1, 3), np.nan),
+                    np.zeros((1, 3)),
+                    age_s,
+                )
+            if tick > 5 * IMU_HZ:
+                east.append(flight.position_error()[0, 1])
+        lags[age_s] = float(np.mean(east))
+    assert lags[0.0] < -0.25  # about v x 0.1 s = 0.4 m behind
+    assert abs(lags[0.1]) < 0.05
