@@ -26,7 +26,7 @@ and 3-D velocity. Heading: magnetic heading fusion (EKF2's heading mode) with EK
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -211,6 +211,11 @@ class FleetEstimator:
     def set_params(self, params: EstimatorParams) -> None:
         """Apply each vehicle's EKF2_* parameters."""
         self.params = params
+
+    def set_declination(self, declination_deg: np.ndarray | list[float]) -> None:
+        """Use these magnetic declinations, (N,) degrees (EKF2_MAG_DECL or a geo lookup)."""
+        decl = np.radians(np.asarray(declination_deg, dtype=float))
+        self.params = replace(self.params, mag_decl_rad=decl)
 
     # -- prediction ----------------------------------------------------------------------------
     def update_imu(self, accel_frd: np.ndarray, gyro_frd: np.ndarray, dt_s: float) -> None:
@@ -608,7 +613,8 @@ class FleetEstimator:
             return
         slot = self._delayed_slot(prm.ev_delay_s + age_s)
         gate = prm.ev_gate
-        pos_var = np.maximum(position_var_m2, (prm.evp_noise_m**2)[:, None])
+        # Reported variances with EKF2_EV*_NOISE as the floor (fmax: NaN, unknown, gives the floor).
+        pos_var = np.fmax(position_var_m2, (prm.evp_noise_m**2)[:, None])
         horiz = use & ((ctrl & EV_HORIZONTAL_POSITION) != 0)
         horiz &= np.isfinite(position_ned_m[:, :2]).all(axis=1)
         if horiz.any():
@@ -642,7 +648,7 @@ class FleetEstimator:
             self.height_aided_s[ok] = self.time_s
         vel = use & ((ctrl & EV_VELOCITY) != 0) & np.isfinite(velocity_ned_m_s).all(axis=1)
         if vel.any():
-            vel_var = np.maximum(velocity_var_m2_s2, (prm.evv_noise_m_s**2)[:, None])
+            vel_var = np.fmax(velocity_var_m2_s2, (prm.evv_noise_m_s**2)[:, None])
             innov = velocity_ned_m_s - self._delayed_v(slot)
             ratio = np.max(
                 [self._test_ratio(_VEL + k, innov[:, k], vel_var[:, k], gate) for k in range(3)],
@@ -658,7 +664,7 @@ class FleetEstimator:
             r_d = quat.to_rotation_matrix(self._buf_q[slot, self._idx])
             yaw_d = quat.yaw_of(r_d) + self._corr_yaw - self._buf_corr_yaw[slot, self._idx]
             innov = quat.wrap_pi(np.nan_to_num(yaw_rad) - yaw_d)
-            var = np.maximum(np.nan_to_num(yaw_var_rad2), prm.eva_noise_rad**2)
+            var = np.fmax(yaw_var_rad2, prm.eva_noise_rad**2)
             h = self._yaw_row()
             s = np.einsum("ni,nij,nj->n", h, self.P, h) + var
             ratio = innov * innov / (gate * gate * s)

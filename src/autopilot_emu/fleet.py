@@ -207,48 +207,9 @@ class AutopilotFleet:
         eph = np.where(g[:, 7] >= 65535, np.inf, g[:, 7] * 0.01)
         epv = np.where(g[:, 8] >= 65535, np.inf, g[:, 8] * 0.01)
         sats = np.where(g[:, 9] >= 255, 0.0, g[:, 9])
-        if est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m, eph, epv, sats).any():
+        new_origin = est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m, eph, epv, sats)
+        if new_origin.any():
             self.metres_per_degree = geodesy.metres_per_degree(est.origin_lla)
-
-    def handle_vision(
-        self,
-        index: int,
-        time_usec: int,
-        position_ned_m: np.ndarray,
-        position_var_m2: np.ndarray,
-        yaw_rad: float,
-        yaw_var_rad2: float,
-        velocity_ned_m_s: np.ndarray | None = None,
-        velocity_var_m2_s2: np.ndarray | None = None,
-    ) -> None:
-        """Fuse one external-vision sample of vehicle ``index`` (EKF2_EV_CTRL selects the parts).
-
-        Position NED (m) in the vehicle's local frame with per-axis variances (m²); yaw (rad, NaN:
-        none) and its variance; velocity NED (m/s) or None. ``time_usec`` is when the sample was
-        taken on the autopilot's clock: its age (0 to 0.5 s; outside that taken as 0) adds to
-        EKF2_EV_DELAY.
-        """
-        n = self.n
-        mask = np.zeros(n, dtype=bool)
-        mask[index] = True
-        pos = np.full((n, 3), np.nan)
-        pos[index] = position_ned_m
-        pos_var = np.full((n, 3), np.inf)
-        pos_var[index] = position_var_m2
-        yaw = np.full(n, np.nan)
-        yaw[index] = yaw_rad
-        yaw_var = np.full(n, np.inf)
-        yaw_var[index] = yaw_var_rad2
-        vel = np.full((n, 3), np.nan)
-        vel_var = np.zeros((n, 3))
-        if velocity_ned_m_s is not None:
-            vel[index] = velocity_ned_m_s
-            if velocity_var_m2_s2 is not None:
-                vel_var[index] = velocity_var_m2_s2
-        age = (self.time_usec - int(time_usec)) * 1e-6
-        if not 0.0 <= age <= 0.5:
-            age = 0.0
-        self.estimator.update_vision(mask, pos, pos_var, yaw, yaw_var, vel, vel_var, age)
 
     # -- loops ------------------------------------------------------------------------------------
     def _navigate(self, dt: float, gains: _Gains) -> None:
@@ -339,9 +300,10 @@ class AutopilotFleet:
     def _refresh_gains(self) -> _Gains:
         versions = tuple(p.version for p in self.params)
         if versions != self._param_versions or self._gains is None:
+            self.estimator.set_params(EstimatorParams.from_params(self.params))
             self._gains = _Gains.from_params(self.params)
             self._param_versions = versions
-            self.estimator.set_params(EstimatorParams.from_params(self.params))
+            self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
             self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
         return self._gains
 
@@ -363,6 +325,46 @@ class AutopilotFleet:
             self.active[i] = False
             self.outputs[i] = 0.0
             self.thrust[i] = 0.0
+
+    def handle_vision(
+        self,
+        index: int,
+        time_usec: int,
+        position_ned_m: np.ndarray,
+        position_var_m2: np.ndarray,
+        yaw_rad: float,
+        yaw_var_rad2: float,
+        velocity_ned_m_s: np.ndarray | None = None,
+        velocity_var_m2_s2: np.ndarray | None = None,
+    ) -> None:
+        """Fuse one external-vision sample of vehicle ``index`` (EKF2_EV_CTRL selects the parts).
+
+        Position NED (m) in the vehicle's local frame with per-axis variances (m²); yaw (rad, NaN:
+        none) and its variance; velocity NED (m/s) or None. ``time_usec`` is when the sample was
+        taken on the autopilot's clock: its age (0 to 0.5 s; outside that taken as 0) adds to
+        EKF2_EV_DELAY.
+        """
+        n = self.n
+        mask = np.zeros(n, dtype=bool)
+        mask[index] = True
+        pos = np.full((n, 3), np.nan)
+        pos[index] = position_ned_m
+        pos_var = np.full((n, 3), np.inf)
+        pos_var[index] = position_var_m2
+        yaw = np.full(n, np.nan)
+        yaw[index] = yaw_rad
+        yaw_var = np.full(n, np.inf)
+        yaw_var[index] = yaw_var_rad2
+        vel = np.full((n, 3), np.nan)
+        vel_var = np.zeros((n, 3))
+        if velocity_ned_m_s is not None:
+            vel[index] = velocity_ned_m_s
+            if velocity_var_m2_s2 is not None:
+                vel_var[index] = velocity_var_m2_s2
+        age = (self.time_usec - int(time_usec)) * 1e-6
+        if not 0.0 <= age <= 0.5:
+            age = 0.0
+        self.estimator.update_vision(mask, pos, pos_var, yaw, yaw_var, vel, vel_var, age)
 
 
 @dataclass
