@@ -30,6 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from autopilot_emu import geodesy
 from autopilot_emu import quaternion as quat
 from autopilot_emu.estimator_params import (
     EV_HORIZONTAL_POSITION,
@@ -543,15 +544,31 @@ class FleetEstimator:
         pressure_alt_m: np.ndarray,
         eph_m: np.ndarray,
     ) -> None:
-        """The first good fix sets the EKF origin: position zero, velocity from GNSS."""
-        self.origin_lla[mask] = lla[mask]
-        self.baro_offset_m[mask] = pressure_alt_m[mask] - lla[mask, 2]
+        """The first good fix sets the EKF origin.
+
+        Without earlier aiding the position restarts at zero and the velocity from GNSS. A vehicle
+        already navigating on another source (external vision) keeps its local frame: the origin
+        is placed so that its current position maps to the fix (EKF2 keeps the local position
+        when it sets the origin).
+        """
+        aided = mask & np.isfinite(self.first_aiding_s)
+        fresh = mask & ~aided
+        p = self.position_ned_m
+        origin = lla.copy()
+        m_per_deg = geodesy.metres_per_degree(lla)
+        origin[:, 0] -= p[:, 0] / m_per_deg[:, 0]
+        origin[:, 1] -= p[:, 1] / m_per_deg[:, 1]
+        origin[:, 2] += p[:, 2]
+        origin = np.where(fresh[:, None], lla, origin)
+        self.origin_lla[mask] = origin[mask]
+        down = np.where(fresh, 0.0, p[:, 2])
+        self.baro_offset_m[mask] = (pressure_alt_m - origin[:, 2] + down)[mask]
         self._baro_ref |= mask
         self.origin_set |= mask
         self.first_fix_s[mask] = self.time_s
         var = np.maximum(self.params.gps_p_noise_m, eph_m) ** 2
-        self._reset_horizontal(mask, np.zeros((self.n, 3)), var)
-        self._reset_block(_VEL, vel_ned_m_s, self.params.gps_v_noise_m_s**2, mask)
+        self._reset_horizontal(fresh, np.zeros((self.n, 3)), var)
+        self._reset_block(_VEL, vel_ned_m_s, self.params.gps_v_noise_m_s**2, fresh)
         self.height_aided_s[mask] = self.time_s
         self.gps_fused_s[mask] = self.time_s
         self._mark_aided(mask)

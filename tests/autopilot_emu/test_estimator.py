@@ -246,3 +246,32 @@ def test_delayed_vision_is_compared_with_the_delayed_state():
         lags[age_s] = float(np.mean(east))
     assert lags[0.0] < -0.25  # about v x 0.1 s = 0.4 m behind
     assert abs(lags[0.1]) < 0.05
+
+
+def test_gnss_arriving_after_vision_keeps_the_local_frame():
+    """A vehicle navigating on vision (at (2, -1) m) that gets GNSS keeps its local position; the
+    origin is placed so that this position maps to the fix."""
+    est = estimator(1, ev_ctrl=1)
+    flight = Flight(est, np.zeros(3))
+    flight.sats[:] = 0.0
+    for tick in range(3 * IMU_HZ):
+        flight.step()
+        if tick % 8 == 0:
+            est.update_vision(
+                np.ones(1, dtype=bool),
+                np.array([[2.0, -1.0, 0.0]]),
+                np.full((1, 3), 0.05**2),
+                np.full(1, np.nan),
+                np.full(1, np.nan),
+                np.full((1, 3), np.nan),
+                np.full((1, 3), np.nan),
+            )
+    before = est.position_ned_m[0].copy()
+    flight.sats[:] = 12.0
+    while not est.origin_set[0]:
+        flight.step()
+    assert np.abs(est.position_ned_m[0] - before).max() < 0.05
+    fix_north_m = (ORIGIN[0] - est.origin_lla[0, 0]) * 111_200.0
+    fix_east_m = (ORIGIN[1] - est.origin_lla[0, 1]) * 111_200.0 * np.cos(np.radians(ORIGIN[0]))
+    assert fix_north_m == pytest.approx(before[0], abs=0.05)
+    assert fix_east_m == pytest.approx(before[1], abs=0.05)
