@@ -39,6 +39,7 @@ from autopilot_emu.estimator_params import (
     EV_YAW,
     EstimatorParams,
 )
+from autopilot_emu.params import ParamStore
 
 GRAVITY_M_S2 = 9.80665
 _G_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
@@ -148,6 +149,8 @@ class FleetEstimator:
         self._fake_next_s = 0.0
         self._pred_dt = 0.0
         self._pred_dv = np.zeros((n, 3))
+        self._acc_dv = np.zeros((n, 3))
+        """Velocity change from the bias-corrected accelerometer since update_acceleration."""
         self._idx = np.arange(n)
         self._baro_ref = np.zeros(n, dtype=bool)
         """The barometer has a reference height (set at its first sample or by the origin)."""
@@ -209,8 +212,10 @@ class FleetEstimator:
         limit = self.config.heading_reject_limit_s
         return self.attitude_ok & (self.mag_seen_s - self.mag_accepted_s > limit)
 
-    def set_params(self, params: EstimatorParams) -> None:
-        """Apply each vehicle's EKF2_* parameters."""
+    def set_params(self, params: EstimatorParams | list[ParamStore]) -> None:
+        """Apply each vehicle's EKF2_* parameters (an EstimatorParams or the parameter stores)."""
+        if not isinstance(params, EstimatorParams):
+            params = EstimatorParams.from_params(params)
         self.params = params
 
     def set_declination(self, declination_deg: np.ndarray | list[float]) -> None:
@@ -231,8 +236,7 @@ class FleetEstimator:
         self.rates_rad_s = rates
         self.q = quat.integrate(self.q, rates, dt_s)
         self._r_stale = True
-        alpha = dt_s / (self.config.accel_lpf_tau_s + dt_s)
-        self.accel_ned_m_s2 += alpha * (acc - self.accel_ned_m_s2)
+        self._acc_dv += acc * dt_s
         self._pred_dt += dt_s
         self._pred_dv += f_ned * dt_s
         if self._pred_dt >= self.config.predict_period_s - 1e-9:
@@ -247,6 +251,15 @@ class FleetEstimator:
         if self.time_s >= self._fake_next_s:
             self._fake_next_s = self.time_s + self.config.fake_position_period_s
             self._fuse_fake_position()
+
+    def update_acceleration(self, dt_s: float) -> None:
+        """Low-pass the mean NED acceleration of the last ``dt_s`` into ``accel_ned_m_s2``.
+
+        Called at the navigation rate (the hover-thrust estimator and controllers read it).
+        """
+        alpha = dt_s / (self.config.accel_lpf_tau_s + dt_s)
+        self.accel_ned_m_s2 += alpha * (self._acc_dv / dt_s - self.accel_ned_m_s2)
+        self._acc_dv.fill(0.0)
 
     def _predict_covariance(self) -> None:
         """P <- Phi P Phi^T + Q over the interval since the last prediction (EKF2 downsampled)."""

@@ -24,7 +24,6 @@ from autopilot_emu.control.mixer import Mixer
 from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
 from autopilot_emu.control.rate import RateController
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
-from autopilot_emu.estimator_params import EstimatorParams
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes.offboard import (
@@ -170,6 +169,7 @@ class AutopilotFleet:
         self._nav_accum_s += dt
         if self._nav_accum_s >= self._nav_period_s - 1e-9:
             self.battery.update(self.thrust, gains.hover_thrust, self.armed, self._nav_accum_s)
+            est.update_acceleration(self._nav_accum_s)
             self._navigate(self._nav_accum_s, gains)
             self._nav_accum_s = 0.0
         self._control(dt, gains)
@@ -300,7 +300,7 @@ class AutopilotFleet:
     def _refresh_gains(self) -> _Gains:
         versions = tuple(p.version for p in self.params)
         if versions != self._param_versions or self._gains is None:
-            self.estimator.set_params(EstimatorParams.from_params(self.params))
+            self.estimator.set_params(self.params)
             self._gains = _Gains.from_params(self.params)
             self._param_versions = versions
             self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
