@@ -65,9 +65,14 @@ class Errors:
 
 
 def true_imu_bias(sim: Simulation) -> tuple[np.ndarray, np.ndarray]:
-    """The simulated IMU's total bias of vehicle 0 (turn-on + Gauss-Markov), body FRD."""
-    noise = sim.world._imu.noise
-    total = noise.turn_on_bias[0] + noise.bias[0]
+    """The simulated IMU's total bias of vehicle 0 (turn-on + Gauss-Markov), body FRD.
+
+    Read from the world's private sensor state: one IMU for the fleet, or (multi-airframe
+    worlds) one per airframe group, vehicle 0 being the first row of the first group.
+    """
+    world = sim.world
+    imu = world._groups[0].imu if hasattr(world, "_groups") else world._imu
+    total = imu.noise.turn_on_bias[0] + imu.noise.bias[0]
     return total[0], total[1]
 
 
