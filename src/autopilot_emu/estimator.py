@@ -1,105 +1,113 @@
-"""State estimation from HIL sensor messages, batched over the fleet.
+"""Navigation filter of N vehicles: an error-state extended Kalman filter batched over the fleet.
 
-Two filters, as a small-vehicle autopilot without PX4's full EKF2 would run them:
+The structure follows PX4's EKF2 (PX4-Autopilot src/modules/ekf2): strapdown inertial navigation
+predicted with every IMU sample, a covariance predicted at a downsampled rate (EKF2_PREDICT_US,
+10 ms), delayed measurements (GNSS, external vision) compared with the state buffered at the time
+they were taken, innovation gates in standard deviations (EKF2_*_GATE), a fake position held
+while no source aids the horizontal position, and the EKF2_* parameters for every noise.
 
-* attitude: a Mahony-style complementary filter (gyro integration corrected by the gravity
-  direction and the magnetometer heading, with gyro-bias integration). The accelerometer reference
-  is compensated with the estimated NED acceleration, so a multirotor that accelerates does not
-  drift towards "level" the way a plain complementary filter would;
-* position and velocity: linear Kalman filters (filterpy's ``KalmanFilter``) driven by the
-  rotated accelerometer and corrected by GPS (position, velocity) and the barometer (height, the
-  primary height reference as in PX4's default EKF2_HGT_REF).
+Nominal state per vehicle: attitude ``q`` (body FRD -> NED, [w, x, y, z]), NED velocity and
+position, gyro bias (rad/s) and accelerometer bias (m/s²), both in body FRD. The 15-element
+error state is ``[dtheta, dv, dp, dbg, dba]`` with ``dtheta`` a rotation error in the NED frame
+(``q_true = exp(dtheta) ⊗ q``); its continuous dynamics (Solà 2017, "Quaternion kinematics for the
+error-state Kalman filter", §7.2, global angular error) are
 
-Every vehicle runs the same linear model on the same sensor schedule, so the Kalman covariance
-and gain are identical across the fleet: one covariance is propagated with filterpy and its gain is
-applied to the (2, N) state matrices of all vehicles at once. Controllers only ever see these
-estimates, never ground truth.
+    dtheta' = -R dbg,   dv' = -[R (f - ba)]x dtheta - R dba,   dp' = dv,   dbg' = dba' = noise,
+
+discretised to first order over the prediction interval: Phi = I + F dt. Process noise per
+prediction step is as EKF2's: (EKF2_GYR_NOISE dt)² on the angle, (EKF2_ACC_NOISE dt)² on the
+velocity, (EKF2_GYR_B_NOISE dt)² and (EKF2_ACC_B_NOISE dt)² on the biases. Measurements are fused
+one scalar at a time (as EKF2), for all vehicles at once with per-vehicle masks; the covariances
+are an (N, 15, 15) array. Controllers only ever see these estimates, never ground truth.
+
+Heights: the barometer is the height reference (EKF2_HGT_REF baro); GNSS gives horizontal position
+and 3-D velocity. Heading: magnetic heading fusion (EKF2's heading mode) with EKF2_HEAD_NOISE.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
+from autopilot_emu import geodesy
 from autopilot_emu import quaternion as quat
+from autopilot_emu.estimator_params import (
+    EV_HORIZONTAL_POSITION,
+    EV_VELOCITY,
+    EV_VERTICAL_POSITION,
+    EV_YAW,
+    EstimatorParams,
+)
+from autopilot_emu.params import ParamStore
 
 GRAVITY_M_S2 = 9.80665
 _G_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
+_TH, _VEL, _POS, _BG, _BA = 0, 3, 6, 9, 12
+"""First index of each block of the 15-element error state."""
+_K = 15
 
 
 @dataclass(frozen=True)
 class EstimatorConfig:
-    """Tuning of the fleet estimator."""
+    """Structure of the fleet filter (its tuning is the EKF2_* parameters)."""
 
-    accel_gain: float = 0.4
-    """Gravity-direction correction gain, rad/s per unit direction error."""
-    mag_gain: float = 0.4
-    """Heading correction gain, rad/s per rad of heading error."""
-    bias_gain: float = 0.02
-    """Gyro-bias integration gain, 1/s."""
-    accel_lpf_tau_s: float = 0.3
-    """Time constant of the NED-acceleration estimate used to compensate the accelerometer, s."""
-    accel_noise_m_s2: float = 0.5
-    """Process noise of the position filters (accelerometer + attitude error), m/s²."""
-    gps_pos_std_h_m: float = 0.6
-    gps_pos_std_v_m: float = 3.0
-    gps_vel_std_h_m_s: float = 0.15
-    gps_vel_std_v_m_s: float = 0.25
-    baro_std_m: float = 0.4
+    predict_period_s: float = 0.01
+    """Covariance prediction interval (PX4 EKF2_PREDICT_US default 10 000 us), s."""
+    buffer_samples: int = 128
+    """Length of the delayed-state buffer, IMU samples (0.5 s at 250 Hz)."""
     settle_s: float = 1.0
-    """Time after the first GPS fix before the global position is declared good, s."""
-    mag_declination_deg: float = 2.6
-    """Magnetic declination (PX4 looks this up from its WMM table; here EKF2_MAG_DECL)."""
+    """Time after the first position fix before the position is declared good, s."""
+    fake_position_period_s: float = 0.2
+    """Interval of fake-position fusion without aiding (EKF2 fuses it at 5 Hz), s."""
+    preflight_fake_position_std_m: float = 0.5
+    """Fake-position noise before any aiding source was ever used (EKF2 at rest), m."""
+    reset_timeout_s: float = 7.0
+    """A source rejected this long resets the state to it (EKF2 reset_timeout_max), s."""
+    heading_reject_limit_s: float = 1.0
+    """Magnetometer data rejected by the heading gate this long: heading failure, s."""
+    accel_lpf_tau_s: float = 0.3
+    """Time constant of the reported NED acceleration, s."""
+    gyro_bias_limit_rad_s: float = 0.15
+    """Clamp of the gyro-bias estimate (EKF2's gyro bias limit), rad/s."""
 
 
-class _SharedGain:
-    """One filterpy KalmanFilter tracking the covariance shared by all vehicles on one axis group.
-
-    Its state vector is unused (the fleet's states live in a (2, columns) matrix); it exists to
-    propagate P and compute the gain K. Prediction is lazy: P is advanced over the whole interval
-    since the last measurement just before each update, with that interval's F and Q.
-    """
-
-    def __init__(self, dim_z: int, accel_noise_m_s2: float) -> None:
-        self.kf = KalmanFilter(dim_x=2, dim_z=dim_z)
-        self.kf.P = np.diag([100.0, 4.0])
-        self._s2 = accel_noise_m_s2**2
-        self.pending_s = 0.0
-
-    def gain(self, h: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """Predict P over the pending interval, update it with (H, R); return K."""
-        dt = self.pending_s
-        if dt > 0.0:
-            self.kf.F = np.array([[1.0, dt], [0.0, 1.0]])
-            self.kf.Q = self._s2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
-            self.kf.predict()
-            self.pending_s = 0.0
-        self.kf.update(np.zeros(h.shape[0]), R=r, H=h)
-        return self.kf.K
-
-
-_H_POS = np.array([[1.0, 0.0]])
-_H_POS_VEL = np.eye(2)
+def _skew(v: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) cross-product matrices [v]x of (N, 3) vectors."""
+    s = np.zeros((v.shape[0], 3, 3))
+    s[:, 0, 1], s[:, 0, 2] = -v[:, 2], v[:, 1]
+    s[:, 1, 0], s[:, 1, 2] = v[:, 2], -v[:, 0]
+    s[:, 2, 0], s[:, 2, 1] = -v[:, 1], v[:, 0]
+    return s
 
 
 class FleetEstimator:
-    """Attitude, velocity and position estimates of N vehicles in their own NED frames."""
+    """Attitude, velocity, position and IMU-bias estimates of N vehicles in their NED frames."""
 
-    def __init__(self, n: int, config: EstimatorConfig | None = None) -> None:
+    def __init__(
+        self, n: int, config: EstimatorConfig | None = None, params: EstimatorParams | None = None
+    ) -> None:
         self.n = n
         self.config = config or EstimatorConfig()
-        cfg = self.config
+        self.params = params or EstimatorParams.defaults(n)
         self.q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
         """Attitude body FRD -> NED, [w, x, y, z]."""
-        self.r = quat.to_rotation_matrix(self.q)
-        """Rotation matrices of ``q`` (refreshed once per IMU sample)."""
+        self._r = quat.to_rotation_matrix(self.q)
+        self._r_stale = False
+        self.position_ned_m = np.zeros((n, 3))
+        """(N, 3) position in each vehicle's NED frame, m."""
+        self.velocity_ned_m_s = np.zeros((n, 3))
+        """(N, 3) velocity NED, m/s."""
         self.gyro_bias_rad_s = np.zeros((n, 3))
+        """Gyro bias estimate, body FRD, rad/s."""
+        self.accel_bias_m_s2 = np.zeros((n, 3))
+        """Accelerometer bias estimate, body FRD, m/s²."""
+        self.P = np.zeros((n, _K, _K))
+        """Error-state covariances, (N, 15, 15)."""
         self.rates_rad_s = np.zeros((n, 3))
         """Bias-corrected body rates, rad/s."""
         self.accel_ned_m_s2 = np.zeros((n, 3))
-        """Low-passed NED acceleration estimate, m/s²."""
+        """Low-passed, bias-corrected NED acceleration, m/s²."""
         self.attitude_ok = np.zeros(n, dtype=bool)
         self.origin_set = np.zeros(n, dtype=bool)
         self.origin_lla = np.zeros((n, 3))
@@ -108,116 +116,358 @@ class FleetEstimator:
         """pressure_alt - GPS altitude at the origin fix, m."""
         self.time_s = 0.0
         self.first_fix_s = np.full(n, np.inf)
+        """When the origin was set (the first GNSS fix passing the checks), s."""
+        self.first_aiding_s = np.full(n, np.inf)
+        """When a horizontal position source was first fused, s."""
         self.gps_fix_type = np.zeros(n, dtype=int)
+        self.gps_checks_ok = np.zeros(n, dtype=bool)
+        """The last GNSS sample passed EKF2's checks (fix, satellites, eph, epv)."""
         self.gps_time_s = np.full(n, -np.inf)
-        # Kalman state: rows (position, velocity); columns north_0..N-1, east_0..N-1, down_0..N-1.
-        self._x = np.zeros((2, 3 * n))
-        self._h_gain = _SharedGain(2, cfg.accel_noise_m_s2)
-        self._v_gain = _SharedGain(2, cfg.accel_noise_m_s2)
-        self._r_gps_h = np.diag([cfg.gps_pos_std_h_m**2, cfg.gps_vel_std_h_m_s**2])
-        self._r_gps_v = np.diag([cfg.gps_pos_std_v_m**2, cfg.gps_vel_std_v_m_s**2])
-        self._r_baro = np.array([[cfg.baro_std_m**2]])
-        self._last_vel = np.zeros((n, 3))
-        self._decl_rad = np.full(n, np.radians(cfg.mag_declination_deg))
-        self._mag_corr: np.ndarray | None = None
+        self.gps_fused_s = np.full(n, -np.inf)
+        """Last GNSS horizontal position fusion, s."""
+        self.ev_fused_s = np.full(n, -np.inf)
+        """Last external-vision horizontal position fusion, s."""
+        self.hpos_aided_s = np.full(n, -np.inf)
+        """Last fusion of any horizontal position source (GNSS or vision), s."""
+        self.height_aided_s = np.full(n, -np.inf)
+        """Last fusion of a height source (barometer or vision), s."""
+        self.vel_ratio = np.zeros(n)
+        """GNSS velocity innovation test ratio, sqrt(innov² / (gate² S)) (>1: rejected)."""
+        self.pos_horiz_ratio = np.zeros(n)
+        """Horizontal position (GNSS or vision) innovation test ratio."""
+        self.pos_vert_ratio = np.zeros(n)
+        """Height innovation test ratio."""
+        self.mag_ratio = np.zeros(n)
+        """Magnetic heading innovation test ratio."""
+        self.gps_glitch = np.zeros(n, dtype=bool)
+        """The last GNSS position was rejected by its gate."""
+        self.const_pos_mode = np.ones(n, dtype=bool)
+        """A fake position is fused (no horizontal aiding)."""
+        self.mag_seen_s = np.full(n, -np.inf)
+        self.mag_accepted_s = np.full(n, -np.inf)
+        self._fake_hold = np.zeros((n, 3))
+        self._fake_next_s = 0.0
+        self._pred_dt = 0.0
+        self._pred_dv = np.zeros((n, 3))
+        self._acc_dv = np.zeros((n, 3))
+        """Velocity change from the bias-corrected accelerometer since update_acceleration."""
+        self._idx = np.arange(n)
+        self._baro_ref = np.zeros(n, dtype=bool)
+        """The barometer has a reference height (set at its first sample or by the origin)."""
+        # Delayed-state ring buffer (one row per IMU sample): time, position, velocity, attitude.
+        length = self.config.buffer_samples
+        self._buf_t = np.full(length, -np.inf)
+        self._buf_p = np.zeros((length, n, 3))
+        self._buf_v = np.zeros((length, n, 3))
+        self._buf_q = np.tile([1.0, 0.0, 0.0, 0.0], (length, n, 1))
+        self._buf_head = length - 1
+        self._corr_p = np.zeros((n, 3))
+        self._corr_v = np.zeros((n, 3))
+        """Corrections applied since the start: a buffered state is its row plus these."""
+        self._corr_yaw = np.zeros(n)
+        self._buf_corr_yaw = np.zeros((length, n))
+        """Yaw corrections applied since the start, now and when each row was written, rad."""
+        self._reset_covariance(np.ones(n, dtype=bool))
 
-    # -- read-only views -------------------------------------------------------------------
+    # -- read-only views ---------------------------------------------------------------------
     @property
-    def position_ned_m(self) -> np.ndarray:
-        """(N, 3) position in each vehicle's NED frame, m."""
-        return self._x[0].reshape(3, self.n).T
+    def r(self) -> np.ndarray:
+        """(N, 3, 3) rotation matrices of ``q`` (body FRD -> NED)."""
+        if self._r_stale:
+            self._r = quat.to_rotation_matrix(self.q)
+            self._r_stale = False
+        return self._r
 
     @property
-    def velocity_ned_m_s(self) -> np.ndarray:
-        """(N, 3) velocity NED, m/s."""
-        return self._x[1].reshape(3, self.n).T
+    def local_position_ok(self) -> np.ndarray:
+        """(N,) the local position is aided (or dead-reckoned for < EKF2_NOAID_TOUT) and settled."""
+        aided = (self.time_s - self.hpos_aided_s) <= self.params.noaid_tout_s
+        settled = (self.time_s - self.first_aiding_s) >= self.config.settle_s
+        return self.attitude_ok & aided & settled
 
     @property
     def position_ok(self) -> np.ndarray:
-        """(N,) true once the local/global position estimate can be trusted."""
-        fresh = (self.time_s - self.gps_time_s) < 1.0
-        settled = (self.time_s - self.first_fix_s) >= self.config.settle_s
-        return self.origin_set & self.attitude_ok & fresh & settled & (self.gps_fix_type >= 3)
+        """(N,) the position estimate can be flown on (PX4's local position validity)."""
+        return self.local_position_ok
 
     @property
-    def variances(self) -> tuple[float, float, float, float]:
-        """Position variance (horizontal per axis, vertical), m², then velocity variance, m²/s².
+    def global_position_ok(self) -> np.ndarray:
+        """(N,) the position is also global: an origin and GNSS fused within EKF2_NOAID_TOUT."""
+        gps = (self.time_s - self.gps_fused_s) <= self.params.noaid_tout_s
+        return self.local_position_ok & self.origin_set & gps
 
-        After the last measurement update; the covariance is shared by the fleet.
-        """
-        p_h, p_v = self._h_gain.kf.P, self._v_gain.kf.P
-        return float(p_h[0, 0]), float(p_v[0, 0]), float(p_h[1, 1]), float(p_v[1, 1])
+    @property
+    def position_variance_m2(self) -> np.ndarray:
+        """(N, 3) variance of the NED position estimate, m²."""
+        return self.P[:, (6, 7, 8), (6, 7, 8)]
+
+    @property
+    def velocity_variance_m2_s2(self) -> np.ndarray:
+        """(N, 3) variance of the NED velocity estimate, m²/s²."""
+        return self.P[:, (3, 4, 5), (3, 4, 5)]
+
+    @property
+    def heading_failure(self) -> np.ndarray:
+        """(N,) magnetometer data keep failing the heading gate (PX4's heading preflight fail)."""
+        limit = self.config.heading_reject_limit_s
+        return self.attitude_ok & (self.mag_seen_s - self.mag_accepted_s > limit)
+
+    def set_params(self, params: EstimatorParams | list[ParamStore]) -> None:
+        """Apply each vehicle's EKF2_* parameters (an EstimatorParams or the parameter stores)."""
+        if not isinstance(params, EstimatorParams):
+            params = EstimatorParams.from_params(params)
+        self.params = params
 
     def set_declination(self, declination_deg: np.ndarray | list[float]) -> None:
-        """Apply each vehicle's EKF2_MAG_DECL, (N,) degrees."""
-        self._decl_rad = np.radians(np.asarray(declination_deg, dtype=float))
+        """Use these magnetic declinations, (N,) degrees (EKF2_MAG_DECL or a geo lookup)."""
+        decl = np.radians(np.asarray(declination_deg, dtype=float))
+        self.params = replace(self.params, mag_decl_rad=decl)
 
-    # -- sensor updates ----------------------------------------------------------------------
+    # -- prediction ----------------------------------------------------------------------------
     def update_imu(self, accel_frd: np.ndarray, gyro_frd: np.ndarray, dt_s: float) -> None:
         """Propagate with one IMU sample per vehicle (specific force m/s², rates rad/s)."""
-        cfg = self.config
         self.time_s += dt_s
-        r = self.r
-        # Expected specific force from the estimated acceleration: f = R^T (a - g).
-        f_exp = np.einsum("nji,nj->ni", r, self.accel_ned_m_s2 - _G_NED)
-        a_unit = accel_frd / np.maximum(quat.row_norm(accel_frd), 1e-6)[:, None]
-        v_unit = f_exp / np.maximum(quat.row_norm(f_exp), 1e-6)[:, None]
-        err = quat.cross(a_unit, v_unit)
         rates = gyro_frd - self.gyro_bias_rad_s
-        self.gyro_bias_rad_s -= (cfg.bias_gain * dt_s) * err
+        f_ned = np.einsum("nij,nj->ni", self.r, accel_frd - self.accel_bias_m_s2)
+        acc = f_ned + _G_NED
+        p, v = self.position_ned_m, self.velocity_ned_m_s
+        p += v * dt_s + (0.5 * dt_s * dt_s) * acc
+        v += acc * dt_s
         self.rates_rad_s = rates
-        omega = rates + cfg.accel_gain * err
-        if self._mag_corr is not None:
-            omega += self._mag_corr
-            self._mag_corr = None
-        self.q = quat.integrate(self.q, omega, dt_s)
-        # Position/velocity prediction with the rotated accelerometer (old R: start of interval).
-        acc_ned = np.einsum("nij,nj->ni", r, accel_frd) + _G_NED
-        a = acc_ned.T.reshape(-1)
-        x = self._x
-        x[0] += x[1] * dt_s + (0.5 * dt_s * dt_s) * a
-        x[1] += a * dt_s
-        self._h_gain.pending_s += dt_s
-        self._v_gain.pending_s += dt_s
-        self.r = quat.to_rotation_matrix(self.q)
+        self.q = quat.integrate(self.q, rates, dt_s)
+        self._r_stale = True
+        self._acc_dv += acc * dt_s
+        self._pred_dt += dt_s
+        self._pred_dv += f_ned * dt_s
+        if self._pred_dt >= self.config.predict_period_s - 1e-9:
+            self._predict_covariance()
+        head = (self._buf_head + 1) % self._buf_t.shape[0]
+        self._buf_head = head
+        self._buf_t[head] = self.time_s
+        np.subtract(p, self._corr_p, out=self._buf_p[head])
+        np.subtract(v, self._corr_v, out=self._buf_v[head])
+        self._buf_q[head] = self.q
+        self._buf_corr_yaw[head] = self._corr_yaw
+        if self.time_s >= self._fake_next_s:
+            self._fake_next_s = self.time_s + self.config.fake_position_period_s
+            self._fuse_fake_position()
 
-    def update_mag(self, mag_frd: np.ndarray, mask: np.ndarray) -> None:
-        """Heading correction from the magnetometer, applied by the next ``update_imu``."""
+    def update_acceleration(self, dt_s: float) -> None:
+        """Low-pass the mean NED acceleration of the last ``dt_s`` into ``accel_ned_m_s2``.
+
+        Called at the navigation rate (the hover-thrust estimator and controllers read it).
+        """
+        alpha = dt_s / (self.config.accel_lpf_tau_s + dt_s)
+        self.accel_ned_m_s2 += alpha * (self._acc_dv / dt_s - self.accel_ned_m_s2)
+        self._acc_dv.fill(0.0)
+
+    def _predict_covariance(self) -> None:
+        """P <- Phi P Phi^T + Q over the interval since the last prediction (EKF2 downsampled)."""
+        dt = self._pred_dt
+        r_dt = self.r * dt
+        s_dt = _skew(self._pred_dv)  # [f_ned]x dt
+
+        def phi_times(m: np.ndarray) -> np.ndarray:
+            # Phi m with Phi = I + F dt applied block by block (Phi is sparse: 4 3x3 blocks).
+            out = m.copy()
+            out[:, _TH : _TH + 3] -= r_dt @ m[:, _BG : _BG + 3]
+            out[:, _VEL : _VEL + 3] -= s_dt @ m[:, _TH : _TH + 3] + r_dt @ m[:, _BA : _BA + 3]
+            out[:, _POS : _POS + 3] += dt * m[:, _VEL : _VEL + 3]
+            return out
+
+        m = np.ascontiguousarray(phi_times(self.P).transpose(0, 2, 1))
+        p = phi_times(m).transpose(0, 2, 1)
+        prm = self.params
+        q_diag = np.repeat(
+            np.stack(
+                (
+                    (prm.gyr_noise_rad_s * dt) ** 2,
+                    (prm.acc_noise_m_s2 * dt) ** 2,
+                    np.zeros(self.n),
+                    (prm.gyr_b_noise_rad_s2 * dt) ** 2,
+                    (prm.acc_b_noise_m_s3 * dt) ** 2,
+                ),
+                axis=1,
+            ),
+            3,
+            axis=1,
+        )
+        diag = np.arange(_K)
+        p[:, diag, diag] += q_diag
+        self.P = 0.5 * (p + p.transpose(0, 2, 1))
+        self._pred_dt = 0.0
+        self._pred_dv.fill(0.0)
+
+    # -- generic fusion ----------------------------------------------------------------------------
+    def _fuse_axis(self, j: int, innov: np.ndarray, var: np.ndarray, use: np.ndarray) -> None:
+        """Scalar update of error-state element j (H = e_j) for the vehicles in ``use``."""
+        if not use.any():
+            return
+        pht = self.P[:, :, j].copy()
+        s = pht[:, j] + var
+        k = pht * (use / s)[:, None]
+        self.P -= k[:, :, None] * pht[:, None, :]
+        self._inject(k * np.where(use, innov, 0.0)[:, None])
+
+    def _fuse_row(self, h: np.ndarray, innov: np.ndarray, var: np.ndarray, use: np.ndarray) -> None:
+        """Scalar update with an (N, 15) measurement row for the vehicles in ``use``."""
+        if not use.any():
+            return
+        pht = np.einsum("nij,nj->ni", self.P, h)
+        s = np.einsum("ni,ni->n", h, pht) + var
+        k = pht * (use / s)[:, None]
+        self.P -= k[:, :, None] * pht[:, None, :]
+        self._inject(k * np.where(use, innov, 0.0)[:, None])
+
+    def _inject(self, dx: np.ndarray) -> None:
+        """Add an (N, 15) error-state correction to the nominal state (and the buffered one)."""
+        dq = np.empty((self.n, 4))
+        dq[:, 0] = 1.0
+        dq[:, 1:] = 0.5 * dx[:, _TH : _TH + 3]
+        self.q = quat.normalize(quat.multiply(dq, self.q))
+        self._r_stale = True
+        self._corr_yaw += dx[:, _TH + 2]
+        dv, dp = dx[:, _VEL : _VEL + 3], dx[:, _POS : _POS + 3]
+        self.velocity_ned_m_s += dv
+        self.position_ned_m += dp
+        self._corr_v += dv
+        self._corr_p += dp
+        lim_g = self.config.gyro_bias_limit_rad_s
+        lim_a = self.params.abias_lim_m_s2[:, None]
+        bg = self.gyro_bias_rad_s + dx[:, _BG : _BG + 3]
+        self.gyro_bias_rad_s = np.minimum(np.maximum(bg, -lim_g), lim_g)
+        ba = self.accel_bias_m_s2 + dx[:, _BA : _BA + 3]
+        self.accel_bias_m_s2 = np.minimum(np.maximum(ba, -lim_a), lim_a)
+
+    def _test_ratio(
+        self, j: int, innov: np.ndarray, var: np.ndarray, gate: np.ndarray
+    ) -> np.ndarray:
+        """innov² / (gate² S) of a scalar measurement of element j (EKF2's innovation test)."""
+        return innov * innov / (gate * gate * (self.P[:, j, j] + var))
+
+    def _reset_block(self, j: int, values: np.ndarray, var: np.ndarray, mask: np.ndarray) -> None:
+        """Reset three states (block starting at j) to ``values`` with variance ``var``."""
         if not mask.any():
             return
-        r = self.r
-        m_ned = np.einsum("nij,nj->ni", r, mag_frd)
-        heading_err = quat.wrap_pi(np.arctan2(m_ned[:, 1], m_ned[:, 0]) - self._decl_rad)
-        heading_err *= mask & self.attitude_ok
-        # A NED-z rate of -k*err, expressed in the body frame (third row of R).
-        self._mag_corr = (-self.config.mag_gain * heading_err)[:, None] * r[:, 2, :]
+        sl = slice(j, j + 3)
+        cur = self.position_ned_m if j == _POS else self.velocity_ned_m_s
+        delta = np.where(mask[:, None], values - cur, 0.0)
+        cur += delta
+        (self._corr_p if j == _POS else self._corr_v)[:] += delta
+        self.P[mask, sl, :] = 0.0
+        self.P[mask, :, sl] = 0.0
+        for k in range(3):
+            self.P[mask, j + k, j + k] = var[mask]
 
+    def _reset_covariance(self, mask: np.ndarray) -> None:
+        prm = self.params
+        diag = np.concatenate(
+            (
+                np.tile([0.1**2, 0.1**2, 0.5**2], (self.n, 1)),
+                np.full((self.n, 3), 0.5**2),
+                np.full((self.n, 3), 0.5**2),
+                np.repeat(prm.gbias_init_rad_s[:, None] ** 2, 3, axis=1),
+                np.repeat(prm.abias_init_m_s2[:, None] ** 2, 3, axis=1),
+            ),
+            axis=1,
+        )
+        self.P[mask] = np.einsum("ni,ij->nij", diag[mask], np.eye(_K))
+
+    def _delayed_slot(self, delay_s: np.ndarray) -> np.ndarray:
+        """(N,) ring-buffer rows of the state ``delay_s`` ago (the latest at or before it)."""
+        length = self._buf_t.shape[0]
+        order = (self._buf_head + 1 + np.arange(length)) % length
+        k = np.searchsorted(self._buf_t[order], self.time_s - delay_s + 1e-9, side="right") - 1
+        return order[np.clip(k, 0, length - 1)]
+
+    def _delayed_p(self, slot: np.ndarray) -> np.ndarray:
+        """(N, 3) corrected position buffered at ``slot``."""
+        return self._buf_p[slot, self._idx] + self._corr_p
+
+    def _delayed_v(self, slot: np.ndarray) -> np.ndarray:
+        """(N, 3) corrected velocity buffered at ``slot``."""
+        return self._buf_v[slot, self._idx] + self._corr_v
+
+    # -- attitude -------------------------------------------------------------------------------
     def align_heading(self, accel_frd: np.ndarray, mag_frd: np.ndarray, mask: np.ndarray) -> None:
         """Initial alignment (roll/pitch from gravity, yaw from the magnetometer)."""
         if not mask.any():
             return
-        a = accel_frd[mask]
+        a = accel_frd[mask] - self.accel_bias_m_s2[mask]
         roll = np.arctan2(-a[:, 1], -a[:, 2])
         pitch = np.arctan2(a[:, 0], np.hypot(a[:, 1], a[:, 2]))
         zeros = np.zeros_like(roll)
         tilt = quat.to_rotation_matrix(quat.from_euler(np.stack((roll, pitch, zeros), axis=1)))
         m_h = np.einsum("nij,nj->ni", tilt, mag_frd[mask])
-        yaw = quat.wrap_pi(self._decl_rad[mask] - np.arctan2(m_h[:, 1], m_h[:, 0]))
+        yaw = quat.wrap_pi(self.params.mag_decl_rad[mask] - np.arctan2(m_h[:, 1], m_h[:, 0]))
         self.q[mask] = quat.from_euler(np.stack((roll, pitch, yaw), axis=1))
-        self.r = quat.to_rotation_matrix(self.q)
+        self._r_stale = True
+        self._buf_q[:, mask] = self.q[mask]
         self.attitude_ok[mask] = True
 
-    def update_baro(self, pressure_alt_m: np.ndarray, mask: np.ndarray) -> None:
-        """Height correction from the barometer (vehicles with an origin only)."""
-        use = mask & self.origin_set
+    def _yaw_row(self) -> np.ndarray:
+        """(N, 15) derivative of the ZYX yaw with respect to the NED rotation error."""
+        c0 = self.r[:, :, 0]
+        h2 = np.maximum(c0[:, 0] ** 2 + c0[:, 1] ** 2, 1e-6)
+        h = np.zeros((self.n, _K))
+        h[:, _TH] = -c0[:, 0] * c0[:, 2] / h2
+        h[:, _TH + 1] = -c0[:, 1] * c0[:, 2] / h2
+        h[:, _TH + 2] = 1.0
+        return h
+
+    def update_mag(self, mag_frd: np.ndarray, mask: np.ndarray) -> None:
+        """Magnetic heading fusion with EKF2_HEAD_NOISE (or EKF2_MAG_NOISE's heading equivalent)."""
+        use = mask & self.attitude_ok
         if not use.any():
             return
-        z = -(pressure_alt_m - self.baro_offset_m - self.origin_lla[:, 2])
-        k = self._v_gain.gain(_H_POS, self._r_baro)
-        xv = self._x[:, 2 * self.n :]
-        innov = np.where(use, z - xv[0], 0.0)
-        xv += k @ innov[None, :]
+        prm = self.params
+        m_ned = np.einsum("nij,nj->ni", self.r, mag_frd)
+        m_h = np.maximum(np.hypot(m_ned[:, 0], m_ned[:, 1]), 1e-6)
+        innov = quat.wrap_pi(prm.mag_decl_rad - np.arctan2(m_ned[:, 1], m_ned[:, 0]))
+        var = np.maximum(prm.head_noise_rad, prm.mag_noise_gauss / m_h) ** 2
+        h = self._yaw_row()
+        s = np.einsum("ni,nij,nj->n", h, self.P, h) + var
+        ratio = innov * innov / (prm.hdg_gate**2 * s)
+        self.mag_ratio = np.where(use, np.sqrt(ratio), self.mag_ratio)
+        ok = use & (ratio <= 1.0)
+        self.mag_seen_s[use] = self.time_s
+        self.mag_accepted_s[ok] = self.time_s
+        self._fuse_row(h, innov, var, ok)
 
+    # -- height ---------------------------------------------------------------------------------
+    def update_baro(self, pressure_alt_m: np.ndarray, mask: np.ndarray) -> None:
+        """Barometric height fusion, gated by EKF2_BARO_GATE.
+
+        Before an origin the barometer is referenced to the height estimate at its first sample
+        (a GNSS-denied vehicle still holds height on it); the first GNSS fix re-references it
+        to the fix's altitude.
+        """
+        new = mask & ~self.origin_set & ~self._baro_ref & self.attitude_ok
+        if new.any():
+            self.baro_offset_m[new] = pressure_alt_m[new] + self.position_ned_m[new, 2]
+            self._baro_ref |= new
+            self.height_aided_s[new] = self.time_s
+        use = mask & (self.origin_set | self._baro_ref)
+        if not use.any():
+            return
+        prm = self.params
+        z = -(pressure_alt_m - self.baro_offset_m - self.origin_lla[:, 2])
+        innov = z - self.position_ned_m[:, 2]
+        var = prm.baro_noise_m**2
+        ratio = self._test_ratio(_POS + 2, innov, var, prm.baro_gate)
+        self.pos_vert_ratio = np.where(use, np.sqrt(ratio), self.pos_vert_ratio)
+        ok = use & (ratio <= 1.0)
+        stale = use & ~ok & (self.time_s - self.height_aided_s > self.config.reset_timeout_s)
+        if stale.any():  # rejected too long: reset the height to the barometer (EKF2)
+            self._corr_p[stale, 2] += z[stale] - self.position_ned_m[stale, 2]
+            self.position_ned_m[stale, 2] = z[stale]
+            self.P[stale, _POS + 2, :] = 0.0
+            self.P[stale, :, _POS + 2] = 0.0
+            self.P[stale, _POS + 2, _POS + 2] = var[stale]
+        self._fuse_axis(_POS + 2, innov, var, ok)
+        self.height_aided_s[ok | stale] = self.time_s
+
+    # -- GNSS -----------------------------------------------------------------------------------
     def update_gps(
         self,
         ned_m: np.ndarray,
@@ -225,48 +475,228 @@ class FleetEstimator:
         fix_type: np.ndarray,
         lla: np.ndarray,
         pressure_alt_m: np.ndarray,
+        eph_m: np.ndarray | None = None,
+        epv_m: np.ndarray | None = None,
+        satellites: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Fuse a GPS sample; returns the mask of vehicles whose origin was set just now.
+        """Fuse a GNSS sample taken EKF2_GPS_DELAY ago; return the mask of new origins.
 
-        ``ned_m`` must be the fix expressed in each vehicle's NED frame (callers convert with
-        the origin; for vehicles without an origin it is ignored). ``lla`` is (N, 3)
-        latitude/longitude (deg) and AMSL altitude (m) of the fix.
+        ``ned_m`` is the fix in each vehicle's NED frame (callers convert with the origin; for
+        vehicles without an origin it is ignored); ``lla`` is (N, 3) latitude/longitude (deg)
+        and AMSL altitude (m). ``eph_m``/``epv_m`` (HIL_GPS accuracies) and ``satellites``
+        enter EKF2's GNSS checks (EKF2_REQ_EPH, EKF2_REQ_EPV, EKF2_REQ_NSATS) and the position
+        noise, max(EKF2_GPS_P_NOISE, eph) as EKF2 (capped at EKF2_NOAID_NOISE while GNSS is the
+        only aiding source, so it keeps constraining the attitude).
         """
-        n = self.n
+        n, prm, cfg = self.n, self.params, self.config
+        eph = np.zeros(n) if eph_m is None else eph_m
+        epv = np.zeros(n) if epv_m is None else epv_m
+        sats = np.full(n, 99.0) if satellites is None else satellites
         self.gps_fix_type = fix_type.astype(int)
-        good = fix_type >= 3
-        self.gps_time_s[good] = self.time_s
-        new_origin = good & ~self.origin_set & self.attitude_ok
-        x = self._x
+        checks = (
+            (fix_type >= 3)
+            & (sats >= prm.req_nsats)
+            & (eph <= prm.req_eph_m)
+            & (epv <= prm.req_epv_m)
+            & np.isfinite(ned_m).all(axis=1)
+        )
+        self.gps_checks_ok = checks
+        self.gps_time_s[checks] = self.time_s
+        new_origin = checks & ~self.origin_set & self.attitude_ok
         if new_origin.any():
-            self.origin_lla[new_origin] = lla[new_origin]
-            self.baro_offset_m[new_origin] = pressure_alt_m[new_origin] - lla[new_origin, 2]
-            self.origin_set |= new_origin
-            self.first_fix_s[new_origin] = self.time_s
-            idx = np.nonzero(new_origin)[0]
-            for axis in range(3):
-                x[0, axis * n + idx] = 0.0
-                x[1, axis * n + idx] = vel_ned_m_s[idx, axis]
-        use = good & self.origin_set & ~new_origin
+            self._set_origin(new_origin, lla, vel_ned_m_s, pressure_alt_m, eph)
+        use = checks & self.origin_set & ~new_origin
         if not use.any():
+            self.gps_glitch[:] = False
             return new_origin
-        kh = self._h_gain.gain(_H_POS_VEL, self._r_gps_h)
-        kv = self._v_gain.gain(_H_POS_VEL, self._r_gps_v)
-        z = np.stack((ned_m.T.reshape(-1), vel_ned_m_s.T.reshape(-1)))
-        innov = (z - x) * np.tile(use, 3)
-        x[:, : 2 * n] += kh @ innov[:, : 2 * n]
-        x[:, 2 * n :] += kv @ innov[:, 2 * n :]
+        slot = self._delayed_slot(prm.gps_delay_s)
+        other_aiding = (self.time_s - self.ev_fused_s) <= prm.noaid_tout_s
+        cap = np.where(other_aiding, np.inf, np.maximum(prm.noaid_noise_m, prm.gps_p_noise_m))
+        pos_var = np.minimum(np.maximum(prm.gps_p_noise_m, eph), cap) ** 2
+        vel_var = prm.gps_v_noise_m_s**2
+        innov_v = vel_ned_m_s - self._delayed_v(slot)
+        innov_p = ned_m[:, :2] - self._delayed_p(slot)[:, :2]
+        ratio_v = np.max(
+            [self._test_ratio(_VEL + k, innov_v[:, k], vel_var, prm.gps_v_gate) for k in range(3)],
+            axis=0,
+        )
+        ratio_p = np.max(
+            [self._test_ratio(_POS + k, innov_p[:, k], pos_var, prm.gps_p_gate) for k in range(2)],
+            axis=0,
+        )
+        self.vel_ratio = np.where(use, np.sqrt(ratio_v), self.vel_ratio)
+        self.pos_horiz_ratio = np.where(use, np.sqrt(ratio_p), self.pos_horiz_ratio)
+        ok_v = use & (ratio_v <= 1.0)
+        ok_p = use & (ratio_p <= 1.0)
+        self.gps_glitch = use & ~ok_p
+        # Rejected for longer than the reset timeout: reset to GNSS (delay-compensated), as EKF2.
+        stale = use & ~ok_p & (self.time_s - self.gps_fused_s > cfg.reset_timeout_s)
+        if stale.any():
+            shift = self.position_ned_m - self._delayed_p(slot)
+            target = self.position_ned_m.copy()
+            target[:, :2] = ned_m[:, :2] + shift[:, :2]
+            self._reset_horizontal(stale, target, pos_var)
+            vshift = self.velocity_ned_m_s - self._delayed_v(slot)
+            self._reset_block(_VEL, vel_ned_m_s + vshift, vel_var, stale)
+        for k in range(3):
+            innov = vel_ned_m_s[:, k] - self._delayed_v(slot)[:, k]
+            self._fuse_axis(_VEL + k, innov, vel_var, ok_v)
+        for k in range(2):
+            innov = ned_m[:, k] - self._delayed_p(slot)[:, k]
+            self._fuse_axis(_POS + k, innov, pos_var, ok_p)
+        aided = ok_p | stale
+        self.gps_fused_s[aided] = self.time_s
+        self._mark_aided(aided)
         return new_origin
 
-    # -- internals ---------------------------------------------------------------------------
-    def update_acceleration(self, dt_s: float) -> None:
-        """Refresh the NED-acceleration estimate (navigation rate is enough for its 0.3 s LPF)."""
-        vel = self.velocity_ned_m_s
-        deriv = (vel - self._last_vel) * (1.0 / dt_s)
-        self._last_vel = vel.copy()
-        alpha = dt_s / (self.config.accel_lpf_tau_s + dt_s)
-        deriv = np.minimum(np.maximum(deriv, -30.0), 30.0)
-        self.accel_ned_m_s2 += alpha * (deriv - self.accel_ned_m_s2)
-        # Without a position fix there is nothing to compensate with.
-        if not self.origin_set.all():
-            self.accel_ned_m_s2[~self.origin_set] = 0.0
+    def _set_origin(
+        self,
+        mask: np.ndarray,
+        lla: np.ndarray,
+        vel_ned_m_s: np.ndarray,
+        pressure_alt_m: np.ndarray,
+        eph_m: np.ndarray,
+    ) -> None:
+        """The first good fix sets the EKF origin.
+
+        Without earlier aiding the position restarts at zero and the velocity from GNSS. A vehicle
+        already navigating on another source (external vision) keeps its local frame: the origin
+        is placed so that its current position maps to the fix (EKF2 keeps the local position
+        when it sets the origin).
+        """
+        aided = mask & np.isfinite(self.first_aiding_s)
+        fresh = mask & ~aided
+        p = self.position_ned_m
+        origin = lla.copy()
+        m_per_deg = geodesy.metres_per_degree(lla)
+        origin[:, 0] -= p[:, 0] / m_per_deg[:, 0]
+        origin[:, 1] -= p[:, 1] / m_per_deg[:, 1]
+        origin[:, 2] += p[:, 2]
+        origin = np.where(fresh[:, None], lla, origin)
+        self.origin_lla[mask] = origin[mask]
+        down = np.where(fresh, 0.0, p[:, 2])
+        self.baro_offset_m[mask] = (pressure_alt_m - origin[:, 2] + down)[mask]
+        self._baro_ref |= mask
+        self.origin_set |= mask
+        self.first_fix_s[mask] = self.time_s
+        var = np.maximum(self.params.gps_p_noise_m, eph_m) ** 2
+        self._reset_horizontal(fresh, np.zeros((self.n, 3)), var)
+        self._reset_block(_VEL, vel_ned_m_s, self.params.gps_v_noise_m_s**2, fresh)
+        self.height_aided_s[mask] = self.time_s
+        self.gps_fused_s[mask] = self.time_s
+        self._mark_aided(mask)
+
+    def _reset_horizontal(self, mask: np.ndarray, target: np.ndarray, var: np.ndarray) -> None:
+        """Reset the position to ``target`` (all three axes) with variance ``var``."""
+        self._reset_block(_POS, target, np.broadcast_to(var, (self.n,)), mask)
+
+    def _mark_aided(self, mask: np.ndarray) -> None:
+        self.hpos_aided_s[mask] = self.time_s
+        first = mask & ~np.isfinite(self.first_aiding_s)
+        self.first_aiding_s[first] = self.time_s
+        self.const_pos_mode[mask] = False
+
+    def _fuse_fake_position(self) -> None:
+        """Hold a fake position while nothing aids the horizontal position (EKF2 fake pos).
+
+        Before any aiding (preflight) its noise is 0.5 m, which is what levels the filter on the
+        ground; after a loss of aiding it is EKF2_NOAID_NOISE. Without a height source the
+        height is held the same way.
+        """
+        prm = self.params
+        no_aid = self.attitude_ok & ((self.time_s - self.hpos_aided_s) > prm.noaid_tout_s)
+        entering = no_aid & ~self.const_pos_mode
+        self._fake_hold[entering] = self.position_ned_m[entering]
+        self.const_pos_mode = no_aid | (self.const_pos_mode & ~self.attitude_ok)
+        if not no_aid.any():
+            return
+        never = ~np.isfinite(self.first_aiding_s)
+        std = np.where(never, self.config.preflight_fake_position_std_m, prm.noaid_noise_m)
+        var = std * std
+        no_height = no_aid & ((self.time_s - self.height_aided_s) > prm.noaid_tout_s)
+        for k, mask in ((0, no_aid), (1, no_aid), (2, no_height)):
+            innov = self._fake_hold[:, k] - self.position_ned_m[:, k]
+            self._fuse_axis(_POS + k, innov, var, mask)
+
+    # -- external vision ------------------------------------------------------------------------
+    def update_vision(
+        self,
+        mask: np.ndarray,
+        position_ned_m: np.ndarray,
+        position_var_m2: np.ndarray,
+        yaw_rad: np.ndarray,
+        yaw_var_rad2: np.ndarray,
+        velocity_ned_m_s: np.ndarray,
+        velocity_var_m2_s2: np.ndarray,
+        age_s: np.ndarray | float = 0.0,
+    ) -> None:
+        """Fuse external-vision samples taken ``age_s`` + EKF2_EV_DELAY ago under EKF2_EV_CTRL.
+
+        All arrays are (N, ...) with ``mask`` selecting the vehicles that have a sample; NaN
+        entries (no yaw, no velocity) are not fused. Noise is max(reported, EKF2_EV*_NOISE);
+        the gate EKF2_EV_GATE. The vision frame is taken as the vehicle's local NED frame.
+        """
+        prm = self.params
+        ctrl = prm.ev_ctrl
+        use = mask & self.attitude_ok
+        if not use.any():
+            return
+        slot = self._delayed_slot(prm.ev_delay_s + age_s)
+        gate = prm.ev_gate
+        # Reported variances with EKF2_EV*_NOISE as the floor (fmax: NaN, unknown, gives the floor).
+        pos_var = np.fmax(position_var_m2, (prm.evp_noise_m**2)[:, None])
+        horiz = use & ((ctrl & EV_HORIZONTAL_POSITION) != 0)
+        horiz &= np.isfinite(position_ned_m[:, :2]).all(axis=1)
+        if horiz.any():
+            innov = position_ned_m[:, :2] - self._delayed_p(slot)[:, :2]
+            ratio = np.maximum(
+                self._test_ratio(_POS, innov[:, 0], pos_var[:, 0], gate),
+                self._test_ratio(_POS + 1, innov[:, 1], pos_var[:, 1], gate),
+            )
+            self.pos_horiz_ratio = np.where(horiz, np.sqrt(ratio), self.pos_horiz_ratio)
+            ok = horiz & (ratio <= 1.0)
+            stale = horiz & ~ok & (self.time_s - self.ev_fused_s > self.config.reset_timeout_s)
+            stale |= horiz & ~np.isfinite(self.first_aiding_s)  # first sample: start there
+            if stale.any():
+                shift = self.position_ned_m - self._delayed_p(slot)
+                target = self.position_ned_m.copy()
+                target[:, :2] = position_ned_m[:, :2] + shift[:, :2]
+                self._reset_horizontal(stale, target, pos_var[:, 0])
+                ok &= ~stale
+            for k in range(2):
+                innov_k = position_ned_m[:, k] - self._delayed_p(slot)[:, k]
+                self._fuse_axis(_POS + k, innov_k, pos_var[:, k], ok)
+            self.ev_fused_s[ok | stale] = self.time_s
+            self._mark_aided(ok | stale)
+        vert = use & ((ctrl & EV_VERTICAL_POSITION) != 0) & np.isfinite(position_ned_m[:, 2])
+        if vert.any():
+            innov = position_ned_m[:, 2] - self._delayed_p(slot)[:, 2]
+            ratio = self._test_ratio(_POS + 2, innov, pos_var[:, 2], gate)
+            self.pos_vert_ratio = np.where(vert, np.sqrt(ratio), self.pos_vert_ratio)
+            ok = vert & (ratio <= 1.0)
+            self._fuse_axis(_POS + 2, innov, pos_var[:, 2], ok)
+            self.height_aided_s[ok] = self.time_s
+        vel = use & ((ctrl & EV_VELOCITY) != 0) & np.isfinite(velocity_ned_m_s).all(axis=1)
+        if vel.any():
+            vel_var = np.fmax(velocity_var_m2_s2, (prm.evv_noise_m_s**2)[:, None])
+            innov = velocity_ned_m_s - self._delayed_v(slot)
+            ratio = np.max(
+                [self._test_ratio(_VEL + k, innov[:, k], vel_var[:, k], gate) for k in range(3)],
+                axis=0,
+            )
+            self.vel_ratio = np.where(vel, np.sqrt(ratio), self.vel_ratio)
+            ok = vel & (ratio <= 1.0)
+            for k in range(3):
+                innov_k = velocity_ned_m_s[:, k] - self._delayed_v(slot)[:, k]
+                self._fuse_axis(_VEL + k, innov_k, vel_var[:, k], ok)
+        yaw = use & ((ctrl & EV_YAW) != 0) & np.isfinite(yaw_rad)
+        if yaw.any():
+            r_d = quat.to_rotation_matrix(self._buf_q[slot, self._idx])
+            yaw_d = quat.yaw_of(r_d) + self._corr_yaw - self._buf_corr_yaw[slot, self._idx]
+            innov = quat.wrap_pi(np.nan_to_num(yaw_rad) - yaw_d)
+            var = np.fmax(yaw_var_rad2, prm.eva_noise_rad**2)
+            h = self._yaw_row()
+            s = np.einsum("ni,nij,nj->n", h, self.P, h) + var
+            ratio = innov * innov / (gate * gate * s)
+            ok = yaw & (ratio <= 1.0)
+            self._fuse_row(h, innov, var, ok)

@@ -44,7 +44,11 @@ _PRESSURE_ALT_BIT = 0x800
 _ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
 _CUSTOM_FLAG = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 _FAILURE_UNIT_GPS = mavlink2.FAILURE_UNIT_SENSOR_GPS
+_FAILURE_UNIT_MAG = mavlink2.FAILURE_UNIT_SENSOR_MAG
 _FAILURE_OK, _FAILURE_OFF = mavlink2.FAILURE_TYPE_OK, mavlink2.FAILURE_TYPE_OFF
+_FAILURE_WRONG = mavlink2.FAILURE_TYPE_WRONG
+_MAG_WRONG = np.array([-1.0, -1.0, 1.0])
+"""A WRONG magnetometer reads its x and y axes reversed (mounted 180 deg off in yaw)."""
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,8 @@ class AutopilotFleet:
         self.last_gps: list[mavlink2.MAVLink_hil_gps_message | None] = [None] * n
         self.gps_failed = np.zeros(n, dtype=bool)
         """GPS switched off by MAV_CMD_INJECT_FAILURE: its samples are dropped."""
+        self.mag_failure = np.full(n, _FAILURE_OK)
+        """MAV_CMD_INJECT_FAILURE type of each magnetometer (OK, OFF or WRONG)."""
         self._sp = PositionSetpoint.hold(n)
         self._ctrl_sp = PositionSetpoint.hold(n)
         self._nav_period_s = 1.0 / config.nav_hz
@@ -163,6 +169,10 @@ class AutopilotFleet:
         flags = raw[:, 10].astype(np.int64)
         acc, gyro, mag = raw[:, 0:3], raw[:, 3:6], raw[:, 6:9]
         has_mag = (flags & _MAG_BITS) != 0
+        if (self.mag_failure != _FAILURE_OK).any():
+            has_mag &= self.mag_failure != _FAILURE_OFF
+            wrong = self.mag_failure == _FAILURE_WRONG
+            mag = np.where(wrong[:, None], mag * _MAG_WRONG, mag)
         if not est.attitude_ok.all():
             est.align_heading(acc, mag, has_mag & ~est.attitude_ok)
         est.update_mag(mag, has_mag)
@@ -186,7 +196,22 @@ class AutopilotFleet:
         """Consume one HIL_GPS per vehicle."""
         est = self.estimator
         g = np.array(
-            [(m.lat, m.lon, m.alt, m.vn, m.ve, m.vd, m.fix_type) for m in msgs], dtype=float
+            [
+                (
+                    m.lat,
+                    m.lon,
+                    m.alt,
+                    m.vn,
+                    m.ve,
+                    m.vd,
+                    m.fix_type,
+                    m.eph,
+                    m.epv,
+                    m.satellites_visible,
+                )
+                for m in msgs
+            ],
+            dtype=float,
         )
         if self.gps_failed.any():
             g[self.gps_failed, 6] = 0  # no fix: the estimator ignores the sample
@@ -195,7 +220,12 @@ class AutopilotFleet:
         lla = np.stack((g[:, 0] * 1e-7, g[:, 1] * 1e-7, g[:, 2] * 1e-3), axis=1)
         vel = g[:, 3:6] * 0.01
         ned = geodesy.geodetic_to_ned(lla, est.origin_lla)
-        if est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m).any():
+        # HIL_GPS eph/epv are cm (UINT16_MAX: unknown -> not usable); satellites 255: unknown.
+        eph = np.where(g[:, 7] >= 65535, np.inf, g[:, 7] * 0.01)
+        epv = np.where(g[:, 8] >= 65535, np.inf, g[:, 8] * 0.01)
+        sats = np.where(g[:, 9] >= 255, 0.0, g[:, 9])
+        new_origin = est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m, eph, epv, sats)
+        if new_origin.any():
             self.metres_per_degree = geodesy.metres_per_degree(est.origin_lla)
 
     # -- loops ------------------------------------------------------------------------------------
@@ -373,6 +403,7 @@ class AutopilotFleet:
     def _refresh_gains(self) -> _Gains:
         versions = tuple(p.version for p in self.params)
         if versions != self._param_versions or self._gains is None:
+            self.estimator.set_params(self.params)
             self._gains = _Gains.from_params(self.params)
             self._param_versions = versions
             self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
@@ -413,6 +444,46 @@ class AutopilotFleet:
             self.active[i] = False
             self.outputs[i] = 0.0
             self.thrust[i] = 0.0
+
+    def handle_vision(
+        self,
+        index: int,
+        time_usec: int,
+        position_ned_m: np.ndarray,
+        position_var_m2: np.ndarray,
+        yaw_rad: float,
+        yaw_var_rad2: float,
+        velocity_ned_m_s: np.ndarray | None = None,
+        velocity_var_m2_s2: np.ndarray | None = None,
+    ) -> None:
+        """Fuse one external-vision sample of vehicle ``index`` (EKF2_EV_CTRL selects the parts).
+
+        Position NED (m) in the vehicle's local frame with per-axis variances (m²); yaw (rad, NaN:
+        none) and its variance; velocity NED (m/s) or None. ``time_usec`` is when the sample was
+        taken on the autopilot's clock: its age (0 to 0.5 s; outside that taken as 0) adds to
+        EKF2_EV_DELAY.
+        """
+        n = self.n
+        mask = np.zeros(n, dtype=bool)
+        mask[index] = True
+        pos = np.full((n, 3), np.nan)
+        pos[index] = position_ned_m
+        pos_var = np.full((n, 3), np.inf)
+        pos_var[index] = position_var_m2
+        yaw = np.full(n, np.nan)
+        yaw[index] = yaw_rad
+        yaw_var = np.full(n, np.inf)
+        yaw_var[index] = yaw_var_rad2
+        vel = np.full((n, 3), np.nan)
+        vel_var = np.zeros((n, 3))
+        if velocity_ned_m_s is not None:
+            vel[index] = velocity_ned_m_s
+            if velocity_var_m2_s2 is not None:
+                vel_var[index] = velocity_var_m2_s2
+        age = (self.time_usec - int(time_usec)) * 1e-6
+        if not 0.0 <= age <= 0.5:
+            age = 0.0
+        self.estimator.update_vision(mask, pos, pos_var, yaw, yaw_var, vel, vel_var, age)
 
 
 def _hover_thrust_params(params: list[ParamStore]) -> HoverThrustParams:
@@ -519,7 +590,15 @@ class FleetVehicle:
 
     # -- commands ----------------------------------------------------------------------------
     def arm(self, force: bool) -> int:
-        """Arm (see Commander.arm)."""
+        """Arm (see Commander.arm), after the estimator's preflight heading check."""
+        est = self.fleet.estimator
+        if not force and not self.commander.armed and est.heading_failure[self.index]:
+            # PX4's estimator check (pre_flt_fail_innov_heading): magnetometer data keep
+            # failing the heading innovation gate.
+            self.commander.status_texts.append(
+                (mavlink2.MAV_SEVERITY_CRITICAL, "Preflight Fail: heading estimate not stable")
+            )
+            return mavlink2.MAV_RESULT_DENIED
         return self._sync(self.commander.arm(force))
 
     def disarm(self, force: bool) -> int:
@@ -635,9 +714,22 @@ class FleetVehicle:
         )
 
     def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
-        """GPS off / back on (PX4's failure injection; needs SYS_FAILURE_EN = 1)."""
+        """GPS off / on, magnetometer off / wrong / ok (PX4's failure injection; SYS_FAILURE_EN)."""
         if int(self.params.get("SYS_FAILURE_EN")) != 1:
             return mavlink2.MAV_RESULT_DENIED
+        if unit == _FAILURE_UNIT_MAG and failure_type in (
+            _FAILURE_OK,
+            _FAILURE_OFF,
+            _FAILURE_WRONG,
+        ):
+            self.fleet.mag_failure[self.index] = failure_type
+            text = {
+                _FAILURE_OK: "Mag ok",
+                _FAILURE_OFF: "Failure injected: Mag off",
+                _FAILURE_WRONG: "Failure injected: Mag wrong",
+            }
+            self.commander.status_texts.append((mavlink2.MAV_SEVERITY_WARNING, text[failure_type]))
+            return mavlink2.MAV_RESULT_ACCEPTED
         if unit != _FAILURE_UNIT_GPS or failure_type not in (_FAILURE_OK, _FAILURE_OFF):
             return mavlink2.MAV_RESULT_UNSUPPORTED
         failed = failure_type == _FAILURE_OFF

@@ -44,16 +44,15 @@ SENSORS = (
 """SYS_STATUS sensors the emulated vehicle has (present, enabled, healthy when all is well)."""
 _NOT_READY = mavlink2.MAV_SYS_STATUS_SENSOR_GPS | mavlink2.MAV_SYS_STATUS_PREARM_CHECK
 _GEOFENCE = mavlink2.MAV_SYS_STATUS_GEOFENCE
-_POSITION_FLAGS = (
+_LOCAL_FLAGS = (
     mavlink2.ESTIMATOR_VELOCITY_HORIZ
     | mavlink2.ESTIMATOR_VELOCITY_VERT
     | mavlink2.ESTIMATOR_POS_HORIZ_REL
-    | mavlink2.ESTIMATOR_POS_HORIZ_ABS
-    | mavlink2.ESTIMATOR_POS_VERT_ABS
     | mavlink2.ESTIMATOR_PRED_POS_HORIZ_REL
-    | mavlink2.ESTIMATOR_PRED_POS_HORIZ_ABS
 )
-"""ESTIMATOR_STATUS flags of a trusted position solution (GPS-aided, baro height)."""
+"""ESTIMATOR_STATUS flags of a valid local position (GNSS- or vision-aided)."""
+_GLOBAL_FLAGS = mavlink2.ESTIMATOR_POS_HORIZ_ABS | mavlink2.ESTIMATOR_PRED_POS_HORIZ_ABS
+"""Added when the position is also global (GNSS-aided, with an origin)."""
 _NAN3 = (math.nan, math.nan, math.nan)
 _NO_GPS = dict(
     gps_fix_type=0,
@@ -74,8 +73,7 @@ class FleetTelemetry:
         self._fleet = fleet
         self._key: tuple[object, ...] | None = None
         self._rows: list[list[float]] = []
-        self._flags: list[tuple[bool, bool, bool]] = []
-        self._variances = (math.nan, math.nan, math.nan, math.nan)
+        self._flags: list[tuple[bool, ...]] = []
 
     def _refresh(self) -> None:
         """Read the fleet's arrays into per-vehicle rows, once per instant of simulation time."""
@@ -104,6 +102,12 @@ class FleetTelemetry:
                 est.origin_lla,  # 34:37
                 f.metres_per_degree,  # 37:39
                 est.first_fix_s[:, None],  # 39
+                est.position_variance_m2,  # 40:43
+                est.velocity_variance_m2_s2,  # 43:46
+                est.vel_ratio[:, None],  # 46
+                est.pos_horiz_ratio[:, None],  # 47
+                est.pos_vert_ratio[:, None],  # 48
+                est.mag_ratio[:, None],  # 49
             ),
             axis=1,
         ).tolist()
@@ -112,10 +116,14 @@ class FleetTelemetry:
                 est.position_ok.tolist(),
                 est.attitude_ok.tolist(),
                 est.origin_set.tolist(),
+                est.global_position_ok.tolist(),
+                (est.time_s - est.height_aided_s <= est.params.noaid_tout_s).tolist(),
+                est.const_pos_mode.tolist(),
+                est.gps_glitch.tolist(),
+                est.heading_failure.tolist(),
                 strict=True,
             )
         )
-        self._variances = est.variances
         self._key = key
 
     def snapshot(self, i: int) -> TelemetrySnapshot:
@@ -124,7 +132,9 @@ class FleetTelemetry:
         f = self._fleet
         cmd = f.commanders[i]
         row = self._rows[i]
-        pos_ok, att_ok, origin_ok = self._flags[i]
+        pos_ok, att_ok, origin_ok, global_ok, height_ok, const_pos, glitch, hdg_fail = self._flags[
+            i
+        ]
         n, e, d = row[0:3]
         o_lat, o_lon, o_alt, m_lat, m_lon = row[34:39]
         if origin_ok:
@@ -142,8 +152,14 @@ class FleetTelemetry:
         health = SENSORS
         if not pos_ok:
             health &= ~_NOT_READY
+        if not global_ok:
+            health &= ~mavlink2.MAV_SYS_STATUS_SENSOR_GPS
         if not att_ok:
             health &= ~mavlink2.MAV_SYS_STATUS_AHRS
+        if hdg_fail:  # the magnetometer fails its innovation gate: mag and prearm unhealthy
+            health &= ~(
+                mavlink2.MAV_SYS_STATUS_SENSOR_3D_MAG | mavlink2.MAV_SYS_STATUS_PREARM_CHECK
+            )
         # Geofence as MAVProxy reads it: healthy unless breached; present only when configured.
         present = SENSORS | (_GEOFENCE if cmd.fence_enabled else 0)
         if not cmd.fence_breached:
@@ -170,16 +186,27 @@ class FleetTelemetry:
         flags = 0
         if att_ok:
             flags |= mavlink2.ESTIMATOR_ATTITUDE
-            flags |= _POSITION_FLAGS if pos_ok else mavlink2.ESTIMATOR_CONST_POS_MODE
-        var_h, var_v, var_vh, var_vv = self._variances
+            if pos_ok:
+                flags |= _LOCAL_FLAGS | (_GLOBAL_FLAGS if global_ok else 0)
+            if height_ok:
+                flags |= mavlink2.ESTIMATOR_POS_VERT_ABS
+            if const_pos:
+                flags |= mavlink2.ESTIMATOR_CONST_POS_MODE
+        if glitch:
+            flags |= mavlink2.ESTIMATOR_GPS_GLITCH
+        var_n, var_e, var_d = row[40:43]
         estimator = EstimatorSnapshot(
             flags=flags,
-            pos_horiz_accuracy_m=math.sqrt(2.0 * var_h),
-            pos_vert_accuracy_m=math.sqrt(var_v),
-            position_variance_m2=(var_h, var_h, var_v),
-            velocity_variance_m2_s2=(var_vh, var_vh, var_vv),
+            pos_horiz_accuracy_m=math.sqrt(var_n + var_e),
+            pos_vert_accuracy_m=math.sqrt(var_d),
+            position_variance_m2=(var_n, var_e, var_d),
+            velocity_variance_m2_s2=tuple(row[43:46]),
             origin_lla=(o_lat, o_lon, o_alt) if origin_ok else None,
             origin_time_usec=round(row[39] * 1e6) if origin_ok else 0,
+            vel_ratio=row[46],
+            pos_horiz_ratio=row[47],
+            pos_vert_ratio=row[48],
+            mag_ratio=row[49],
         )
         gps = f.last_gps[i]
         gps_fields = _NO_GPS if gps is None else _gps_fields(gps)

@@ -532,10 +532,10 @@ def position_target_global_int(
 
 
 def estimator_status(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
-    """ESTIMATOR_STATUS (230): solution flags and position accuracy.
+    """ESTIMATOR_STATUS (230): solution flags, innovation test ratios and position accuracy.
 
-    The innovation test ratios are 0: the emulated filters gate no measurement (a ratio >= 1
-    would mean "rejected").
+    Test ratios as PX4's EKF2 reports them, sqrt(innovation² / (gate² x innovation variance)) of
+    the last sample of each source: above 1 the sample was rejected by its gate.
     """
     est = snapshot.estimator
     if est is None:
@@ -543,10 +543,10 @@ def estimator_status(snapshot: TelemetrySnapshot, context: MessageContext) -> Me
     return mavlink2.MAVLink_estimator_status_message(
         time_usec=snapshot.time_usec,
         flags=est.flags & 0xFFFF,
-        vel_ratio=0.0,
-        pos_horiz_ratio=0.0,
-        pos_vert_ratio=0.0,
-        mag_ratio=0.0,
+        vel_ratio=est.vel_ratio,
+        pos_horiz_ratio=est.pos_horiz_ratio,
+        pos_vert_ratio=est.pos_vert_ratio,
+        mag_ratio=est.mag_ratio,
         hagl_ratio=0.0,
         tas_ratio=0.0,
         pos_horiz_accuracy=est.pos_horiz_accuracy_m,

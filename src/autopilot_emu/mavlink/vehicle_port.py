@@ -100,6 +100,14 @@ class EstimatorSnapshot:
     until the first good fix."""
     origin_time_usec: int
     """When the origin was set, microseconds since boot (0: not set)."""
+    vel_ratio: float = 0.0
+    """Velocity innovation test ratio, sqrt(innov² / (gate² S)): above 1 the sample is rejected."""
+    pos_horiz_ratio: float = 0.0
+    """Horizontal position innovation test ratio."""
+    pos_vert_ratio: float = 0.0
+    """Vertical position (height) innovation test ratio."""
+    mag_ratio: float = 0.0
+    """Magnetic heading innovation test ratio."""
 
 
 @dataclass(slots=True)
