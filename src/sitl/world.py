@@ -14,7 +14,7 @@ import logging
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
@@ -25,7 +25,7 @@ from sitl.physics.bullet import BulletScene
 from sitl.physics.earth import magnetic_field_ned_gauss
 from sitl.physics.rotors import RotorModel
 from sitl.sensors.baro import Barometer, BaroSample
-from sitl.sensors.gps import Gps
+from sitl.sensors.gps import Gps, GpsOutages
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer
 from sitl.truth import TruthState
@@ -73,6 +73,8 @@ class WorldConfig:
     """Magnetic inclination at the origin, degrees below the horizontal."""
     mag_strength_gauss: float = 0.48
     """Strength of the Earth magnetic field at the origin, gauss."""
+    gps_outages: GpsOutages = field(default_factory=GpsOutages)
+    """When GNSS receivers lose their fix (scripted windows, random process); default never."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -156,10 +158,13 @@ class World:
         self._imu = Imu(spec.imu, n, rng)
         self._mag = Magnetometer(spec.mag, field, n, rng)
         self._baro = Barometer(spec.baro, n, rng)
-        self._gps = Gps(spec.gps, self.origin, n, rng)
+        # The receivers draw from their own stream, spawned from (not drawn from) the world's
+        # generator: their satellites, outages and errors never shift another sensor's draws.
+        self._gps = Gps(spec.gps, self.origin, n, rng.spawn(1)[0], config.gps_outages)
+        self._gps_delay_ticks = round(self._gps.delay_s * config.physics_hz)
 
         self._last_poll_tick = -1
-        self._last_tick = {"imu": -1, "mag": -1, "baro": -1, "gps": -1}
+        self._last_tick = {"imu": -1, "mag": -1, "baro": -1, "gps_measure": -1}
         self._next_mag_tick = 0
         self._next_baro_tick = 0
         # HIL_SENSOR values, body FRD: specific force, angular rate, magnetic field (views).
@@ -222,14 +227,18 @@ class World:
 
         HIL_SENSOR is due every ``physics_hz / imu_hz`` steps; it flags the magnetometer and the
         barometer when they were sampled for it (at their own rates, on the first IMU sample at or
-        after they fall due). HIL_GPS is due every ``physics_hz / gps_hz`` steps. A second call at
-        the same time returns ``(None, None)``.
+        after they fall due). HIL_GPS is due every ``physics_hz / gps_hz`` steps and carries the
+        fix measured the receiver's delay earlier (rounded to a physics step); until the first
+        such fix exists it reports no fix. A second call at the same time returns
+        ``(None, None)``. Call it after every step: a skipped step can skip a measurement.
         """
         tick = self._clock.tick
         if tick == self._last_poll_tick:
             return None, None
         self._last_poll_tick = tick
         sensors = self._sample_hil_sensor(tick) if tick % self._imu_div == 0 else None
+        if (tick + self._gps_delay_ticks) % self._gps_div == 0:
+            self._measure_gps(tick)
         gps = self._sample_hil_gps(tick) if tick % self._gps_div == 0 else None
         return sensors, gps
 
@@ -265,14 +274,14 @@ class World:
             self._clock.time_usec, self._imu_mag_frd, self._baro_sample, fields
         )
 
-    def _sample_hil_gps(self, tick: int) -> list[mavlink2.MAVLink_hil_gps_message]:
+    def _measure_gps(self, tick: int) -> None:
         scene = self._scene
-        dt = self._interval_s("gps", tick, self._gps_div)
-        fix = self._gps.sample(scene.position_enu_m, scene.velocity_enu_m_s, dt)
-        p = self._gps.params
-        return hil.hil_gps_messages(
-            self._clock.time_usec, fix, p.eph_m, p.epv_m, p.satellites_visible
-        )
+        dt = self._interval_s("gps_measure", tick, self._gps_div)
+        self._gps.measure(self._clock.time_s, scene.position_enu_m, scene.velocity_enu_m_s, dt)
+
+    def _sample_hil_gps(self, tick: int) -> list[mavlink2.MAVLink_hil_gps_message]:
+        fix = self._gps.report(self._clock.time_s, self._gps_delay_ticks * self._clock.dt_s)
+        return hil.hil_gps_messages(self._clock.time_usec, fix)
 
     # -- truth and geometry -------------------------------------------------------------------
 
