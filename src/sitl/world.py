@@ -22,7 +22,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 from sitl import frames, hil
 from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import BulletScene
-from sitl.physics.earth import magnetic_field_ned_gauss
+from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
 from sitl.physics.rotors import RotorModel
 from sitl.sensors.baro import Barometer, BaroSample
 from sitl.sensors.gps import Gps, GpsOutages
@@ -67,12 +67,15 @@ class WorldConfig:
     """Airframe name, a folder of ``sitl/vehicles``."""
     spawn_altitude_m: float | None = None
     """None: spawn resting on the ground; else height of the centre of mass above ground, m."""
-    mag_declination_deg: float = 2.6
-    """Magnetic declination at the origin, degrees east of true north."""
-    mag_inclination_deg: float = 63.4
-    """Magnetic inclination at the origin, degrees below the horizontal."""
-    mag_strength_gauss: float = 0.48
-    """Strength of the Earth magnetic field at the origin, gauss."""
+    mag_model_decimal_year: float = 2026.0
+    """Date of the world magnetic model (WMM2025, valid 2025.0-2030.0), decimal year
+    (2026.0 = 2026-01-01; see ``sitl.physics.geomagnetism.decimal_year``)."""
+    mag_declination_deg: float | None = None
+    """Magnetic declination, degrees east of true north; None: the WMM's at the origin."""
+    mag_inclination_deg: float | None = None
+    """Magnetic inclination, degrees below the horizontal; None: the WMM's at the origin."""
+    mag_strength_gauss: float | None = None
+    """Strength of the Earth magnetic field, gauss; None: the WMM's at the origin."""
     gps_outages: GpsOutages = field(default_factory=GpsOutages)
     """When GNSS receivers lose their fix (scripted windows, random process); default never."""
 
@@ -99,7 +102,7 @@ class WorldConfig:
             raise ValueError(f"origin_lon_deg out of [-180, 180]: {self.origin_lon_deg}")
         if self.spawn_altitude_m is not None and not self.spawn_altitude_m > 0.0:
             raise ValueError(f"spawn_altitude_m must be positive or None: {self.spawn_altitude_m}")
-        if not self.mag_strength_gauss > 0.0:
+        if self.mag_strength_gauss is not None and not self.mag_strength_gauss > 0.0:
             raise ValueError(f"mag_strength_gauss must be positive: {self.mag_strength_gauss}")
         known = available_airframes()
         if self.airframe not in known:
@@ -152,9 +155,9 @@ class World:
 
         # Sensor construction order fixes the order of random draws: keep it.
         rng = np.random.default_rng(config.seed)
-        field = magnetic_field_ned_gauss(
-            config.mag_declination_deg, config.mag_inclination_deg, config.mag_strength_gauss
-        )
+        self.magnetic_field = _magnetic_field(config)
+        """The Earth field at the origin the magnetometers measure (WMM unless overridden)."""
+        field = self.magnetic_field.ned_gauss()
         self._imu = Imu(spec.imu, n, rng)
         self._mag = Magnetometer(spec.mag, field, n, rng)
         self._baro = Barometer(spec.baro, n, rng)
@@ -320,6 +323,27 @@ class World:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _magnetic_field(config: WorldConfig) -> GeomagneticField:
+    """The WMM field at the origin on the configured date, with the explicit overrides applied."""
+    wmm = world_magnetic_model(
+        config.origin_lat_deg,
+        config.origin_lon_deg,
+        config.origin_alt_amsl_m,
+        config.mag_model_decimal_year,
+    )
+    return GeomagneticField(
+        declination_deg=wmm.declination_deg
+        if config.mag_declination_deg is None
+        else float(config.mag_declination_deg),
+        inclination_deg=wmm.inclination_deg
+        if config.mag_inclination_deg is None
+        else float(config.mag_inclination_deg),
+        strength_gauss=wmm.strength_gauss
+        if config.mag_strength_gauss is None
+        else float(config.mag_strength_gauss),
+    )
 
 
 def hover_actuator_message(

@@ -59,11 +59,11 @@ def test_gyro_and_accel_white_noise_match_density(at_rest):
 def test_magnetometer_reads_the_configured_field(at_rest):
     """Facing north, level: FRD field = (H cos D, H sin D, F sin I), gauss."""
     world, sensors, _ = at_rest
-    cfg = world.config
+    field = world.magnetic_field
     mag = sensor_array(sensors, 0, ("xmag", "ymag", "zmag"))
-    inc, dec = np.radians(cfg.mag_inclination_deg), np.radians(cfg.mag_declination_deg)
-    h = cfg.mag_strength_gauss * np.cos(inc)
-    expected = [h * np.cos(dec), h * np.sin(dec), cfg.mag_strength_gauss * np.sin(inc)]
+    inc, dec = np.radians(field.inclination_deg), np.radians(field.declination_deg)
+    h = field.strength_gauss * np.cos(inc)
+    expected = [h * np.cos(dec), h * np.sin(dec), field.strength_gauss * np.sin(inc)]
     assert mag.mean(axis=0) == pytest.approx(expected, abs=0.002)
 
 
