@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
-from autopilot_emu import geodesy
+from autopilot_emu import geodesy, magnetic_declination
 from autopilot_emu import quaternion as quat
 from autopilot_emu.battery import BatteryModel, FleetBattery
 from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
@@ -178,8 +178,14 @@ class AutopilotFleet:
         lla = np.stack((g[:, 0] * 1e-7, g[:, 1] * 1e-7, g[:, 2] * 1e-3), axis=1)
         vel = g[:, 3:6] * 0.01
         ned = geodesy.geodetic_to_ned(lla, est.origin_lla)
-        if est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m).any():
+        new_origin = est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m)
+        if new_origin.any():
             self.metres_per_degree = geodesy.metres_per_degree(est.origin_lla)
+            est.set_declination(  # PX4's geo lookup at the new origin (EKF2_DECL_TYPE bit 0)
+                magnetic_declination.on_new_origin(
+                    self.params, est.origin_lla, est.origin_set, new_origin
+                )
+            )
 
     # -- loops ------------------------------------------------------------------------------------
     def _navigate(self, dt: float, gains: _Gains) -> None:
@@ -272,7 +278,10 @@ class AutopilotFleet:
         if versions != self._param_versions or self._gains is None:
             self._gains = _Gains.from_params(self.params)
             self._param_versions = versions
-            self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
+            est = self.estimator
+            est.set_declination(
+                magnetic_declination.declinations_deg(self.params, est.origin_lla, est.origin_set)
+            )
             self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
         return self._gains
 
