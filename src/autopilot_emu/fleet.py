@@ -509,6 +509,26 @@ class FleetVehicle:
         )
         return mavlink2.MAV_RESULT_ACCEPTED
 
+    def vision_measurement(
+        self,
+        time_usec: int,
+        position_ned_m: np.ndarray,
+        position_var_m2: np.ndarray,
+        yaw_rad: float,
+        yaw_var_rad2: float,
+        velocity_ned_m_s: np.ndarray | None,
+    ) -> None:
+        """External vision (see VehiclePort.vision_measurement) -> the fleet's estimator."""
+        self.fleet.handle_vision(
+            self.index,
+            time_usec,
+            position_ned_m,
+            position_var_m2,
+            yaw_rad,
+            yaw_var_rad2,
+            velocity_ned_m_s,
+        )
+
     # -- telemetry ------------------------------------------------------------------------------
     def telemetry(self) -> TelemetrySnapshot:
         """Snapshot of this vehicle's estimate, state and setpoints."""
