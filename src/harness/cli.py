@@ -108,6 +108,17 @@ def up(
             "GCS link, 0 = off (repeatable; e.g. ATTITUDE=20)"
         ),
     ] = None,
+    mocap: Annotated[
+        float,
+        typer.Option(
+            metavar="HZ",
+            help="publish motion-capture poses of every vehicle at HZ as UDP datagrams "
+            "(docs/indoor_positioning.md); 0 = off",
+        ),
+    ] = 0.0,
+    mocap_port: Annotated[
+        int, typer.Option(help="mocap datagrams of vehicle 0 go to this UDP port (+i)")
+    ] = 15400,
 ) -> None:
     """Start N emulated PX4 hexacopters and serve MAVLink until Ctrl-C.
 
@@ -121,7 +132,14 @@ def up(
     Example:  swarmsitl up --vehicles 3 --speed 2
 
     Example:  swarmsitl up --vehicles 20 --stream-rate ATTITUDE=20 --stream-rate HIGHRES_IMU=0
+
+    Example:  swarmsitl up --vehicles 2 --mocap 50   (poses to UDP 15400, 15401)
     """
+    physics_hz = SimulationConfig().physics_hz
+    if mocap < 0 or (mocap > 0 and abs(physics_hz / mocap - round(physics_hz / mocap)) > 1e-9):
+        raise typer.BadParameter(
+            f"--mocap {mocap:g}: must be 0 or divide the {physics_hz:g} Hz physics rate"
+        )
     run_dir = out or default_run_dir()
     ports = PortPlan(
         bind_addr=bind,
@@ -137,6 +155,8 @@ def up(
         ports=ports,
         out_dir=run_dir,
         stream_rates_hz=parse_stream_rates(stream_rate or []),
+        world_overrides={"mocap_hz": mocap} if mocap > 0 else {},
+        mocap_port=mocap_port,
     )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
@@ -158,6 +178,11 @@ def up(
             f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
         )
     console.print(table)
+    if sim.mocap is not None:
+        console.print(
+            f"motion capture: {mocap:g} Hz, vehicle i's poses to udp {ports.peer_addr}:"
+            f"{mocap_port}+i (bridge: python -m companion.scripts.mocap_bridge)"
+        )
     console.print("Press Ctrl-C to stop.")
     flag = _StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}

@@ -28,6 +28,7 @@ from sitl.sensors.baro import Barometer, BaroSample
 from sitl.sensors.gps import Gps, GpsOutages
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer
+from sitl.sensors.mocap import Mocap, MocapParams, MocapSample
 from sitl.truth import TruthState
 from sitl.vehicles.multirotor import MultirotorSpec, available_airframes, load_airframe
 
@@ -78,6 +79,11 @@ class WorldConfig:
     """Strength of the Earth magnetic field, gauss; None: the WMM's at the origin."""
     gps_outages: GpsOutages = field(default_factory=GpsOutages)
     """When GNSS receivers lose their fix (scripted windows, random process); default never."""
+    mocap_hz: float = 0.0
+    """Rate of the emulated motion-capture system (``poll_mocap``), Hz; 0: off; divides
+    physics_hz."""
+    mocap: MocapParams = field(default_factory=MocapParams)
+    """Noise and latency of the motion-capture system."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -88,6 +94,8 @@ class WorldConfig:
             raise ValueError(f"physics_hz must be positive, got {self.physics_hz!r}")
         for name in ("imu_hz", "gps_hz", "baro_hz", "mag_hz"):
             rate_divisor(self.physics_hz, getattr(self, name), name)
+        if self.mocap_hz:
+            rate_divisor(self.physics_hz, self.mocap_hz, "mocap_hz")
         for name in ("baro_hz", "mag_hz"):
             if getattr(self, name) > self.imu_hz:
                 raise ValueError(
@@ -165,6 +173,14 @@ class World:
         # generator: their satellites, outages and errors never shift another sensor's draws.
         self._gps = Gps(spec.gps, self.origin, n, rng.spawn(1)[0], config.gps_outages)
         self._gps_delay_ticks = round(self._gps.delay_s * config.physics_hz)
+        self._mocap = Mocap(config.mocap, n, rng.spawn(1)[0])
+        self._mocap_div = (
+            rate_divisor(config.physics_hz, config.mocap_hz, "mocap_hz") if config.mocap_hz else 0
+        )
+        self._mocap_latency_s = (
+            round(config.mocap.latency_ms * 1e-3 * config.physics_hz) * self._clock.dt_s
+        )
+        self._last_mocap_tick = -1
 
         self._last_poll_tick = -1
         self._last_tick = {"imu": -1, "mag": -1, "baro": -1, "gps_measure": -1}
@@ -244,6 +260,22 @@ class World:
             self._measure_gps(tick)
         gps = self._sample_hil_gps(tick) if tick % self._gps_div == 0 else None
         return sensors, gps
+
+    def poll_mocap(self) -> list[MocapSample]:
+        """Motion-capture samples released at the current time (empty when off or none due).
+
+        A sample is measured every ``physics_hz / mocap_hz`` steps and released its latency
+        (rounded to a physics step) later. Call after every step, as ``poll_sensors``.
+        """
+        if not self._mocap_div:
+            return []
+        tick = self._clock.tick
+        if tick != self._last_mocap_tick:
+            self._last_mocap_tick = tick
+            if tick % self._mocap_div == 0:
+                scene = self._scene
+                self._mocap.measure(self._clock.time_s, scene.position_enu_m, scene.quaternion_xyzw)
+        return self._mocap.release(self._clock.time_s, self._mocap_latency_s)
 
     def _interval_s(self, sensor: str, tick: int, divisor: int) -> float:
         """Time since the sensor's previous sample (its nominal period for the first one)."""
