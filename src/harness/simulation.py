@@ -101,7 +101,7 @@ class SimulationConfig:
     world_overrides: dict = field(default_factory=dict)
     """Extra WorldConfig fields (e.g. spawn_altitude_m; mocap_hz > 0 publishes mocap poses)."""
     mocap_port: int = 15400
-    """UDP port vehicle 0's motion-capture poses go to (+i), on ports.peer_addr."""
+    """UDP port vehicle 0's motion-capture poses go to (+i), on ports.peer_addr; 0: none."""
     stream_rates_hz: dict[StreamProfile, dict[str, float]] = field(default_factory=dict)
     """Overrides of the stream profiles' default rates per link kind, e.g.
     {StreamProfile.ONBOARD: {"ATTITUDE": 20.0}}; 0 Hz switches a stream off. Fewer messages
@@ -153,8 +153,8 @@ class Simulation:
             self.close()
             raise
         self.mocap: MocapPublisher | None = None
-        """Sends motion-capture datagrams when the world has mocap_hz > 0 and links are open."""
-        if config.mavlink and self.world.config.mocap_hz > 0:
+        """Sends motion-capture datagrams when the world has mocap_hz > 0 and mocap_port."""
+        if config.mocap_port and self.world.config.mocap_hz > 0:
             self.mocap = MocapPublisher(config.ports.peer_addr, config.mocap_port, n)
         self._readiness = select.poll()
         self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
