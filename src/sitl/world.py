@@ -135,7 +135,6 @@ class World:
         self._clock = SimClock(config.physics_hz)
         dt = self._clock.dt_s
         self._imu_div = rate_divisor(config.physics_hz, config.imu_hz, "imu_hz")
-        self._gps_div = rate_divisor(config.physics_hz, config.gps_hz, "gps_hz")
         self._baro_div = rate_divisor(config.physics_hz, config.baro_hz, "baro_hz")
         self._mag_div = rate_divisor(config.physics_hz, config.mag_hz, "mag_hz")
         self.origin = frames.GeodeticOrigin(
@@ -171,8 +170,15 @@ class World:
         self._baro = Barometer(spec.baro, n, rng)
         # The receivers draw from their own stream, spawned from (not drawn from) the world's
         # generator: their satellites, outages and errors never shift another sensor's draws.
-        self._gps = Gps(spec.gps, self.origin, n, rng.spawn(1)[0], config.gps_outages)
-        self._gps_delay_ticks = round(self._gps.delay_s * config.physics_hz)
+        self._gps = Gps(
+            spec.gps,
+            self.origin,
+            n,
+            rng.spawn(1)[0],
+            config.gps_outages,
+            physics_hz=config.physics_hz,
+            gps_hz=config.gps_hz,
+        )
         self._mocap = Mocap(config.mocap, n, rng.spawn(1)[0])
         self._mocap_div = (
             rate_divisor(config.physics_hz, config.mocap_hz, "mocap_hz") if config.mocap_hz else 0
@@ -183,7 +189,7 @@ class World:
         self._last_mocap_tick = -1
 
         self._last_poll_tick = -1
-        self._last_tick = {"imu": -1, "mag": -1, "baro": -1, "gps_measure": -1}
+        self._last_tick = {"imu": -1, "mag": -1, "baro": -1}
         self._next_mag_tick = 0
         self._next_baro_tick = 0
         # HIL_SENSOR values, body FRD: specific force, angular rate, magnetic field (views).
@@ -256,9 +262,9 @@ class World:
             return None, None
         self._last_poll_tick = tick
         sensors = self._sample_hil_sensor(tick) if tick % self._imu_div == 0 else None
-        if (tick + self._gps_delay_ticks) % self._gps_div == 0:
-            self._measure_gps(tick)
-        gps = self._sample_hil_gps(tick) if tick % self._gps_div == 0 else None
+        scene = self._scene
+        fix = self._gps.poll(tick, scene.position_enu_m, scene.velocity_enu_m_s)
+        gps = hil.hil_gps_messages(self._clock.time_usec, fix) if fix is not None else None
         return sensors, gps
 
     def poll_mocap(self) -> list[MocapSample]:
@@ -308,15 +314,6 @@ class World:
         return hil.hil_sensor_messages(
             self._clock.time_usec, self._imu_mag_frd, self._baro_sample, fields
         )
-
-    def _measure_gps(self, tick: int) -> None:
-        scene = self._scene
-        dt = self._interval_s("gps_measure", tick, self._gps_div)
-        self._gps.measure(self._clock.time_s, scene.position_enu_m, scene.velocity_enu_m_s, dt)
-
-    def _sample_hil_gps(self, tick: int) -> list[mavlink2.MAVLink_hil_gps_message]:
-        fix = self._gps.report(self._clock.time_s, self._gps_delay_ticks * self._clock.dt_s)
-        return hil.hil_gps_messages(self._clock.time_usec, fix)
 
     # -- truth and geometry -------------------------------------------------------------------
 

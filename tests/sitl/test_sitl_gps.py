@@ -19,7 +19,8 @@ def _receivers(n: int, seed: int = 0, outages: GpsOutages | None = None, **chang
     import dataclasses
 
     params = dataclasses.replace(PARAMS, **changes)
-    return Gps(params, ORIGIN, n, np.random.default_rng(seed), outages)
+    rng = np.random.default_rng(seed)
+    return Gps(params, ORIGIN, n, rng, outages, physics_hz=500.0, gps_hz=10.0)
 
 
 def _run_still(gps: Gps, epochs: int, dt_s: float = 0.1) -> list[GpsSample]:
@@ -154,3 +155,21 @@ def test_no_fix_message_packs_with_unknown_accuracy():
     decoded = mav.decode(bytearray(msg.pack(mav)))
     assert (decoded.fix_type, decoded.satellites_visible) == (1, 0)
     assert (decoded.eph, decoded.epv, decoded.time_usec) == (65535, 65535, 5_000_000)
+
+
+def test_receivers_of_a_group_of_vehicles_name_world_indices():
+    """Receivers for world rows 2 and 3 (an airframe group): poll reads those rows, a window for
+    vehicle 3 silences only the second receiver; measured 60 steps (120 ms) before each send."""
+    rng = np.random.default_rng(8)
+    outages = GpsOutages(windows=((0.0, 100.0, 3),))
+    gps = Gps(PARAMS, ORIGIN, 2, rng, outages, physics_hz=500.0, gps_hz=10.0, rows=slice(2, 4))
+    assert gps.vehicle_ids.tolist() == [2, 3] and gps.delay_ticks == 60
+    world_enu = np.array([[0.0, 0.0, 0.0]] * 2 + [[100.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    sent = [gps.poll(tick, world_enu, np.zeros((4, 3))) for tick in range(0, 201)]
+    sends = [(tick, fix) for tick, fix in enumerate(sent) if fix is not None]
+    assert [tick for tick, _ in sends] == [0, 50, 100, 150, 200]
+    assert [fix.time_s for _, fix in sends] == pytest.approx([0.0, 0.1, 0.08, 0.18, 0.28])
+    last = sends[-1][1]
+    assert last.fix_type.tolist() == [FIX_3D, FIX_NONE]
+    east = frames.geodetic_to_enu(last.lat_deg[0], last.lon_deg[0], last.alt_amsl_m[0], ORIGIN)
+    assert east[0] == pytest.approx(100.0, abs=3.0)

@@ -17,8 +17,9 @@ One measurement epoch per ``1 / gps_hz``; every quantity is an (N, ...) array. P
 - outages (:class:`GpsOutages`): scripted windows and/or a seeded two-state random process;
   during an outage the receiver reports no fix (``fix_type`` 1), 0 satellites and unknown
   accuracy;
-- delay: a fix is measured ``delay_ms`` before it is sent (PX4 gazebo-classic GPS plugin:
-  ``gps_delay_ = 0.12`` s). The world schedules the measurement; :class:`Gps` queues it.
+- delay: a fix is measured ``delay_ms`` (rounded to a physics step) before it is sent (PX4
+  gazebo-classic GPS plugin: ``gps_delay_ = 0.12`` s). :meth:`Gps.poll`, called every physics
+  step, measures on the steps ``delay`` before each send and returns the fix on send steps.
 
 Every draw comes from the generator passed in, in a fixed order per epoch (satellites, outage
 process if enabled, wandering error, white noise); the draws do not depend on the outage state.
@@ -33,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sitl import frames
+from sitl.clock import rate_divisor
 from sitl.sensors.noise import GaussMarkov
 
 FIX_NONE = 1
@@ -152,15 +154,12 @@ class GpsOutages:
         if not self.mean_duration_s > 0.0:
             raise ValueError(f"mean_duration_s must be positive: {self.mean_duration_s}")
 
-    def scripted(self, time_s: float, n_vehicles: int) -> np.ndarray:
-        """Mask (N,) of vehicles inside a scripted window at ``time_s``."""
-        out = np.zeros(n_vehicles, dtype=bool)
+    def scripted(self, time_s: float, vehicle_ids: np.ndarray) -> np.ndarray:
+        """Mask of the vehicles (world indices ``vehicle_ids``) inside a window at ``time_s``."""
+        out = np.zeros(len(vehicle_ids), dtype=bool)
         for w in self.windows:
             if w.start_s <= time_s < w.end_s:
-                if w.vehicle is None:
-                    out[:] = True
-                elif 0 <= w.vehicle < n_vehicles:
-                    out[w.vehicle] = True
+                out |= True if w.vehicle is None else vehicle_ids == w.vehicle
         return out
 
 
@@ -207,9 +206,14 @@ class GpsSample:
 class Gps:
     """GNSS receivers of N vehicles, antenna at the centre of mass.
 
-    :meth:`measure` takes a fix of the true state now and queues it; :meth:`report` returns the
-    oldest queued fix once it is ``delay`` old (the world measures ``delay`` before each send), or
-    a no-fix sample when there is none yet.
+    Call :meth:`poll` after every physics step: it measures the true state on the steps that lie
+    the receiver's delay before a send step, queues the fix, and on send steps (every
+    ``physics_hz / gps_hz``) returns the queued fix that is due, or a no-fix sample before the
+    first one.
+
+    Args:
+        rows: which rows of the world's (N_world, 3) arrays are these receivers' vehicles (a
+            slice or an index array; all rows by default). Scripted outages name world indices.
     """
 
     def __init__(
@@ -219,12 +223,32 @@ class Gps:
         n_vehicles: int,
         rng: np.random.Generator,
         outages: GpsOutages | None = None,
+        *,
+        physics_hz: float,
+        gps_hz: float,
+        rows: slice | np.ndarray | None = None,
     ) -> None:
         self.params = params
         self.outages = outages or GpsOutages()
         self._origin = origin
         self._n = n_vehicles
         self._rng = rng
+        self._rows = slice(None) if rows is None else rows
+        self.vehicle_ids = (
+            np.arange(n_vehicles)
+            if rows is None
+            else np.arange(rows.start or 0, rows.stop, rows.step or 1)
+            if isinstance(rows, slice)
+            else np.asarray(rows)
+        )
+        """World index of each receiver's vehicle, (N,)."""
+        if len(self.vehicle_ids) != n_vehicles:
+            raise ValueError(f"rows select {len(self.vehicle_ids)} vehicles, not {n_vehicles}")
+        self._dt_s = 1.0 / physics_hz
+        self._send_div = rate_divisor(physics_hz, gps_hz, "gps_hz")
+        self.delay_ticks = round(params.delay_ms * 1e-3 * physics_hz)
+        """The delay in physics steps."""
+        self._last_measure_tick: int | None = None
         self.satellite_process = GaussMarkov(
             np.ones(n_vehicles), params.satellites_correlation_time_s, rng
         )
@@ -244,8 +268,27 @@ class Gps:
 
     @property
     def delay_s(self) -> float:
-        """Age of a fix when sent, s."""
-        return self.params.delay_ms * 1e-3
+        """Age of a fix when sent (rounded to a physics step), s."""
+        return self.delay_ticks * self._dt_s
+
+    def poll(
+        self, tick: int, position_enu_m: np.ndarray, velocity_enu_m_s: np.ndarray
+    ) -> GpsSample | None:
+        """Advance to physics step ``tick`` with the world's true state (N_world, 3) ENU.
+
+        Returns the fix to send if ``tick`` is a send step, else None.
+        """
+        if (tick + self.delay_ticks) % self._send_div == 0 and tick != self._last_measure_tick:
+            last = self._last_measure_tick
+            self._last_measure_tick = tick
+            steps = tick - last if last is not None else self._send_div
+            rows = self._rows
+            self.measure(
+                tick * self._dt_s, position_enu_m[rows], velocity_enu_m_s[rows], steps * self._dt_s
+            )
+        if tick % self._send_div:
+            return None
+        return self.report(tick * self._dt_s, self.delay_s)
 
     def satellites(self) -> np.ndarray:
         """Current satellite counts (N,) from the satellite process (no outage applied)."""
@@ -293,7 +336,7 @@ class Gps:
             FIX_3D,
             np.where(satellites >= MIN_SATELLITES_2D, FIX_2D, FIX_NONE),
         )
-        outage = self.in_random_outage | self.outages.scripted(time_s, self._n)
+        outage = self.in_random_outage | self.outages.scripted(time_s, self.vehicle_ids)
         lost = outage | (fix == FIX_NONE)
         if lost.any():
             keep = ~lost
