@@ -20,6 +20,7 @@ from rich.table import Table
 from autopilot_emu.mavlink.endpoint import PortInUseError
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
+from sitl.sensors.gps import GpsOutages, GpsOutageWindow
 
 app = typer.Typer(
     add_completion=False,
@@ -80,6 +81,24 @@ def parse_stream_rates(specs: list[str]) -> dict[StreamProfile, dict[str, float]
     return rates
 
 
+def parse_gps_outages(specs: list[str]) -> tuple[GpsOutageWindow, ...]:
+    """``START:END[:SYSID]`` options (simulated seconds, MAVLink system id) -> outage windows."""
+    windows = []
+    for spec in specs:
+        parts = spec.split(":")
+        try:
+            if len(parts) not in (2, 3):
+                raise ValueError("expected START:END or START:END:SYSID")
+            start, end = float(parts[0]), float(parts[1])
+            vehicle = int(parts[2]) - 1 if len(parts) == 3 else None
+            if vehicle is not None and vehicle < 0:
+                raise ValueError("SYSID starts at 1")
+            windows.append(GpsOutageWindow(start, end, vehicle))
+        except ValueError as exc:
+            raise typer.BadParameter(f"--gps-outage {spec!r}: {exc}") from exc
+    return tuple(windows)
+
+
 @app.command()
 def up(
     vehicles: Annotated[int, typer.Option("--vehicles", "-n", min=1, max=255)] = 1,
@@ -119,6 +138,14 @@ def up(
     mocap_port: Annotated[
         int, typer.Option(help="mocap datagrams of vehicle 0 go to this UDP port (+i)")
     ] = 15400,
+    gps_outage: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="START:END[:SYSID]",
+            help="no GPS fix between these simulated seconds, for every vehicle or one "
+            "(repeatable; e.g. 30:40 or 30:40:2)",
+        ),
+    ] = None,
 ) -> None:
     """Start N emulated PX4 hexacopters and serve MAVLink until Ctrl-C.
 
@@ -134,6 +161,8 @@ def up(
     Example:  swarmsitl up --vehicles 20 --stream-rate ATTITUDE=20 --stream-rate HIGHRES_IMU=0
 
     Example:  swarmsitl up --vehicles 2 --mocap 50   (poses to UDP 15400, 15401)
+
+    Example:  swarmsitl up --gps-outage 60:70   (no GPS fix from 60 s to 70 s simulated)
     """
     physics_hz = SimulationConfig().physics_hz
     if mocap < 0 or (mocap > 0 and abs(physics_hz / mocap - round(physics_hz / mocap)) > 1e-9):
@@ -155,7 +184,14 @@ def up(
         ports=ports,
         out_dir=run_dir,
         stream_rates_hz=parse_stream_rates(stream_rate or []),
-        world_overrides={"mocap_hz": mocap} if mocap > 0 else {},
+        world_overrides={
+            **({"mocap_hz": mocap} if mocap > 0 else {}),
+            **(
+                {"gps_outages": GpsOutages(windows=parse_gps_outages(gps_outage))}
+                if gps_outage
+                else {}
+            ),
+        },
         mocap_port=mocap_port,
     )
     sim = _open_simulation(cfg)

@@ -90,3 +90,21 @@ def test_up_with_mocap_announces_where_the_poses_go(tmp_path):
     assert "motioncapture:50Hz" in flat and f":{port}+i" in flat
     assert "companion.scripts.mocap_bridge" in flat
     assert pose.vehicle == 0
+
+
+def test_gps_outage_options_parse_to_windows():
+    """START:END for every vehicle, START:END:SYSID for one (window vehicle index = sysid - 1)."""
+    from harness.cli import parse_gps_outages
+    from sitl.sensors.gps import GpsOutageWindow
+
+    assert parse_gps_outages(["30:40", "5.5:6:2"]) == (
+        GpsOutageWindow(30.0, 40.0, None),
+        GpsOutageWindow(5.5, 6.0, 1),
+    )
+
+
+@pytest.mark.parametrize("spec", ["30", "40:30", "a:b", "1:2:0"])
+def test_bad_gps_outage_options_are_refused(spec):
+    result = CliRunner().invoke(app, ["up", "--gps-outage", spec, "--duration", "1"])
+    assert result.exit_code == 2
+    assert "--gps-outage" in result.output
