@@ -75,7 +75,7 @@ def test_bridge_forwards_poses_of_its_vehicle_as_vision_position_estimate():
         ]
     )
     result: list[mocap_bridge.BridgeStats] = []
-    bridge = threading.Thread(target=lambda: result.append(mocap_bridge.run(args)))
+    bridge = threading.Thread(target=lambda: result.append(mocap_bridge.run(args)), daemon=True)
     bridge.start()
     publisher = MocapPublisher("127.0.0.1", mocap_port, 1)
     sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
