@@ -37,9 +37,9 @@ def test_mocap_pose_reaches_the_fleet_as_external_vision(monkeypatch):
         monkeypatch.setattr(sim.fleet, "handle_vision", lambda *a: calls.append(a), raising=False)
         onboard_port = sim.endpoints[0].local_address[1]
         listen, link = f"127.0.0.1:{mocap_port}", f"udpout:127.0.0.1:{onboard_port}"
+        bound = ["--duration", "30"]  # for a failing run only
         args = mocap_bridge.build_parser().parse_args(
-            ["--listen", listen, "--mavlink", link, "--vehicle", "0", "--count", "3"]
-            + ["--duration", "30"]  # a bound for a failing run only
+            ["--listen", listen, "--mavlink", link, "--vehicle", "0", "--count", "3", *bound]
         )
         bridge = threading.Thread(target=mocap_bridge.run, args=(args,), daemon=True)
         bridge.start()
