@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
-from autopilot_emu import geodesy
+from autopilot_emu import geodesy, magnetic_declination
 from autopilot_emu import quaternion as quat
 from autopilot_emu.battery import BatteryModel, FleetBattery
 from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
@@ -227,6 +227,11 @@ class AutopilotFleet:
         new_origin = est.update_gps(ned, vel, g[:, 6], lla, self._pressure_alt_m, eph, epv, sats)
         if new_origin.any():
             self.metres_per_degree = geodesy.metres_per_degree(est.origin_lla)
+            est.set_declination(  # PX4's geo lookup at the new origin (EKF2_DECL_TYPE bit 0)
+                magnetic_declination.on_new_origin(
+                    self.params, est.origin_lla, est.origin_set, new_origin
+                )
+            )
 
     # -- loops ------------------------------------------------------------------------------------
     def _navigate(self, dt: float, gains: _Gains) -> None:
@@ -406,7 +411,10 @@ class AutopilotFleet:
             self.estimator.set_params(self.params)
             self._gains = _Gains.from_params(self.params)
             self._param_versions = versions
-            self.estimator.set_declination([float(p.get("EKF2_MAG_DECL")) for p in self.params])
+            est = self.estimator
+            est.set_declination(
+                magnetic_declination.declinations_deg(self.params, est.origin_lla, est.origin_set)
+            )
             self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
             hte_params = _hover_thrust_params(self.params)
             if self.hover_thrust_estimator is None:
@@ -738,6 +746,26 @@ class FleetVehicle:
             (mavlink2.MAV_SEVERITY_WARNING, "Failure injected: GPS off" if failed else "GPS ok")
         )
         return mavlink2.MAV_RESULT_ACCEPTED
+
+    def vision_measurement(
+        self,
+        time_usec: int,
+        position_ned_m: np.ndarray,
+        position_var_m2: np.ndarray,
+        yaw_rad: float,
+        yaw_var_rad2: float,
+        velocity_ned_m_s: np.ndarray | None,
+    ) -> None:
+        """External vision (see VehiclePort.vision_measurement) -> the fleet's estimator."""
+        self.fleet.handle_vision(
+            self.index,
+            time_usec,
+            position_ned_m,
+            position_var_m2,
+            yaw_rad,
+            yaw_var_rad2,
+            velocity_ned_m_s,
+        )
 
     # -- telemetry ------------------------------------------------------------------------------
     def telemetry(self) -> TelemetrySnapshot:

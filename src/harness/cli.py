@@ -29,6 +29,7 @@ from harness.wind_options import (
     parse_wind,
     wind_config,
 )
+from sitl.sensors.gps import GpsOutages, GpsOutageWindow
 from sitl.vehicles.multirotor import airframe_yaml_path
 
 app = typer.Typer(
@@ -105,6 +106,22 @@ def parse_frames(spec: str, n_vehicles: int) -> tuple[str, ...]:
         except ValueError as exc:
             raise typer.BadParameter(str(exc), param_hint="--frame") from exc
     return names
+def parse_gps_outages(specs: list[str]) -> tuple[GpsOutageWindow, ...]:
+    """``START:END[:SYSID]`` options (simulated seconds, MAVLink system id) -> outage windows."""
+    windows = []
+    for spec in specs:
+        parts = spec.split(":")
+        try:
+            if len(parts) not in (2, 3):
+                raise ValueError("expected START:END or START:END:SYSID")
+            start, end = float(parts[0]), float(parts[1])
+            vehicle = int(parts[2]) - 1 if len(parts) == 3 else None
+            if vehicle is not None and vehicle < 0:
+                raise ValueError("SYSID starts at 1")
+            windows.append(GpsOutageWindow(start, end, vehicle))
+        except ValueError as exc:
+            raise typer.BadParameter(f"--gps-outage {spec!r}: {exc}") from exc
+    return tuple(windows)
 
 
 @app.command()
@@ -145,6 +162,25 @@ def up(
     wind: Annotated[str | None, typer.Option(help=WIND_HELP)] = None,
     turbulence: Annotated[str | None, typer.Option(help=TURBULENCE_HELP)] = None,
     gusts: Annotated[str | None, typer.Option(help=GUSTS_HELP)] = None,
+    mocap: Annotated[
+        float,
+        typer.Option(
+            metavar="HZ",
+            help="publish motion-capture poses of every vehicle at HZ as UDP datagrams "
+            "(docs/indoor_positioning.md); 0 = off",
+        ),
+    ] = 0.0,
+    mocap_port: Annotated[
+        int, typer.Option(help="mocap datagrams of vehicle 0 go to this UDP port (+i)")
+    ] = 15400,
+    gps_outage: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="START:END[:SYSID]",
+            help="no GPS fix between these simulated seconds, for every vehicle or one "
+            "(repeatable; e.g. 30:40 or 30:40:2)",
+        ),
+    ] = None,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -162,8 +198,17 @@ def up(
     Example:  swarmsitl up --vehicles 3 --frame typhoon_h480,x500,x500
 
     Example:  swarmsitl up --wind 5@270 --turbulence light --gusts 3,length=30,every=20
+
+    Example:  swarmsitl up --vehicles 2 --mocap 50   (poses to UDP 15400, 15401)
+
+    Example:  swarmsitl up --gps-outage 60:70   (no GPS fix from 60 s to 70 s simulated)
     """
     frames = parse_frames(frame, vehicles)
+    physics_hz = SimulationConfig().physics_hz
+    if mocap < 0 or (mocap > 0 and abs(physics_hz / mocap - round(physics_hz / mocap)) > 1e-9):
+        raise typer.BadParameter(
+            f"--mocap {mocap:g}: must be 0 or divide the {physics_hz:g} Hz physics rate"
+        )
     run_dir = out or default_run_dir()
     ports = PortPlan(
         bind_addr=bind,
@@ -181,6 +226,15 @@ def up(
         out_dir=run_dir,
         stream_rates_hz=parse_stream_rates(stream_rate or []),
         wind=wind_config(parse_wind(wind), parse_turbulence(turbulence), parse_gusts(gusts)),
+        world_overrides={
+            **({"mocap_hz": mocap} if mocap > 0 else {}),
+            **(
+                {"gps_outages": GpsOutages(windows=parse_gps_outages(gps_outage))}
+                if gps_outage
+                else {}
+            ),
+        },
+        mocap_port=mocap_port,
     )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
@@ -210,6 +264,11 @@ def up(
             f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
         )
     console.print(table)
+    if sim.mocap is not None:
+        console.print(
+            f"motion capture: {mocap:g} Hz, vehicle i's poses to udp {ports.peer_addr}:"
+            f"{mocap_port}+i (bridge: python -m companion.scripts.mocap_bridge)"
+        )
     console.print("Press Ctrl-C to stop.")
     flag = _StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}

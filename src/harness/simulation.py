@@ -23,6 +23,7 @@ from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.params import ParamStore
+from harness.mocap_publisher import MocapPublisher
 from harness.recorder import FlightRecorder
 from sitl.physics.wind import WindConfig
 from sitl.vehicles.multirotor import MultirotorSpec
@@ -106,7 +107,9 @@ class SimulationConfig:
     wind: WindConfig | None = None
     """Wind of the world (steady, turbulence, gusts); None: calm air."""
     world_overrides: dict = field(default_factory=dict)
-    """Extra WorldConfig fields (e.g. spawn_altitude_m)."""
+    """Extra WorldConfig fields (e.g. spawn_altitude_m; mocap_hz > 0 publishes mocap poses)."""
+    mocap_port: int = 15400
+    """UDP port vehicle 0's motion-capture poses go to (+i), on ports.peer_addr; 0: none."""
     stream_rates_hz: dict[StreamProfile, dict[str, float]] = field(default_factory=dict)
     """Overrides of the stream profiles' default rates per link kind, e.g.
     {StreamProfile.ONBOARD: {"ATTITUDE": 20.0}}; 0 Hz switches a stream off. Fewer messages
@@ -192,6 +195,10 @@ class Simulation:
         except BaseException:
             self.close()
             raise
+        self.mocap: MocapPublisher | None = None
+        """Sends motion-capture datagrams when the world has mocap_hz > 0 and mocap_port."""
+        if config.mocap_port and self.world.config.mocap_hz > 0:
+            self.mocap = MocapPublisher(config.ports.peer_addr, config.mocap_port, n)
         self._readiness = select.poll()
         self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
         for _, fd in self._link_fds:
@@ -266,6 +273,8 @@ class Simulation:
             self.fleet.handle_gps(gps)
         if sensors is not None:
             self._actuators = self.fleet.handle_sensors(sensors)
+        if self.mocap is not None:
+            self.mocap.publish(self.world.poll_mocap())
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:
             self._poll_links(self.world.time_s)
@@ -292,6 +301,8 @@ class Simulation:
             self.fleet.handle_gps(gps)
         if sensors is not None:
             self._actuators = self.fleet.handle_sensors(sensors)
+        if self.mocap is not None:
+            self.mocap.publish(self.world.poll_mocap())
         t3 = clock()
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:
@@ -362,6 +373,8 @@ class Simulation:
                 ep.close()
             except OSError as exc:
                 log.warning("closing endpoint failed: %s", exc)
+        if getattr(self, "mocap", None) is not None:
+            self.mocap.close()
         if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
             self.recorder.write_csv(self.config.out_dir / "truth.csv")
         if self._scratch is not None:

@@ -36,10 +36,10 @@ FIELDS_BARO = (
 )
 """HIL_SENSOR fields_updated bits of the barometer (0x1A00)."""
 
-GPS_FIX_3D = mavlink2.GPS_FIX_TYPE_3D_FIX
-"""HIL_GPS fix_type reported (3)."""
 COG_UNKNOWN = 65535
 """HIL_GPS cog when the course is unknown."""
+ACCURACY_UNKNOWN = 65535
+"""HIL_GPS eph / epv when the accuracy is unknown (no fix)."""
 COG_MIN_SPEED_M_S = 0.3
 """Ground speed below which the course over ground is reported unknown, m/s."""
 
@@ -100,10 +100,13 @@ def hil_sensor_messages(
     ]
 
 
-def hil_gps_messages(
-    time_usec: int, fix: GpsSample, eph_m: float, epv_m: float, satellites_visible: int
-) -> list[mavlink2.MAVLink_hil_gps_message]:
-    """One HIL_GPS (3D fix) per vehicle."""
+def hil_gps_messages(time_usec: int, fix: GpsSample) -> list[mavlink2.MAVLink_hil_gps_message]:
+    """One HIL_GPS per vehicle, sent at ``time_usec`` with the content of ``fix``.
+
+    ``time_usec`` is the send time; the fix was measured at ``fix.time_s`` (earlier by the
+    receiver's delay), as a real receiver's message reaches the autopilot after its epoch.
+    eph / epv carry the 1-sigma accuracy in cm (as PX4's simulator reads them), 65535 if unknown.
+    """
     v = fix.velocity_ned_m_s
     speed = np.hypot(v[:, 0], v[:, 1])
     course_deg = np.degrees(np.arctan2(v[:, 1], v[:, 0])) % 360.0
@@ -114,13 +117,16 @@ def hil_gps_messages(
     ints = np.rint(scaled).astype(np.int64).tolist()
     cogs = np.rint(course_deg * 100.0).astype(np.int64).tolist()
     known = (speed >= COG_MIN_SPEED_M_S).tolist()
-    eph = round(eph_m * 100.0)
-    epv = round(epv_m * 100.0)
+    accuracy = np.column_stack((fix.eph_m, fix.epv_m)) * 100.0
+    accuracy = np.where(
+        np.isfinite(accuracy), np.minimum(accuracy, ACCURACY_UNKNOWN - 1), ACCURACY_UNKNOWN
+    )
+    acc = np.rint(accuracy).astype(np.int64).tolist()
     make = mavlink2.MAVLink_hil_gps_message
     return [
         make(
             time_usec,
-            GPS_FIX_3D,
+            fix_type,
             lat,
             lon,
             alt,
@@ -131,9 +137,17 @@ def hil_gps_messages(
             ve,
             vd,
             cog % 36000 if ok else COG_UNKNOWN,
-            satellites_visible,
+            sats,
             0,
             0,
         )
-        for (lat, lon, alt, vel, vn, ve, vd), cog, ok in zip(ints, cogs, known, strict=True)
+        for (lat, lon, alt, vel, vn, ve, vd), cog, ok, (eph, epv), fix_type, sats in zip(
+            ints,
+            cogs,
+            known,
+            acc,
+            fix.fix_type.tolist(),
+            fix.satellites.tolist(),
+            strict=True,
+        )
     ]

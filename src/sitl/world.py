@@ -16,7 +16,7 @@ import math
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
@@ -24,13 +24,14 @@ from pymavlink.dialects.v20 import common as mavlink2
 from sitl import frames, hil
 from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import BulletScene
-from sitl.physics.earth import magnetic_field_ned_gauss
+from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
 from sitl.physics.rotors import RotorModel
 from sitl.physics.wind import WindConfig, WindField
 from sitl.sensors.baro import Barometer, BaroSample
-from sitl.sensors.gps import Gps
+from sitl.sensors.gps import Gps, GpsOutages
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer
+from sitl.sensors.mocap import Mocap, MocapParams, MocapSample
 from sitl.truth import TruthState
 from sitl.vehicles.multirotor import MultirotorSpec, airframe_yaml_path, load_airframe
 
@@ -71,12 +72,22 @@ class WorldConfig:
     of a folder of ``sitl/vehicles`` or the path of a user's airframe folder."""
     spawn_altitude_m: float | None = None
     """None: spawn resting on the ground; else height of the centre of mass above ground, m."""
-    mag_declination_deg: float = 2.6
-    """Magnetic declination at the origin, degrees east of true north."""
-    mag_inclination_deg: float = 63.4
-    """Magnetic inclination at the origin, degrees below the horizontal."""
-    mag_strength_gauss: float = 0.48
-    """Strength of the Earth magnetic field at the origin, gauss."""
+    mag_model_decimal_year: float = 2026.0
+    """Date of the world magnetic model (WMM2025, valid 2025.0-2030.0), decimal year
+    (2026.0 = 2026-01-01; see ``sitl.physics.geomagnetism.decimal_year``)."""
+    mag_declination_deg: float | None = None
+    """Magnetic declination, degrees east of true north; None: the WMM's at the origin."""
+    mag_inclination_deg: float | None = None
+    """Magnetic inclination, degrees below the horizontal; None: the WMM's at the origin."""
+    mag_strength_gauss: float | None = None
+    """Strength of the Earth magnetic field, gauss; None: the WMM's at the origin."""
+    gps_outages: GpsOutages = field(default_factory=GpsOutages)
+    """When GNSS receivers lose their fix (scripted windows, random process); default never."""
+    mocap_hz: float = 0.0
+    """Rate of the emulated motion-capture system (``poll_mocap``), Hz; 0: off; divides
+    physics_hz."""
+    mocap: MocapParams = field(default_factory=MocapParams)
+    """Noise and latency of the motion-capture system."""
     wind: WindConfig | None = None
     """Steady wind, turbulence and gusts; None: calm air."""
 
@@ -89,6 +100,8 @@ class WorldConfig:
             raise ValueError(f"physics_hz must be positive, got {self.physics_hz!r}")
         for name in ("imu_hz", "gps_hz", "baro_hz", "mag_hz"):
             rate_divisor(self.physics_hz, getattr(self, name), name)
+        if self.mocap_hz:
+            rate_divisor(self.physics_hz, self.mocap_hz, "mocap_hz")
         for name in ("baro_hz", "mag_hz"):
             if getattr(self, name) > self.imu_hz:
                 raise ValueError(
@@ -103,7 +116,7 @@ class WorldConfig:
             raise ValueError(f"origin_lon_deg out of [-180, 180]: {self.origin_lon_deg}")
         if self.spawn_altitude_m is not None and not self.spawn_altitude_m > 0.0:
             raise ValueError(f"spawn_altitude_m must be positive or None: {self.spawn_altitude_m}")
-        if not self.mag_strength_gauss > 0.0:
+        if self.mag_strength_gauss is not None and not self.mag_strength_gauss > 0.0:
             raise ValueError(f"mag_strength_gauss must be positive: {self.mag_strength_gauss}")
         if isinstance(self.airframe, os.PathLike):
             object.__setattr__(self, "airframe", os.fspath(self.airframe))
@@ -187,7 +200,6 @@ class World:
         self._clock = SimClock(config.physics_hz)
         dt = self._clock.dt_s
         self._imu_div = rate_divisor(config.physics_hz, config.imu_hz, "imu_hz")
-        self._gps_div = rate_divisor(config.physics_hz, config.gps_hz, "gps_hz")
         self._baro_div = rate_divisor(config.physics_hz, config.baro_hz, "baro_hz")
         self._mag_div = rate_divisor(config.physics_hz, config.mag_hz, "mag_hz")
         self.origin = frames.GeodeticOrigin(
@@ -213,9 +225,9 @@ class World:
         # Sensor construction order fixes the order of random draws: keep it (group by group in
         # order of first appearance; one group is the single-airframe world).
         rng = np.random.default_rng(config.seed)
-        field = magnetic_field_ned_gauss(
-            config.mag_declination_deg, config.mag_inclination_deg, config.mag_strength_gauss
-        )
+        self.magnetic_field = _magnetic_field(config)
+        """The Earth field at the origin the magnetometers measure (WMM unless overridden)."""
+        field = self.magnetic_field.ned_gauss()
         self._groups: list[_AirframeGroup] = []
         for name, spec in loaded.items():
             size = len(members[name])
@@ -228,7 +240,19 @@ class World:
                     imu=Imu(spec.imu, size, rng),
                     mag=Magnetometer(spec.mag, field, size, rng),
                     baro=Barometer(spec.baro, size, rng),
-                    gps=Gps(spec.gps, self.origin, size, rng),
+                    # The receivers draw from their own stream, spawned from (not drawn from)
+                    # the world's generator: their satellites, outages and errors never shift
+                    # another sensor's draws.
+                    gps=Gps(
+                        spec.gps,
+                        self.origin,
+                        size,
+                        rng.spawn(1)[0],
+                        config.gps_outages,
+                        physics_hz=config.physics_hz,
+                        gps_hz=config.gps_hz,
+                        rows=_group_rows(members[name]),
+                    ),
                 )
             )
         self._single = self._groups[0] if len(self._groups) == 1 else None
@@ -246,9 +270,17 @@ class World:
         if config.wind is not None:
             self._wind_div = rate_divisor(config.physics_hz, config.wind.update_hz, "update_hz")
             self._wind = WindField(config.wind, n, self._wind_div * dt, wind_rng)
+        self._mocap = Mocap(config.mocap, n, rng.spawn(1)[0])
+        self._mocap_div = (
+            rate_divisor(config.physics_hz, config.mocap_hz, "mocap_hz") if config.mocap_hz else 0
+        )
+        self._mocap_latency_s = (
+            round(config.mocap.latency_ms * 1e-3 * config.physics_hz) * self._clock.dt_s
+        )
+        self._last_mocap_tick = -1
 
         self._last_poll_tick = -1
-        self._last_tick = {"imu": -1, "mag": -1, "baro": -1, "gps": -1}
+        self._last_tick = {"imu": -1, "mag": -1, "baro": -1}
         self._next_mag_tick = 0
         self._next_baro_tick = 0
         # HIL_SENSOR values, body FRD: specific force, angular rate, magnetic field (views).
@@ -335,16 +367,33 @@ class World:
 
         HIL_SENSOR is due every ``physics_hz / imu_hz`` steps; it flags the magnetometer and the
         barometer when they were sampled for it (at their own rates, on the first IMU sample at or
-        after they fall due). HIL_GPS is due every ``physics_hz / gps_hz`` steps. A second call at
-        the same time returns ``(None, None)``.
+        after they fall due). HIL_GPS is due every ``physics_hz / gps_hz`` steps and carries the
+        fix measured the receiver's delay earlier (rounded to a physics step); until the first
+        such fix exists it reports no fix. A second call at the same time returns
+        ``(None, None)``. Call it after every step: a skipped step can skip a measurement.
         """
         tick = self._clock.tick
         if tick == self._last_poll_tick:
             return None, None
         self._last_poll_tick = tick
         sensors = self._sample_hil_sensor(tick) if tick % self._imu_div == 0 else None
-        gps = self._sample_hil_gps(tick) if tick % self._gps_div == 0 else None
-        return sensors, gps
+        return sensors, self._poll_hil_gps(tick)
+
+    def poll_mocap(self) -> list[MocapSample]:
+        """Motion-capture samples released at the current time (empty when off or none due).
+
+        A sample is measured every ``physics_hz / mocap_hz`` steps and released its latency
+        (rounded to a physics step) later. Call after every step, as ``poll_sensors``.
+        """
+        if not self._mocap_div:
+            return []
+        tick = self._clock.tick
+        if tick != self._last_mocap_tick:
+            self._last_mocap_tick = tick
+            if tick % self._mocap_div == 0:
+                scene = self._scene
+                self._mocap.measure(self._clock.time_s, scene.position_enu_m, scene.quaternion_xyzw)
+        return self._mocap.release(self._clock.time_s, self._mocap_latency_s)
 
     def _interval_s(self, sensor: str, tick: int, divisor: int) -> float:
         """Time since the sensor's previous sample (its nominal period for the first one)."""
@@ -415,27 +464,25 @@ class World:
                 values[rows] = getattr(sample, name)
         return BaroSample(**merged)
 
-    def _sample_hil_gps(self, tick: int) -> list[mavlink2.MAVLink_hil_gps_message]:
+    def _poll_hil_gps(self, tick: int) -> list[mavlink2.MAVLink_hil_gps_message] | None:
+        """HIL_GPS of every vehicle when the receivers send (their fixes measured a delay ago)."""
         scene = self._scene
-        dt = self._interval_s("gps", tick, self._gps_div)
         time_usec = self._clock.time_usec
         if self._single is not None:
-            gps = self._single.gps
-            fix = gps.sample(scene.position_enu_m, scene.velocity_enu_m_s, dt)
-            p = gps.params
-            return hil.hil_gps_messages(time_usec, fix, p.eph_m, p.epv_m, p.satellites_visible)
+            fix = self._single.gps.poll(tick, scene.position_enu_m, scene.velocity_enu_m_s)
+            return hil.hil_gps_messages(time_usec, fix) if fix is not None else None
         messages: list = [None] * self.n_vehicles
+        sent = False
         for group in self._groups:
-            rows = group.rows
-            fix = group.gps.sample(scene.position_enu_m[rows], scene.velocity_enu_m_s[rows], dt)
-            p = group.gps.params
-            indices = range(self.n_vehicles)[rows] if isinstance(rows, slice) else rows.tolist()
-            group_messages = hil.hil_gps_messages(
-                time_usec, fix, p.eph_m, p.epv_m, p.satellites_visible
-            )
-            for i, msg in zip(indices, group_messages, strict=True):
+            fix = group.gps.poll(tick, scene.position_enu_m, scene.velocity_enu_m_s)
+            if fix is None:
+                continue
+            sent = True
+            for i, msg in zip(
+                group.gps.vehicle_ids.tolist(), hil.hil_gps_messages(time_usec, fix), strict=True
+            ):
                 messages[i] = msg
-        return messages
+        return messages if sent else None
 
     # -- truth and geometry -------------------------------------------------------------------
 
@@ -496,6 +543,27 @@ class World:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _magnetic_field(config: WorldConfig) -> GeomagneticField:
+    """The WMM field at the origin on the configured date, with the explicit overrides applied."""
+    wmm = world_magnetic_model(
+        config.origin_lat_deg,
+        config.origin_lon_deg,
+        config.origin_alt_amsl_m,
+        config.mag_model_decimal_year,
+    )
+    return GeomagneticField(
+        declination_deg=wmm.declination_deg
+        if config.mag_declination_deg is None
+        else float(config.mag_declination_deg),
+        inclination_deg=wmm.inclination_deg
+        if config.mag_inclination_deg is None
+        else float(config.mag_inclination_deg),
+        strength_gauss=wmm.strength_gauss
+        if config.mag_strength_gauss is None
+        else float(config.mag_strength_gauss),
+    )
 
 
 def hover_actuator_message(

@@ -61,3 +61,50 @@ def test_bad_stream_rate_options_are_refused_with_a_reason(spec):
     assert result.exit_code == 2  # a usage error, before anything starts
     flat = "".join(result.output.replace("│", "").split())
     assert f"'{spec}':" in flat  # the message names the bad option
+
+
+@pytest.mark.parametrize("hz", ["300", "-1"])
+def test_bad_mocap_rate_is_refused_with_a_reason(hz):
+    """--mocap must divide the physics rate (or be 0): a usage error before anything starts."""
+    result = CliRunner().invoke(app, ["up", "--mocap", hz, "--duration", "1"])
+    assert result.exit_code == 2
+    assert "physicsrate" in "".join(result.output.replace("│", "").split())
+
+
+def test_up_with_mocap_announces_where_the_poses_go(tmp_path):
+    """--mocap 50 prints the mocap target port and the bridge to run, and sends the poses."""
+    import socket
+
+    from companion import mocap_wire
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sink:
+        sink.bind(("127.0.0.1", 0))
+        port = sink.getsockname()[1]
+        args = ["up", "--speed", "50", "--duration", "0.5", "--gcs-port", "0"]
+        args += ["--out", str(tmp_path), "--sdk-port", "0", "--listen-port", "0"]
+        result = CliRunner().invoke(app, [*args, "--mocap", "50", "--mocap-port", str(port)])
+        sink.settimeout(1.0)
+        pose = mocap_wire.decode(sink.recv(128))
+    assert result.exit_code == 0, result.output
+    flat = "".join(result.output.split())
+    assert "motioncapture:50Hz" in flat and f":{port}+i" in flat
+    assert "companion.scripts.mocap_bridge" in flat
+    assert pose.vehicle == 0
+
+
+def test_gps_outage_options_parse_to_windows():
+    """START:END for every vehicle, START:END:SYSID for one (window vehicle index = sysid - 1)."""
+    from harness.cli import parse_gps_outages
+    from sitl.sensors.gps import GpsOutageWindow
+
+    assert parse_gps_outages(["30:40", "5.5:6:2"]) == (
+        GpsOutageWindow(30.0, 40.0, None),
+        GpsOutageWindow(5.5, 6.0, 1),
+    )
+
+
+@pytest.mark.parametrize("spec", ["30", "40:30", "a:b", "1:2:0"])
+def test_bad_gps_outage_options_are_refused(spec):
+    result = CliRunner().invoke(app, ["up", "--gps-outage", spec, "--duration", "1"])
+    assert result.exit_code == 2
+    assert "--gps-outage" in result.output

@@ -51,7 +51,10 @@ def test_free_fall_with_motors_off(hover_world):
     # The drag is what tells this from a vacuum fall (20 - g/2 = 15.095 m).
     assert truth.position_enu_m[0, 2] - (20.0 - 0.5 * GRAVITY_M_S2) > 0.1
     assert np.all(truth.rotor_speed_rad_s == 0.0)
-    assert np.mean(accel_z[-25:]) == pytest.approx(np.mean(drag_accel[-25:]), abs=0.05)
+    # The accelerometer reads the drag deceleration plus its own bias (full turn-on bias).
+    noise = world._groups[0].imu.noise
+    bias_z = float(noise.turn_on_bias[0][0, 2] + noise.bias[0][0, 2])
+    assert np.mean(accel_z[-25:]) - bias_z == pytest.approx(np.mean(drag_accel[-25:]), abs=0.05)
     world.close()
 
 

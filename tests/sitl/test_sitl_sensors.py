@@ -62,11 +62,11 @@ def test_gyro_and_accel_white_noise_match_density(at_rest):
 def test_magnetometer_reads_the_configured_field(at_rest):
     """Facing north, level: FRD field = (H cos D, H sin D, F sin I), gauss."""
     world, sensors, _ = at_rest
-    cfg = world.config
+    field = world.magnetic_field
     mag = sensor_array(sensors, 0, ("xmag", "ymag", "zmag"))
-    inc, dec = np.radians(cfg.mag_inclination_deg), np.radians(cfg.mag_declination_deg)
-    h = cfg.mag_strength_gauss * np.cos(inc)
-    expected = [h * np.cos(dec), h * np.sin(dec), cfg.mag_strength_gauss * np.sin(inc)]
+    inc, dec = np.radians(field.inclination_deg), np.radians(field.declination_deg)
+    h = field.strength_gauss * np.cos(inc)
+    expected = [h * np.cos(dec), h * np.sin(dec), field.strength_gauss * np.sin(inc)]
     assert mag.mean(axis=0) == pytest.approx(expected, abs=0.002)
 
 
@@ -85,8 +85,10 @@ def test_barometer_is_isa_at_the_vehicle_altitude(at_rest):
 def test_gps_near_the_origin_at_rest(at_rest):
     """3D fix near the origin (error of order 0.5 m horizontal, 1 m vertical), velocity ~0."""
     world, _, gps = at_rest
-    msgs = [batch[0] for batch in gps]
-    assert all(m.fix_type == 3 and m.satellites_visible == 12 for m in msgs)
+    # The first two sends precede the first fix, measured 120 ms before it is sent.
+    assert [m.fix_type for m in (gps[0][0], gps[1][0])] == [1, 1]
+    msgs = [batch[0] for batch in gps[2:]]
+    assert all(m.fix_type == 3 and 8 <= m.satellites_visible <= 24 for m in msgs)
     lat = np.array([m.lat for m in msgs]) * 1e-7
     lon = np.array([m.lon for m in msgs]) * 1e-7
     alt = np.array([m.alt for m in msgs]) * 1e-3
@@ -97,20 +99,22 @@ def test_gps_near_the_origin_at_rest(at_rest):
     vel = np.array([[m.vn, m.ve, m.vd] for m in msgs]) / 100.0
     assert np.all(np.abs(vel.mean(axis=0)) < 0.1)
     assert np.all(vel.std(axis=0) < 0.3)
-    assert all(m.eph == 50 and m.epv == 100 for m in msgs)  # 1-sigma errors, cm
+    assert all(20 <= m.eph <= 100 and 50 <= m.epv <= 250 for m in msgs)  # 1-sigma errors, cm
     assert all(m.cog == 65535 or 0 <= m.cog < 36000 for m in msgs)
     assert sum(m.cog == 65535 for m in msgs) > len(msgs) / 2  # unknown when nearly still
 
 
 def test_gps_tracks_a_falling_vehicle():
-    """Falling with motors off, GPS down velocity follows g t (less the quadratic drag)."""
+    """Falling with motors off, GPS down velocity follows g t (less the quadratic drag), t the
+    measurement time: the fix sent at 2 s was measured the receiver's delay earlier."""
     world = make_world(spawn_altitude_m=50.0, seed=2)
     _, gps = collect(world, 2.0, [actuator_message([0.0] * 6, armed=False)])
     last = gps[-1][0]
+    t = 2.0 - world.airframe.gps.delay_ms * 1e-3
     k = world.airframe.fuselage.coefficients_n_s2_m2()[2] / world.airframe.mass_kg
     terminal = np.sqrt(9.81 / k)
-    assert last.vd / 100.0 == pytest.approx(terminal * np.tanh(2.0 * 9.81 / terminal), abs=0.5)
-    assert last.alt / 1000.0 == pytest.approx(488.0 + 50.0 - 0.5 * 9.81 * 4.0, abs=5.0)
+    assert last.vd / 100.0 == pytest.approx(terminal * np.tanh(t * 9.81 / terminal), abs=0.5)
+    assert last.alt / 1000.0 == pytest.approx(488.0 + 50.0 - 0.5 * 9.81 * t * t, abs=5.0)
     world.close()
 
 

@@ -54,6 +54,11 @@ from autopilot_emu.mavlink.setpoints import (
 from autopilot_emu.mavlink.streams import StreamProfile, StreamScheduler, profile_streams
 from autopilot_emu.mavlink.tlog import TlogWriter
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
+from autopilot_emu.mavlink.vision import (
+    VisionError,
+    decode_odometry,
+    decode_vision_position_estimate,
+)
 from autopilot_emu.modes.offboard import LocalFrame
 from autopilot_emu.params import ParamError
 
@@ -156,6 +161,10 @@ class EndpointStats:
     """Offboard setpoints addressed to us and passed to the vehicle."""
     setpoints_ignored: int = 0
     """Offboard setpoints addressed to us that could not be flown (logged once per reason)."""
+    vision_received: int = 0
+    """VISION_POSITION_ESTIMATE / ODOMETRY samples passed to the vehicle."""
+    vision_ignored: int = 0
+    """External-vision messages that could not be used (logged once per reason)."""
     handler_errors: int = 0
     """Exceptions raised while handling a received message."""
     encode_errors: int = 0
@@ -250,8 +259,11 @@ class MavlinkEndpoint:
             mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self._on_setpoint,
             mavlink2.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self._on_setpoint,
             mavlink2.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL: self._on_ftp,
+            mavlink2.MAVLINK_MSG_ID_VISION_POSITION_ESTIMATE: self._on_vision,
+            mavlink2.MAVLINK_MSG_ID_ODOMETRY: self._on_vision,
         }
         self._setpoint_problems: set[str] = set()
+        self._vision_problems: set[str] = set()
         self._configured_peers = list(
             dict.fromkeys(_resolve(host, port) for host, port in config.peers)
         )
@@ -645,6 +657,34 @@ class MavlinkEndpoint:
         if key not in self._setpoint_problems:
             self._setpoint_problems.add(key)
             logger.warning("ignoring %s (type_mask 0x%04x)", key, int(msg.type_mask))
+
+    def _on_vision(self, msg: mavlink2.MAVLink_message) -> None:
+        """VISION_POSITION_ESTIMATE / ODOMETRY -> the vehicle's external-vision input.
+
+        Stamped with the arrival time: without a converged timesync offset PX4 stamps such
+        samples with their arrival too (``sync_stamp``); EKF2_EV_DELAY covers the latency.
+        """
+        try:
+            if msg.get_msgId() == mavlink2.MAVLINK_MSG_ID_ODOMETRY:
+                m = decode_odometry(msg)
+            else:
+                m = decode_vision_position_estimate(msg)
+        except VisionError as exc:
+            self.stats.vision_ignored += 1
+            key = f"{msg.get_type()}: {exc}"
+            if key not in self._vision_problems:
+                self._vision_problems.add(key)
+                logger.warning("ignoring %s", key)
+            return
+        self._vehicle.vision_measurement(
+            self._now_us,
+            m.position_ned_m,
+            m.position_var_m2,
+            m.yaw_rad,
+            m.yaw_var_rad2,
+            m.velocity_ned_m_s,
+        )
+        self.stats.vision_received += 1
 
     def _on_ping(self, msg: mavlink2.MAVLink_message) -> None:
         # As PX4: target 0/0 is a request to answer; a PING addressed to us is a reply to a

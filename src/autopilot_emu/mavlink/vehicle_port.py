@@ -17,6 +17,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol
 
+import numpy as np
+
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes.offboard import GlobalSetpoint, LocalFrame, OffboardSetpoint
 from autopilot_emu.params import ParamStore
@@ -262,4 +264,20 @@ class VehiclePort(Protocol):
 
     def offboard_setpoint_global(self, target: GlobalSetpoint) -> bool:
         """SET_POSITION_TARGET_GLOBAL_INT, decoded; False if ignored (no origin or home yet)."""
+        ...
+
+    def vision_measurement(
+        self,
+        time_usec: int,
+        position_ned_m: np.ndarray,
+        position_var_m2: np.ndarray,
+        yaw_rad: float,
+        yaw_var_rad2: float,
+        velocity_ned_m_s: np.ndarray | None,
+    ) -> None:
+        """External vision (VISION_POSITION_ESTIMATE / ODOMETRY), decoded to the local NED frame.
+
+        ``time_usec`` is the sample's time on this vehicle's clock (since boot); variances are
+        m² / rad², NaN where unknown; ``yaw_rad`` NaN without a heading; velocity None if absent.
+        """
         ...

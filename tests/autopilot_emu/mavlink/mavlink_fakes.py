@@ -184,6 +184,9 @@ class FakeVehicle:
     def inject_failure(self, unit: int, failure_type: int, instance: int) -> int:
         return self._record("inject_failure", unit, failure_type, instance)
 
+    def vision_measurement(self, *args: object) -> None:
+        self.calls.append(("vision_measurement", *args))
+
 
 def make_endpoint(
     vehicle: FakeVehicle,

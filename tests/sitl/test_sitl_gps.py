@@ -1,0 +1,175 @@
+"""GNSS receiver: delay, satellites, accuracy that matches the error, fix type and outages."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pymavlink.dialects.v20 import common as mavlink2
+from sitl_test_helpers import actuator_message, collect, make_world
+
+from sitl import frames, hil
+from sitl.sensors.gps import FIX_2D, FIX_3D, FIX_NONE, Gps, GpsOutages, GpsSample
+from sitl.vehicles.multirotor import load_airframe
+
+PARAMS = load_airframe("typhoon_h480").gps
+ORIGIN = frames.GeodeticOrigin(47.397742, 8.545594, 488.0)
+
+
+def _receivers(n: int, seed: int = 0, outages: GpsOutages | None = None, **changes) -> Gps:
+    import dataclasses
+
+    params = dataclasses.replace(PARAMS, **changes)
+    rng = np.random.default_rng(seed)
+    return Gps(params, ORIGIN, n, rng, outages, physics_hz=500.0, gps_hz=10.0)
+
+
+def _run_still(gps: Gps, epochs: int, dt_s: float = 0.1) -> list[GpsSample]:
+    """Receivers held at the origin, one measurement every ``dt_s``."""
+    n = gps.satellite_process.value.shape[0]
+    zeros = np.zeros((n, 3))
+    return [gps.measure(k * dt_s, zeros, zeros, dt_s) for k in range(epochs)]
+
+
+def test_fix_is_delayed_by_the_receiver_delay():
+    """A falling vehicle's GPS down speed matches the truth ~120 ms before the send time."""
+    world = make_world(spawn_altitude_m=80.0, seed=3)
+    off = [actuator_message([0.0] * 6, armed=False)]
+    times, truth_vd, sent = [], [], []
+    for _ in range(round(2.5 * world.config.physics_hz)):
+        world.step(off)
+        _, gps = world.poll_sensors()
+        times.append(world.time_s)
+        truth_vd.append(-world.truth.velocity_enu_m_s[0, 2])
+        if gps is not None and gps[0].fix_type == 3:
+            sent.append((gps[0].time_usec * 1e-6, gps[0].vd / 100.0))
+    world.close()
+    t_send, vd = np.array(sent).T
+    lags = np.arange(0.0, 0.301, 0.002)
+    rms = [np.sqrt(np.mean((np.interp(t_send - lag, times, truth_vd) - vd) ** 2)) for lag in lags]
+    best = lags[int(np.argmin(rms))]
+    assert best == pytest.approx(PARAMS.delay_ms * 1e-3, abs=0.01)
+    # Without the delay the error would be g * 0.12 s ~ 1.2 m/s, far above the 0.15 m/s noise.
+    assert rms[0] > 5 * min(rms)
+
+
+def test_scripted_outage_reports_no_fix_and_recovers():
+    """Fixes measured inside a window [1, 2) s, sent 120 ms later, report no fix, 0 satellites,
+    unknown accuracy; only the vehicle named is affected; the fix returns afterwards."""
+    outages = GpsOutages(windows=((1.0, 2.0, 1),))
+    world = make_world(n_vehicles=2, gps_outages=outages)
+    _, gps = collect(world, 3.0)
+    world.close()
+    delay = PARAMS.delay_ms * 1e-3
+    for batch in gps:
+        t = batch[0].time_usec * 1e-6
+        if t < delay:
+            continue
+        lost = 1.0 <= t - delay < 2.0
+        m0, m1 = batch
+        assert m0.fix_type == 3
+        if lost:
+            assert (m1.fix_type, m1.satellites_visible, m1.eph, m1.epv) == (1, 0, 65535, 65535)
+            assert (m1.lat, m1.lon) == (0, 0)
+        else:
+            assert m1.fix_type == 3 and m1.satellites_visible >= 4 and m1.eph < 65535
+    # 10 sends in the window, and the one at 0.1 s (before the first fix, measured at 0.08 s).
+    assert sum(batch[1].fix_type == 1 for batch in gps) == 10 + 1
+
+
+def test_random_outages_match_their_mean_interval_and_duration():
+    """Two-state process: fraction of time lost ~ d / (i + d), mean outage length ~ d."""
+    interval_s, duration_s, dt = 20.0, 5.0, 0.1
+    gps = _receivers(
+        200, seed=4, outages=GpsOutages(mean_interval_s=interval_s, mean_duration_s=duration_s)
+    )
+    lost = np.array([s.fix_type == FIX_NONE for s in _run_still(gps, 3000)])  # 300 s
+    assert lost.mean() == pytest.approx(duration_s / (interval_s + duration_s), rel=0.1)
+    starts = np.sum(lost[1:] & ~lost[:-1])
+    assert lost[1:].sum() * dt / starts == pytest.approx(duration_s, rel=0.1)
+    never = _receivers(200, seed=4)
+    assert not any((s.fix_type == FIX_NONE).any() for s in _run_still(never, 300))
+
+
+def test_reported_accuracy_is_the_error_spread():
+    """(error / eph) per horizontal axis and (error / epv) vertically have unit std; eph follows
+    HDOP x UERE / sqrt(2) of the satellite count."""
+    gps = _receivers(400, seed=5)
+    samples = _run_still(gps, 1200, dt_s=1.0)[::20]  # 20 min, every 20 s
+    enu = np.stack(
+        [frames.geodetic_to_enu(s.lat_deg, s.lon_deg, s.alt_amsl_m, ORIGIN) for s in samples]
+    )
+    eph = np.stack([s.eph_m for s in samples])
+    epv = np.stack([s.epv_m for s in samples])
+    assert np.std(enu[..., 0] / eph) == pytest.approx(1.0, abs=0.05)
+    assert np.std(enu[..., 1] / eph) == pytest.approx(1.0, abs=0.05)
+    assert np.std(enu[..., 2] / epv) == pytest.approx(1.0, abs=0.05)
+    sats = np.stack([s.satellites for s in samples])
+    hdop = PARAMS.hdop_reference * np.sqrt((PARAMS.satellites_reference - 2) / (sats - 2))
+    assert eph == pytest.approx(hdop * PARAMS.uere_m / np.sqrt(2.0))
+    # Fewer satellites, larger reported and actual error.
+    few = sats <= np.percentile(sats, 20)
+    many = sats >= np.percentile(sats, 80)
+    assert eph[few].mean() > eph[many].mean()
+    assert np.abs(enu[..., 0][few]).mean() > np.abs(enu[..., 0][many]).mean()
+
+
+def test_satellites_wander_slowly_around_their_mean():
+    """Counts vary (not a constant), stay in [0, max], average the mean, change over minutes."""
+    gps = _receivers(100, seed=6)
+    sats = np.stack([s.satellites for s in _run_still(gps, 3600, dt_s=1.0)])  # 1 h at 1 Hz
+    assert sats.mean() == pytest.approx(PARAMS.satellites_mean, abs=0.5)
+    assert sats.std() == pytest.approx(PARAMS.satellites_sigma, rel=0.2)
+    assert sats.min() >= 0 and sats.max() <= PARAMS.satellites_max
+    changes_per_min = np.mean(sats[1:] != sats[:-1]) * 60.0
+    assert 0.1 < changes_per_min < 10.0
+
+
+@pytest.mark.parametrize(("mean", "fix"), [(2.0, FIX_NONE), (3.0, FIX_2D), (9.0, FIX_3D)])
+def test_fix_type_follows_the_satellite_count(mean, fix):
+    """0-2 satellites: no fix; 3: 2D fix; 4 or more: 3D fix."""
+    gps = _receivers(3, satellites_mean=mean, satellites_sigma=0.0)
+    sample = _run_still(gps, 2)[-1]
+    assert np.all(sample.fix_type == fix)
+    assert np.all(sample.satellites == int(mean))
+
+
+def test_gps_draws_do_not_shift_other_sensors():
+    """Switching random GPS outages on changes the GPS messages, not the IMU's noise."""
+
+    def run(outages: GpsOutages) -> tuple[list, list]:
+        world = make_world(seed=7, gps_outages=outages)
+        sensors, gps = collect(world, 2.0)
+        world.close()
+        return [m[0].xacc for m in sensors], [m[0].lat for m in gps]
+
+    imu_a, gps_a = run(GpsOutages())
+    imu_b, gps_b = run(GpsOutages(mean_interval_s=0.5, mean_duration_s=0.5))
+    assert imu_a == imu_b
+    assert gps_a != gps_b
+
+
+def test_no_fix_message_packs_with_unknown_accuracy():
+    """HIL_GPS without a fix: fix_type 1, 0 satellites, eph/epv 65535, packs as MAVLink 2."""
+    msg = hil.hil_gps_messages(5_000_000, GpsSample.no_fix(1, 5.0))[0]
+    mav = mavlink2.MAVLink(None)
+    decoded = mav.decode(bytearray(msg.pack(mav)))
+    assert (decoded.fix_type, decoded.satellites_visible) == (1, 0)
+    assert (decoded.eph, decoded.epv, decoded.time_usec) == (65535, 65535, 5_000_000)
+
+
+def test_receivers_of_a_group_of_vehicles_name_world_indices():
+    """Receivers for world rows 2 and 3 (an airframe group): poll reads those rows, a window for
+    vehicle 3 silences only the second receiver; measured 60 steps (120 ms) before each send."""
+    rng = np.random.default_rng(8)
+    outages = GpsOutages(windows=((0.0, 100.0, 3),))
+    gps = Gps(PARAMS, ORIGIN, 2, rng, outages, physics_hz=500.0, gps_hz=10.0, rows=slice(2, 4))
+    assert gps.vehicle_ids.tolist() == [2, 3] and gps.delay_ticks == 60
+    world_enu = np.array([[0.0, 0.0, 0.0]] * 2 + [[100.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    sent = [gps.poll(tick, world_enu, np.zeros((4, 3))) for tick in range(0, 201)]
+    sends = [(tick, fix) for tick, fix in enumerate(sent) if fix is not None]
+    assert [tick for tick, _ in sends] == [0, 50, 100, 150, 200]
+    assert [fix.time_s for _, fix in sends] == pytest.approx([0.0, 0.1, 0.08, 0.18, 0.28])
+    last = sends[-1][1]
+    assert last.fix_type.tolist() == [FIX_3D, FIX_NONE]
+    east = frames.geodetic_to_enu(last.lat_deg[0], last.lon_deg[0], last.alt_amsl_m[0], ORIGIN)
+    assert east[0] == pytest.approx(100.0, abs=3.0)
