@@ -1,8 +1,9 @@
 """The simulated world: N multirotors in PyBullet, stepped in lockstep, speaking PX4 HIL messages.
 
-One ``World`` owns the simulation clock, the PyBullet scene, the rotors, the sensors and one
-seeded random generator. Each ``step`` advances the physics by one step; ``poll_sensors`` returns
-the HIL_SENSOR / HIL_GPS messages that are due at the current time (call it once after each step).
+One ``World`` owns the simulation clock, the PyBullet scene, the rotors, the sensors, the power
+system (LiPo packs) and one seeded random generator. Each ``step`` advances the physics by one
+step; ``poll_sensors`` returns the HIL_SENSOR / HIL_GPS messages and ``poll_battery`` the
+BATTERY_STATUS messages that are due at the current time (call them once after each step).
 
 Profile the hot loop with ``python -m sitl.world --profile``.
 """
@@ -14,7 +15,7 @@ import logging
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
@@ -22,8 +23,11 @@ from pymavlink.dialects.v20 import common as mavlink2
 from sitl import frames, hil
 from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import BulletScene
-from sitl.physics.earth import magnetic_field_ned_gauss
+from sitl.physics.earth import isa_pressure_pa, isa_temperature_k, magnetic_field_ned_gauss
 from sitl.physics.rotors import RotorModel
+from sitl.power.loads import PayloadLoads
+from sitl.power.propulsion import load_power_spec
+from sitl.power.system import FleetPower
 from sitl.sensors.baro import Barometer, BaroSample
 from sitl.sensors.gps import Gps
 from sitl.sensors.imu import Imu
@@ -73,6 +77,12 @@ class WorldConfig:
     """Magnetic inclination at the origin, degrees below the horizontal."""
     mag_strength_gauss: float = 0.48
     """Strength of the Earth magnetic field at the origin, gauss."""
+    battery_hz: float = 50.0
+    """Rate of the power model update and of BATTERY_STATUS, Hz; divides physics_hz."""
+    loads: tuple[PayloadLoads, ...] = field(default_factory=lambda: (PayloadLoads(),))
+    """Avionics and payload loads: one entry for every vehicle, or one per vehicle."""
+    bench_supply: bool = False
+    """Power the rotors from an ideal constant-voltage supply instead of the LiPo pack."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -81,7 +91,7 @@ class WorldConfig:
             raise ValueError(f"n_vehicles must be >= 1, got {self.n_vehicles}")
         if not self.physics_hz > 0.0:
             raise ValueError(f"physics_hz must be positive, got {self.physics_hz!r}")
-        for name in ("imu_hz", "gps_hz", "baro_hz", "mag_hz"):
+        for name in ("imu_hz", "gps_hz", "baro_hz", "mag_hz", "battery_hz"):
             rate_divisor(self.physics_hz, getattr(self, name), name)
         for name in ("baro_hz", "mag_hz"):
             if getattr(self, name) > self.imu_hz:
@@ -102,6 +112,10 @@ class WorldConfig:
         known = available_airframes()
         if self.airframe not in known:
             raise ValueError(f"unknown airframe {self.airframe!r}; available: {', '.join(known)}")
+        if len(self.loads) not in (1, self.n_vehicles):
+            raise ValueError(
+                f"loads needs 1 or n_vehicles={self.n_vehicles} entries, got {len(self.loads)}"
+            )
 
 
 class World:
@@ -147,6 +161,21 @@ class World:
         self._ones = np.ones_like(self._controls)
         self._max_speed_rad_s = np.full_like(self._controls, spec.motor.max_speed_rad_s)
         self._nan_logged = False
+
+        self._power_div = rate_divisor(config.physics_hz, config.battery_hz, "battery_hz")
+        loads = config.loads * n if len(config.loads) == 1 else config.loads
+        alt = np.array(config.origin_alt_amsl_m)
+        air_density = float(isa_pressure_pa(alt) / (287.05 * isa_temperature_k(alt)))
+        self.power = FleetPower(
+            load_power_spec(spec.yaml_path),
+            spec.motor.thrust_coefficient_n_s2_rad2,
+            air_density,
+            loads,
+            config.bench_supply,
+        )
+        """Electrical state of every vehicle (packs, power, rotor speed limit)."""
+        self._battery_due = True
+        self._apply_speed_limit()
 
         # Sensor construction order fixes the order of random draws: keep it.
         rng = np.random.default_rng(config.seed)
@@ -200,6 +229,16 @@ class World:
         scene.apply_body_wrench_and_step(wrench)
         self._rotors.advance()
         self._clock.advance()
+        if self._clock.tick % self._power_div == 0:
+            self.power.update(self._rotors.speed_rad_s, self._power_div * self._clock.dt_s)
+            self._apply_speed_limit()
+            self._battery_due = True
+
+    def _apply_speed_limit(self) -> None:
+        """Rotor speed at full command from the supply voltage; re-scale the commands."""
+        limit = self.airframe.motor.max_speed_rad_s * self.power.speed_scale
+        np.multiply(self._ones, limit[:, None], out=self._max_speed_rad_s)
+        np.multiply(self._controls, self._max_speed_rad_s, out=self._rotors.command_rad_s)
 
     def _update_rotor_commands(self, nan_seen: bool) -> None:
         if nan_seen and not self._nan_logged:
@@ -232,6 +271,16 @@ class World:
         sensors = self._sample_hil_sensor(tick) if tick % self._imu_div == 0 else None
         gps = self._sample_hil_gps(tick) if tick % self._gps_div == 0 else None
         return sensors, gps
+
+    def poll_battery(self) -> list[mavlink2.MAVLink_battery_status_message] | None:
+        """BATTERY_STATUS per vehicle (power module: voltage, current) when due, else None.
+
+        Due at ``battery_hz`` (and at the start); a second call at the same time returns None.
+        """
+        if not self._battery_due:
+            return None
+        self._battery_due = False
+        return hil.battery_status_messages(self.power.voltage_v, self.power.current_a)
 
     def _interval_s(self, sensor: str, tick: int, divisor: int) -> float:
         """Time since the sensor's previous sample (its nominal period for the first one)."""
@@ -290,7 +339,11 @@ class World:
                 rotation, scene.angular_velocity_enu_rad_s
             ),
             rotor_speed_rad_s=self._rotors.speed_rad_s.copy(),
-            rotor_shaft_power_w=self._rotors.shaft_power_w(),
+            electrical_power_w=self.power.rotor_power_of(self._rotors.speed_rad_s)
+            + self.power.loads_w,
+            battery_voltage_v=self.power.voltage_v.copy(),
+            battery_current_a=self.power.current_a.copy(),
+            battery_soc=self.power.pack.soc.copy(),
             tilt_rad=np.arccos(np.clip(rotation[:, 2, 2], -1.0, 1.0)),
             origin=self.origin,
         )

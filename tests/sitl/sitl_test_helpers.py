@@ -21,7 +21,13 @@ def actuator_message(
 
 
 def make_world(**overrides: object) -> World:
-    """A World with the default configuration except ``overrides``."""
+    """A World with the default configuration except ``overrides``.
+
+    The rotors run from an ideal bench supply (rotor speed = command x max_speed_rad_s, as in
+    Gazebo) unless ``bench_supply=False``: these tests check the rigid-body and rotor physics;
+    the pack and its voltage are tested in test_power.py.
+    """
+    overrides.setdefault("bench_supply", True)
     return World(WorldConfig(**overrides))
 
 
