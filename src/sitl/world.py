@@ -83,6 +83,8 @@ class WorldConfig:
     """Avionics and payload loads: one entry for every vehicle, or one per vehicle."""
     bench_supply: bool = False
     """Power the rotors from an ideal constant-voltage supply instead of the LiPo pack."""
+    battery_soc: float = 1.0
+    """State of charge of every pack at the start, 0..1."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -112,6 +114,8 @@ class WorldConfig:
         known = available_airframes()
         if self.airframe not in known:
             raise ValueError(f"unknown airframe {self.airframe!r}; available: {', '.join(known)}")
+        if not 0.0 <= self.battery_soc <= 1.0:
+            raise ValueError(f"battery_soc must be in [0, 1], got {self.battery_soc!r}")
         if len(self.loads) not in (1, self.n_vehicles):
             raise ValueError(
                 f"loads needs 1 or n_vehicles={self.n_vehicles} entries, got {len(self.loads)}"
@@ -172,6 +176,7 @@ class World:
             air_density,
             loads,
             config.bench_supply,
+            config.battery_soc,
         )
         """Electrical state of every vehicle (packs, power, rotor speed limit)."""
         self._battery_due = True
@@ -230,7 +235,12 @@ class World:
         self._rotors.advance()
         self._clock.advance()
         if self._clock.tick % self._power_div == 0:
-            self.power.update(self._rotors.speed_rad_s, self._power_div * self._clock.dt_s)
+            self.power.update(
+                self._rotors.speed_rad_s,
+                self._controls,
+                self.airframe.motor.max_speed_rad_s,
+                self._power_div * self._clock.dt_s,
+            )
             self._apply_speed_limit()
             self._battery_due = True
 
