@@ -132,7 +132,9 @@ class FleetBattery:
         w = FUSION_GAIN * (1.0 - soc_v)
         safe_cap = np.where(capacity > 0.0, capacity, 1.0)
         fused = (1.0 - w) * self.soc + w * soc_v - loop_mah / safe_cap
-        fused = np.minimum(np.maximum(fused, 0.0), np.maximum(1.0 - self.consumed_mah / safe_cap, 0.0))
+        fused = np.minimum(
+            np.maximum(fused, 0.0), np.maximum(1.0 - self.consumed_mah / safe_cap, 0.0)
+        )
         self.soc = np.where(fuse, fused, np.where(connected, soc_v, np.nan))
         self.voltage_v = np.where(connected, v, np.nan)
         self.current_a = np.where(connected & i_known, i, np.nan)
@@ -153,7 +155,7 @@ class FleetBattery:
     def _update_resistance(
         self, mask: np.ndarray, v: np.ndarray, i: np.ndarray, cells: np.ndarray
     ) -> None:
-        """Recursive least squares on ``V = OCV - R_pack I`` (PX4's estimator), vehicles ``mask``."""
+        """PX4's recursive least squares on ``V = OCV - R_pack I``, for the vehicles ``mask``."""
         if not mask.any():
             return
         x = np.stack((np.ones_like(i), -i), axis=1)  # (N, 2)

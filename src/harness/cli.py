@@ -206,7 +206,8 @@ def demo(
 
     The client (companion/scripts/demo_flight.py, plain MAVSDK-Python) runs in its own process
     and talks MAVLink over UDP. The run directory gets report.json (climb time, hover and
-    arrival errors, max tilt, hover power and endurance, energy), trajectory.png, truth.csv and vehicle1.tlog.
+    arrival errors, max tilt, hover power and endurance, energy), trajectory.png, truth.csv
+    and vehicle1.tlog.
 
     Example:  swarmsitl demo --out runs/demo --speed 4
     """

@@ -1,8 +1,8 @@
 """The simulation loop: PyBullet world + emulated autopilots + MAVLink endpoints, in lockstep.
 
 One physics step at a time: the world advances with the last HIL_ACTUATOR_CONTROLS, then any
-HIL_SENSOR / HIL_GPS / BATTERY_STATUS messages that became due go to the autopilots, whose replies drive the next
-step. The MAVLink endpoints are polled on the simulation clock. Two ways to run it:
+HIL_SENSOR / HIL_GPS / BATTERY_STATUS messages that became due go to the autopilots, whose replies
+drive the next step. The MAVLink endpoints are polled on the simulation clock. Two ways to run it:
 
 * lockstep (``speed=None``): as fast as the CPU allows, deterministic for a given seed;
 * paced (``speed=k``): simulation time = wall time x k, for companion processes.

@@ -53,7 +53,7 @@ def test_power_beyond_the_pack_maximum_saturates():
 
 
 def test_endurance_integrates_to_the_cutoff_voltage():
-    """Constant power: the time to cutoff is close to usable energy / power, longer at less power."""
+    """Constant power: time to cutoff close to usable energy / power, longer at less power."""
     t300 = endurance_s(PACK, 300.0)
     t150 = endurance_s(PACK, 150.0)
     # Energy between full and the cutoff SoC, minus the I^2 R loss: bounds from the OCV curve.
@@ -74,8 +74,10 @@ def test_hover_power_matches_momentum_theory_closed_form():
     rho = 101325.0 * (1 - 0.0065 * 488.0 / 288.15) ** 5.25588 / (287.05 * (288.15 - 0.0065 * 488.0))
     area = math.pi * prop.rotor_diameter_m**2 / 4
     thrust = spec.mass_kg * GRAVITY_M_S2 / 6
-    expected = 6 * thrust**1.5 / (
-        prop.figure_of_merit * prop.motor_esc_efficiency * math.sqrt(2 * rho * area)
+    expected = (
+        6
+        * thrust**1.5
+        / (prop.figure_of_merit * prop.motor_esc_efficiency * math.sqrt(2 * rho * area))
     )
     assert world.truth.electrical_power_w[0] == pytest.approx(expected + 3.0, rel=1e-4)
     world.close()
@@ -89,9 +91,7 @@ def test_available_thrust_falls_with_the_pack_voltage():
         run(world, 0.5, [actuator_message([1.0] * 6)])
         truth = world.truth
         v = truth.battery_voltage_v[0]
-        assert truth.rotor_speed_rad_s[0] == pytest.approx(
-            np.full(6, 1500.0 * v / 14.8), rel=0.01
-        )
+        assert truth.rotor_speed_rad_s[0] == pytest.approx(np.full(6, 1500.0 * v / 14.8), rel=0.01)
         speeds[soc] = truth.rotor_speed_rad_s[0, 0]
         world.close()
     k_f = 8.54858e-06

@@ -107,9 +107,7 @@ def load_power_spec(yaml_path: Path) -> PowerSpec:
     if not isinstance(power, dict):
         raise ValueError(f"{yaml_path}: needs a 'power' section (propulsion constants, battery)")
     extra = sorted(
-        set(power)
-        - {f.name for f in fields(PropulsionParams)}
-        - {"battery", "description"}
+        set(power) - {f.name for f in fields(PropulsionParams)} - {"battery", "description"}
     )
     if extra:
         raise ValueError(f"{yaml_path}: section 'power': unknown keys {extra}")

@@ -84,7 +84,11 @@ class FleetPower:
         return self._k_power * np.einsum("ij,ij,ij->i", w, w, w)
 
     def update(
-        self, rotor_speed_rad_s: np.ndarray, commands: np.ndarray, max_speed_rad_s: float, dt_s: float
+        self,
+        rotor_speed_rad_s: np.ndarray,
+        commands: np.ndarray,
+        max_speed_rad_s: float,
+        dt_s: float,
     ) -> None:
         """Draw the present power for ``dt_s``; set the speed limit for the commands (N, n_rot)."""
         self.rotor_power_w = self.rotor_power_of(rotor_speed_rad_s)
