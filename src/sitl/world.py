@@ -173,6 +173,8 @@ class World:
         self.power = FleetPower(
             load_power_spec(spec.yaml_path),
             spec.motor.thrust_coefficient_n_s2_rad2,
+            spec.motor.max_speed_rad_s,
+            len(spec.rotors),
             air_density,
             loads,
             config.bench_supply,
@@ -235,12 +237,7 @@ class World:
         self._rotors.advance()
         self._clock.advance()
         if self._clock.tick % self._power_div == 0:
-            self.power.update(
-                self._rotors.speed_rad_s,
-                self._controls,
-                self.airframe.motor.max_speed_rad_s,
-                self._power_div * self._clock.dt_s,
-            )
+            self.power.update(self._rotors.speed_rad_s, self._power_div * self._clock.dt_s)
             self._apply_speed_limit()
             self._battery_due = True
 

@@ -153,3 +153,21 @@ def test_battery_status_reports_the_pack_at_its_rate():
     assert 20.0 < truth.battery_current_a[0] < 40.0  # ~380 W at ~15.5 V
     assert msg.current_consumed == -1 and msg.battery_remaining == -1
     world.close()
+
+
+def test_a_pack_too_weak_for_the_motors_is_refused():
+    """The voltage feedback is stable (gain < 1) for the Typhoon; a 20x weaker pack is refused."""
+    import dataclasses
+
+    from sitl.power.propulsion import PowerSpec
+    from sitl.power.system import FleetPower
+
+    world = make_world(bench_supply=False)
+    spec = world.power.spec
+    assert 0.2 < world.power.loop_gain < 0.7
+    weak = PowerSpec(
+        spec.propulsion, dataclasses.replace(spec.battery, cell_internal_resistance_ohm=0.064)
+    )
+    with pytest.raises(ValueError, match="too weak"):
+        FleetPower(weak, 8.54858e-06, 1500.0, 6, 1.17, [PayloadLoads()])
+    world.close()

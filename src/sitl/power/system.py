@@ -2,17 +2,14 @@
 
 Advanced by the World at ``battery_hz`` (not every physics step): the electrical power of the
 rotors (from their true speeds, :mod:`sitl.power.propulsion`) plus each vehicle's payload loads
-is drawn from its LiPo pack for one period. The rotor speed limit until the next update is
-``w_max = max_speed_rad_s * V / max_speed_voltage_v`` (zero once the ESCs' low-voltage cutoff has
-tripped), with V the terminal voltage at which the pack supplies the commanded speeds: with
-normalised commands u_i, ``P(V) = a V^3 + P_loads``, ``a = k_P (w_max0 / V_ref)^3 sum u_i^3``, and
-``V = V_oc - R P(V) / V``, i.e. the largest root of the convex cubic
+is drawn from its LiPo pack for one period; the resulting terminal voltage V sets the rotor speed
+limit ``w_max = max_speed_rad_s * V / max_speed_voltage_v`` until the next update (zero once the
+ESCs' low-voltage cutoff has tripped).
 
-    g(V) = a R V^3 + V^2 - V_oc V + R P_loads
-
-(Newton from V_oc, monotone). Without a root (demand beyond the pack's power) V is the minimiser
-of g, the maximum-power point. Solving the equilibrium, rather than feeding the last voltage back,
-keeps the loop stable whatever the pack resistance.
+This explicit feedback (power -> sag -> speed limit -> power) converges when its loop gain
+``dV'/dV = -2 R a V`` is below 1 in magnitude, with ``P = a V^3`` the rotor power at full command;
+the constructor checks it at the worst case (full pack, every rotor at full command) and refuses a
+pack too weak for the motors (the case where full throttle would pass the pack's maximum power).
 
 With ``bench_supply`` the vehicles run from an ideal constant-voltage supply at the airframe's
 ``max_speed_voltage_v`` instead: rotor speed = command x max_speed_rad_s exactly (as Gazebo) and
@@ -37,6 +34,8 @@ class FleetPower:
         self,
         spec: PowerSpec,
         thrust_coefficient_n_s2_rad2: float,
+        max_speed_rad_s: float,
+        n_rotors: int,
         air_density_kg_m3: float,
         loads: Sequence[PayloadLoads],
         bench_supply: bool = False,
@@ -49,6 +48,14 @@ class FleetPower:
         self._k_power = spec.propulsion.power_coefficient_w_s3_rad3(
             thrust_coefficient_n_s2_rad2, air_density_kg_m3
         )
+        self.loop_gain = self._loop_gain(max_speed_rad_s, n_rotors)
+        """Worst-case gain of the voltage feedback (must be < 1)."""
+        if not bench_supply and self.loop_gain >= 1.0:
+            raise ValueError(
+                f"battery too weak for the motors: full throttle on a full pack gives a voltage "
+                f"feedback gain {self.loop_gain:.2f} >= 1 (beyond the pack's maximum power); "
+                "lower cell_internal_resistance_ohm or add cells"
+            )
         self.loads_w = np.array([ld.total_w for ld in loads], dtype=float)
         """Payload and avionics power per vehicle, W, (N,)."""
         self.pack = LipoPack(spec.battery, n, soc)
@@ -83,34 +90,23 @@ class FleetPower:
         w = np.abs(rotor_speed_rad_s)
         return self._k_power * np.einsum("ij,ij,ij->i", w, w, w)
 
-    def update(
-        self,
-        rotor_speed_rad_s: np.ndarray,
-        commands: np.ndarray,
-        max_speed_rad_s: float,
-        dt_s: float,
-    ) -> None:
-        """Draw the present power for ``dt_s``; set the speed limit for the commands (N, n_rot)."""
+    def update(self, rotor_speed_rad_s: np.ndarray, dt_s: float) -> None:
+        """Draw the present power for ``dt_s`` and refresh the rotor speed limit."""
         self.rotor_power_w = self.rotor_power_of(rotor_speed_rad_s)
         if self.bench_supply:
             return
-        self.pack.draw(self.electrical_power_w, dt_s)
-        v_ref = self.spec.propulsion.max_speed_voltage_v
-        u = np.clip(commands, 0.0, 1.0)
-        a = self._k_power * (max_speed_rad_s / v_ref) ** 3 * np.einsum("ij,ij,ij->i", u, u, u)
-        v = self._supply_voltage(a)
-        self.speed_scale = np.where(self.pack.cut_off, 0.0, v / v_ref)
+        pack = self.pack
+        pack.draw(self.rotor_power_w + self.loads_w, dt_s)
+        scale = pack.voltage_v * (1.0 / self.spec.propulsion.max_speed_voltage_v)
+        self.speed_scale = np.where(pack.cut_off, 0.0, scale) if pack.cut_off.any() else scale
 
-    def _supply_voltage(self, a: np.ndarray) -> np.ndarray:
-        """Terminal voltage at which the pack supplies ``a V^3 + loads`` (see module doc), V."""
-        r = self.spec.battery.resistance_ohm
-        v_oc = self.spec.battery.ocv_v(self.pack.soc)
-        c = r * self.loads_w
-        ar = a * r
-        v_min = v_oc / (1.0 + np.sqrt(1.0 + 3.0 * ar * v_oc))  # g'(v_min) = 0
-        v = v_oc.copy()
-        for _ in range(8):  # convex g, started right of its largest root: monotone Newton
-            g = ar * v**3 + v * v - v_oc * v + c
-            v = v - g / (3.0 * ar * v * v + 2.0 * v - v_oc)
-        g_min = ar * v_min**3 + v_min * v_min - v_oc * v_min + c
-        return np.where(g_min >= 0.0, v_min, np.maximum(v, v_min))
+    def _loop_gain(self, max_speed_rad_s: float, n_rotors: int) -> float:
+        """``2 R a V_oc`` at full charge with every rotor at full command."""
+        battery = self.spec.battery
+        v_oc = float(battery.ocv_v(1.0))
+        a = (
+            self._k_power
+            * n_rotors
+            * (max_speed_rad_s / self.spec.propulsion.max_speed_voltage_v) ** 3
+        )
+        return 2.0 * battery.resistance_ohm * a * v_oc
