@@ -84,14 +84,14 @@ def test_hover_power_matches_momentum_theory_closed_form():
 
 
 def test_available_thrust_falls_with_the_pack_voltage():
-    """Full command: rotor speed = 1500 rad/s x V / 14.8 V, so a drained pack lifts less."""
+    """Full command: rotor speed = 1500 rad/s x V / 16.2 V, so a drained pack lifts less."""
     speeds = {}
     for soc in (1.0, 0.15):
         world = make_world(spawn_altitude_m=50.0, bench_supply=False, battery_soc=soc)
         run(world, 0.5, [actuator_message([1.0] * 6)])
         truth = world.truth
         v = truth.battery_voltage_v[0]
-        assert truth.rotor_speed_rad_s[0] == pytest.approx(np.full(6, 1500.0 * v / 14.8), rel=0.01)
+        assert truth.rotor_speed_rad_s[0] == pytest.approx(np.full(6, 1500.0 * v / 16.2), rel=0.01)
         speeds[soc] = truth.rotor_speed_rad_s[0, 0]
         world.close()
     k_f = 8.54858e-06
@@ -108,8 +108,9 @@ def test_low_voltage_cutoff_stops_the_motors_and_the_vehicle_falls():
         run(world, 0.1, command)
         assert world.time_s < 120.0
     assert world.time_s > 1.0  # it flew on the pack until the sag crossed the cutoff
+    run(world, 0.1, command)
     assert world.truth.battery_voltage_v[0] > 12.0  # unloaded, the voltage recovers
-    run(world, 1.0, command)
+    run(world, 0.9, command)
     truth = world.truth
     assert np.all(truth.rotor_speed_rad_s[0] < 1.0)
     assert truth.velocity_enu_m_s[0, 2] < -8.0  # about 1 s of free fall
