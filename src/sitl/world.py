@@ -15,7 +15,7 @@ import logging
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
@@ -79,7 +79,7 @@ class WorldConfig:
     """Strength of the Earth magnetic field at the origin, gauss."""
     battery_hz: float = 50.0
     """Rate of the power model update and of BATTERY_STATUS, Hz; divides physics_hz."""
-    loads: tuple[PayloadLoads, ...] = field(default_factory=lambda: (PayloadLoads(),))
+    loads: tuple[PayloadLoads, ...] = (PayloadLoads(),)
     """Avionics and payload loads: one entry for every vehicle, or one per vehicle."""
     bench_supply: bool = False
     """Power the rotors from an ideal constant-voltage supply instead of the LiPo pack."""

@@ -172,3 +172,12 @@ def test_a_pack_too_weak_for_the_motors_is_refused():
     with pytest.raises(ValueError, match="too weak"):
         FleetPower(weak, 8.54858e-06, 1500.0, 6, 1.17, [PayloadLoads()])
     world.close()
+
+
+def test_world_config_with_loads_stays_hashable():
+    cfg = WorldConfig(n_vehicles=2, loads=(PayloadLoads(), PayloadLoads.of({"camera": 5.0})))
+    assert hash(cfg) == hash(
+        WorldConfig(n_vehicles=2, loads=(PayloadLoads(), PayloadLoads.of({"camera": 5.0})))
+    )
+    with pytest.raises(ValueError, match="camera"):
+        PayloadLoads.of({"camera": -1.0})

@@ -12,36 +12,8 @@ Presets (``LOAD_PRESETS``), W:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-
-@dataclass(frozen=True)
-class PayloadLoads:
-    """Constant electrical loads of one vehicle, W each, by name."""
-
-    loads_w: dict[str, float] = field(default_factory=lambda: dict(AVIONICS_W))
-    """Load name -> power, W."""
-
-    def __post_init__(self) -> None:
-        for name, watts in self.loads_w.items():
-            if not watts >= 0.0:
-                raise ValueError(f"load {name!r} must be >= 0 W, got {watts!r}")
-
-    @property
-    def total_w(self) -> float:
-        """Sum of the loads, W."""
-        return float(sum(self.loads_w.values()))
-
-    @classmethod
-    def preset(cls, name: str) -> PayloadLoads:
-        """A named preset of ``LOAD_PRESETS``."""
-        try:
-            return cls(dict(LOAD_PRESETS[name]))
-        except KeyError:
-            raise ValueError(
-                f"unknown load preset {name!r}; available: {', '.join(sorted(LOAD_PRESETS))}"
-            ) from None
-
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 AVIONICS_W: dict[str, float] = {"flight_controller": 1.5, "gnss_compass": 0.5, "radio": 1.0}
 """The default load: autopilot, GNSS and its telemetry radio, W."""
@@ -57,3 +29,36 @@ LOAD_PRESETS: dict[str, dict[str, float]] = {
     },
 }
 """Named load sets, W (seed 000 = Ramos et al. 2025, ARCog-NET, Table I)."""
+
+
+@dataclass(frozen=True)
+class PayloadLoads:
+    """Constant electrical loads of one vehicle (hashable, like the rest of WorldConfig)."""
+
+    loads_w: tuple[tuple[str, float], ...] = tuple(AVIONICS_W.items())
+    """(load name, power in W) pairs."""
+
+    def __post_init__(self) -> None:
+        for name, watts in self.loads_w:
+            if not watts >= 0.0:
+                raise ValueError(f"load {name!r} must be >= 0 W, got {watts!r}")
+
+    @property
+    def total_w(self) -> float:
+        """Sum of the loads, W."""
+        return float(sum(w for _, w in self.loads_w))
+
+    @classmethod
+    def of(cls, loads_w: Mapping[str, float]) -> PayloadLoads:
+        """Loads from a name -> W mapping."""
+        return cls(tuple((str(k), float(v)) for k, v in loads_w.items()))
+
+    @classmethod
+    def preset(cls, name: str) -> PayloadLoads:
+        """A named preset of ``LOAD_PRESETS``."""
+        try:
+            return cls.of(LOAD_PRESETS[name])
+        except KeyError:
+            raise ValueError(
+                f"unknown load preset {name!r}; available: {', '.join(sorted(LOAD_PRESETS))}"
+            ) from None
