@@ -1,13 +1,14 @@
 """Hover power and endurance of the Typhoon H480 in a lockstep flight of the full stack.
 
 Published (Yuneec, Typhoon H specifications): flight time up to 25 min on the 4S 5400 mAh
-14.8 V pack, take-off weight 1695 g (with battery and CGO3 camera). The Gazebo model flies
+14.8 V pack, take-off weight 1695 g (with battery and CGO3+ camera). The Gazebo model flies
 2.665 kg (the SDF's links summed), 57 % heavier; momentum-theory hover power grows as mass^1.5,
 so with plausible propeller and motor efficiencies (FM 0.6, motor + ESC 0.76) the simulated
-vehicle hovers at ~390 W for ~11 min, while the same power model at Yuneec's weight gives ~23 min
-(within 15 % of 25 min). Reaching 25 min at 2.665 kg would need FM x eta of ~0.95, which no
-propeller and motor achieve: the gap is the mass of the SDF, not the power model. The tests below
-check what the physics gives; the published figure is checked at the published weight.
+vehicle hovers at ~390 W for ~12.2 min, while the same power model at Yuneec's weight gives
+~24.3 min (within 15 % of 25 min; 25 min exactly at 1.66 kg). Reaching 25 min at 2.665 kg would
+need FM x eta = 0.93 instead of 0.46, which no propeller and motor achieve: the gap is the mass of
+the SDF, not the power model. The tests below check what the physics gives; the published figure
+is checked at the published weight.
 """
 
 from __future__ import annotations
