@@ -1,7 +1,8 @@
 """The flight stacks of N vehicles, advanced together from HIL sensor messages.
 
 Inputs and outputs are the PX4 simulator messages (pymavlink objects): HIL_SENSOR at the IMU
-rate and HIL_GPS at the GPS rate in, HIL_ACTUATOR_CONTROLS out, one per vehicle. Whether they come
+rate, HIL_GPS at the GPS rate and BATTERY_STATUS (the power module's voltage and current) in,
+HIL_ACTUATOR_CONTROLS out, one per vehicle. Whether they come
 from PyBullet in memory or from a socket makes no difference here. Each IMU sample runs estimator
 prediction, attitude and rate control and the mixer for the whole fleet in numpy; navigation
 (commander + position control) runs at ``nav_hz``.
@@ -17,7 +18,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu import geodesy, magnetic_declination
 from autopilot_emu import quaternion as quat
-from autopilot_emu.battery import BatteryModel, FleetBattery
+from autopilot_emu.battery import BatteryParams, FleetBattery
 from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
 from autopilot_emu.control.attitude import attitude_rate_setpoint
 from autopilot_emu.control.hover_thrust import HoverThrustEstimator, HoverThrustParams
@@ -49,6 +50,7 @@ _FAILURE_OK, _FAILURE_OFF = mavlink2.FAILURE_TYPE_OK, mavlink2.FAILURE_TYPE_OFF
 _FAILURE_WRONG = mavlink2.FAILURE_TYPE_WRONG
 _MAG_WRONG = np.array([-1.0, -1.0, 1.0])
 """A WRONG magnetometer reads its x and y axes reversed (mounted 180 deg off in yaw)."""
+_NO_CELL = 65535  # BATTERY_STATUS.voltages entry of a cell that is not there
 
 
 @dataclass(frozen=True)
@@ -61,7 +63,6 @@ class FleetConfig:
     imu_hz: float = 250.0
     """Expected IMU rate, used for the very first sample only, Hz."""
     estimator: EstimatorConfig = field(default_factory=EstimatorConfig)
-    battery: BatteryModel = field(default_factory=BatteryModel)
 
     def __post_init__(self) -> None:
         if self.n_vehicles < 1:
@@ -91,7 +92,7 @@ class AutopilotFleet:
         """Vehicles whose position controller tracked the trajectory at the last tick."""
         self.rate_control = RateController(n)
         self.mixer = Mixer([RotorGeometry.from_params(p) for p in self.params])
-        self.battery = FleetBattery(n, config.battery)
+        self.battery = FleetBattery(n)
         self.time_usec = 0
         self.thrust = np.zeros(n)
         self.outputs = np.zeros((n, MAX_ROTORS))
@@ -184,13 +185,26 @@ class AutopilotFleet:
         gains = self._refresh_gains()
         self._nav_accum_s += dt
         if self._nav_accum_s >= self._nav_period_s - 1e-9:
-            self.battery.update(self.thrust, gains.hover_thrust, self.armed, self._nav_accum_s)
             est.update_acceleration(self._nav_accum_s)
             self._update_hover_thrust(self._nav_accum_s, gains)
             self._navigate(self._nav_accum_s, gains)
             self._nav_accum_s = 0.0
         self._control(dt, gains)
         return self._actuator_messages(t_usec)
+
+    def handle_battery(self, msgs: list[mavlink2.MAVLink_battery_status_message]) -> None:
+        """Consume one BATTERY_STATUS per vehicle (pack voltage and current, as a power module).
+
+        The pack voltage is the sum of the valid cell entries (a power module reports it whole
+        in cell 0); a current of -1 is unknown.
+        """
+        self._refresh_gains()
+        volts = np.array(
+            [sum(c for c in m.voltages if c != _NO_CELL) * 1e-3 for m in msgs], dtype=float
+        )
+        amps = np.array([m.current_battery * 0.01 for m in msgs], dtype=float)
+        amps[amps < 0.0] = np.nan
+        self.battery.update(volts, amps, self.time_usec * 1e-6)
 
     def handle_gps(self, msgs: list[mavlink2.MAVLink_hil_gps_message]) -> None:
         """Consume one HIL_GPS per vehicle."""
@@ -415,7 +429,7 @@ class AutopilotFleet:
             est.set_declination(
                 magnetic_declination.declinations_deg(self.params, est.origin_lla, est.origin_set)
             )
-            self.battery.set_capacity([float(p.get("BAT1_CAPACITY")) for p in self.params])
+            self.battery.set_params(_battery_params(self.params))
             hte_params = _hover_thrust_params(self.params)
             if self.hover_thrust_estimator is None:
                 self.hover_thrust_estimator = HoverThrustEstimator(hte_params)
@@ -506,6 +520,19 @@ def _hover_thrust_params(params: list[ParamStore]) -> HoverThrustParams:
         vxy_threshold_m_s=col("HTE_VXY_THR"),
         vz_threshold_m_s=col("HTE_VZ_THR"),
         range=col("HTE_THR_RANGE"),
+    )
+
+
+def _battery_params(params: list[ParamStore]) -> BatteryParams:
+    def col(name: str) -> np.ndarray:
+        return np.array([float(p.get(name)) for p in params])
+
+    return BatteryParams(
+        n_cells=col("BAT1_N_CELLS"),
+        capacity_mah=col("BAT1_CAPACITY"),
+        v_empty=col("BAT1_V_EMPTY"),
+        v_charged=col("BAT1_V_CHARGED"),
+        r_internal=col("BAT1_R_INTERNAL"),
     )
 
 

@@ -231,7 +231,7 @@ class FleetTelemetry:
             throttle=thrust,
             battery_voltage_v=row[30],
             battery_current_a=row[31],
-            battery_remaining_pct=round(100 * row[32]),
+            battery_remaining_pct=round(100 * row[32]) if math.isfinite(row[32]) else -1,
             battery_consumed_mah=row[33],
             home=home,
             setpoint=setpoint,

@@ -106,6 +106,8 @@ def parse_frames(spec: str, n_vehicles: int) -> tuple[str, ...]:
         except ValueError as exc:
             raise typer.BadParameter(str(exc), param_hint="--frame") from exc
     return names
+
+
 def parse_gps_outages(specs: list[str]) -> tuple[GpsOutageWindow, ...]:
     """``START:END[:SYSID]`` options (simulated seconds, MAVLink system id) -> outage windows."""
     windows = []
@@ -317,7 +319,8 @@ def demo(
 
     The client (companion/scripts/demo_flight.py, plain MAVSDK-Python) runs in its own process
     and talks MAVLink over UDP. The run directory gets report.json (climb time, hover and
-    arrival errors, max tilt, rotor energy), trajectory.png, truth.csv and vehicle1.tlog.
+    arrival errors, max tilt, hover power and endurance, energy), trajectory.png, truth.csv
+    and vehicle1.tlog.
 
     Example:  swarmsitl demo --out runs/demo --speed 4
     """
@@ -375,7 +378,9 @@ def demo(
         sim.world.config.origin_lon_deg,
         sim.world.config.origin_alt_amsl_m,
     )
-    metrics = demo_metrics(track, client["events"], client["settings"], origin)
+    metrics = demo_metrics(
+        track, client["events"], client["settings"], origin, sim.world.power.spec.battery
+    )
     write_report(
         run_dir / "report.json",
         metrics,

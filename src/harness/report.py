@@ -14,6 +14,8 @@ from typing import Any
 import numpy as np
 import pymap3d
 
+from sitl.power.battery import LipoParams, endurance_s
+
 
 def _sim_time_of(wall_s: float, wall: np.ndarray, sim: np.ndarray) -> float:
     return float(np.interp(wall_s, wall, sim))
@@ -24,8 +26,13 @@ def demo_metrics(
     events: list[dict[str, Any]],
     settings: dict[str, Any],
     origin_lla: tuple[float, float, float],
+    battery: LipoParams | None = None,
 ) -> dict[str, Any]:
-    """Climb time, hover and arrival errors, tilt and energy of one demo flight (SI units)."""
+    """Climb time, hover and arrival errors, tilt, power and energy of one demo flight (SI units).
+
+    With ``battery`` (the vehicle's pack) the report adds the hover endurance: the time that pack
+    delivers the hover power measured in this flight until its loaded voltage reaches cutoff.
+    """
     t = track["time_s"]
     enu = np.stack((track["east_m"], track["north_m"], track["up_m"]), axis=1)
     ev = {e["event"]: e for e in events}
@@ -52,6 +59,8 @@ def demo_metrics(
         err = np.linalg.norm(enu[win] - goal, axis=1)
         out["hover_error_rms_m"] = float(np.sqrt(np.mean(err**2))) if err.size else None
         out["hover_error_max_m"] = float(err.max()) if err.size else None
+        if err.size:
+            out.update(hover_power_metrics(track, win, battery))
     t_goal = at("goto_settled")
     goto = ev.get("goto_commanded")
     if t_goal is not None and goto is not None:
@@ -70,10 +79,28 @@ def demo_metrics(
     if armed.any():
         ta = t[armed]
         out["armed_time_s"] = float(ta[-1] - ta[0])
-    power = track["rotor_power_w"]
+    power = track["electrical_power_w"]
     energy = float(np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(t)))
-    out["rotor_shaft_energy_j"] = energy
-    out["rotor_shaft_energy_wh"] = energy / 3600.0
+    out["electrical_energy_j"] = energy
+    out["electrical_energy_wh"] = energy / 3600.0
+    if "battery_soc" in track and len(t):
+        out["battery_soc_used"] = float(track["battery_soc"][0] - track["battery_soc"][-1])
+    return out
+
+
+def hover_power_metrics(
+    track: dict[str, np.ndarray], window: np.ndarray, battery: LipoParams | None
+) -> dict[str, float]:
+    """Mean electrical power over the hover samples ``window`` and, with a pack, the endurance.
+
+    The endurance integrates the LiPo model (:func:`sitl.power.battery.endurance_s`) from full
+    charge at that constant power down to the cutoff voltage: what this vehicle, hovering as it
+    did here, would fly on a fresh pack.
+    """
+    hover_w = float(np.mean(track["electrical_power_w"][window]))
+    out = {"hover_power_w": hover_w}
+    if battery is not None:
+        out["hover_endurance_min"] = endurance_s(battery, hover_w) / 60.0
     return out
 
 

@@ -1,8 +1,8 @@
 """The simulation loop: PyBullet world + emulated autopilots + MAVLink endpoints, in lockstep.
 
 One physics step at a time: the world advances with the last HIL_ACTUATOR_CONTROLS, then any
-HIL_SENSOR / HIL_GPS messages that became due go to the autopilots, whose replies drive the next
-step. The MAVLink endpoints are polled on the simulation clock. Two ways to run it:
+HIL_SENSOR / HIL_GPS / BATTERY_STATUS messages that became due go to the autopilots, whose replies
+drive the next step. The MAVLink endpoints are polled on the simulation clock. Two ways to run it:
 
 * lockstep (``speed=None``): as fast as the CPU allows, deterministic for a given seed;
 * paced (``speed=k``): simulation time = wall time x k, for companion processes.
@@ -275,6 +275,9 @@ class Simulation:
             self._actuators = self.fleet.handle_sensors(sensors)
         if self.mocap is not None:
             self.mocap.publish(self.world.poll_mocap())
+        battery = self.world.poll_battery()
+        if battery is not None:
+            self.fleet.handle_battery(battery)
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:
             self._poll_links(self.world.time_s)
@@ -303,6 +306,9 @@ class Simulation:
             self._actuators = self.fleet.handle_sensors(sensors)
         if self.mocap is not None:
             self.mocap.publish(self.world.poll_mocap())
+        battery = self.world.poll_battery()
+        if battery is not None:
+            self.fleet.handle_battery(battery)
         t3 = clock()
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:

@@ -1,4 +1,4 @@
-"""The PX4 simulator messages: HIL_SENSOR and HIL_GPS out, HIL_ACTUATOR_CONTROLS in.
+"""The PX4 simulator messages: HIL_SENSOR, HIL_GPS, BATTERY_STATUS out, HIL_ACTUATOR_CONTROLS in.
 
 Units and frames are MAVLink's: body FRD, m/s^2, rad/s, gauss, hPa, degE7, mm, cm, cm/s, cdeg.
 ``time_usec`` is simulation time. Messages are built only when a sensor is due.
@@ -151,3 +151,47 @@ def hil_gps_messages(time_usec: int, fix: GpsSample) -> list[mavlink2.MAVLink_hi
             strict=True,
         )
     ]
+
+
+_UINT16_MAX = 65535
+_NO_CELLS_EXT = [0, 0, 0, 0]
+
+
+def battery_status_messages(
+    voltage_v: np.ndarray, current_a: np.ndarray
+) -> list[mavlink2.MAVLink_battery_status_message]:
+    """One BATTERY_STATUS per vehicle as a power module measures it: pack voltage and current.
+
+    Cell voltages are not measured: the whole pack voltage goes in ``voltages[0]`` (mV; above
+    65534 mV the rest spills into ``voltages[1]``), the other cells are UINT16_MAX, as MAVLink
+    specifies. ``current_battery`` in cA; consumed charge, energy and remaining are unknown (-1):
+    estimating them is the autopilot's job.
+    """
+    mv = np.rint(np.clip(voltage_v, 0.0, 2.0 * (_UINT16_MAX - 1) / 1000.0) * 1000.0)
+    ca = np.rint(np.clip(current_a, 0.0, 32767 / 100.0) * 100.0)
+    make = mavlink2.MAVLink_battery_status_message
+    msgs = []
+    for v, c in zip(mv.astype(np.int64).tolist(), ca.astype(np.int64).tolist(), strict=True):
+        cells = [_UINT16_MAX] * 10
+        cells[0] = min(v, _UINT16_MAX - 1)
+        if v > _UINT16_MAX - 1:
+            cells[1] = v - (_UINT16_MAX - 1)
+        msgs.append(
+            make(
+                0,
+                mavlink2.MAV_BATTERY_FUNCTION_ALL,
+                mavlink2.MAV_BATTERY_TYPE_LIPO,
+                32767,
+                cells,
+                c,
+                -1,
+                -1,
+                -1,
+                0,
+                mavlink2.MAV_BATTERY_CHARGE_STATE_UNDEFINED,
+                _NO_CELLS_EXT,
+                0,
+                0,
+            )
+        )
+    return msgs

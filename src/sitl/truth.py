@@ -26,8 +26,14 @@ class TruthState:
     """Angular velocities in body FRD axes, rad/s, (N, 3)."""
     rotor_speed_rad_s: np.ndarray
     """Rotor speeds, in actuator output order, rad/s, (N, n_rotors)."""
-    rotor_shaft_power_w: np.ndarray
-    """Mechanical power of all rotors of each vehicle, sum of k_m w^3, W, (N,)."""
+    electrical_power_w: np.ndarray
+    """Electrical power of each vehicle (rotors at their present speeds + loads), W, (N,)."""
+    battery_voltage_v: np.ndarray
+    """Supply terminal voltage (at the last power update), V, (N,)."""
+    battery_current_a: np.ndarray
+    """Supply current (at the last power update), A, (N,)."""
+    battery_soc: np.ndarray
+    """State of charge of each pack, 0..1, (N,)."""
     tilt_rad: np.ndarray
     """Angle between body up and world up, rad, (N,)."""
     wind_enu_m_s: np.ndarray

@@ -1,8 +1,9 @@
 """The simulated world: N multirotors in PyBullet, stepped in lockstep, speaking PX4 HIL messages.
 
-One ``World`` owns the simulation clock, the PyBullet scene, the rotors, the sensors and one
-seeded random generator. Each ``step`` advances the physics by one step; ``poll_sensors`` returns
-the HIL_SENSOR / HIL_GPS messages that are due at the current time (call it once after each step).
+One ``World`` owns the simulation clock, the PyBullet scene, the rotors, the sensors, the power
+system (LiPo packs) and one seeded random generator. Each ``step`` advances the physics by one
+step; ``poll_sensors`` returns the HIL_SENSOR / HIL_GPS messages and ``poll_battery`` the
+BATTERY_STATUS messages that are due at the current time (call them once after each step).
 
 Profile the hot loop with ``python -m sitl.world --profile``.
 """
@@ -15,7 +16,7 @@ import logging
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,9 +25,13 @@ from pymavlink.dialects.v20 import common as mavlink2
 from sitl import frames, hil
 from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import BulletScene
+from sitl.physics.earth import isa_pressure_pa, isa_temperature_k
 from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
 from sitl.physics.rotors import RotorModel
 from sitl.physics.wind import WindConfig, WindField
+from sitl.power.loads import PayloadLoads
+from sitl.power.propulsion import load_power_spec
+from sitl.power.system import FleetPower
 from sitl.sensors.baro import Barometer, BaroSample
 from sitl.sensors.gps import Gps, GpsOutages
 from sitl.sensors.imu import Imu
@@ -90,6 +95,14 @@ class WorldConfig:
     """Noise and latency of the motion-capture system."""
     wind: WindConfig | None = None
     """Steady wind, turbulence and gusts; None: calm air."""
+    battery_hz: float = 50.0
+    """Rate of the power model update and of BATTERY_STATUS, Hz; divides physics_hz."""
+    loads: tuple[PayloadLoads, ...] = (PayloadLoads(),)
+    """Avionics and payload loads: one entry for every vehicle, or one per vehicle."""
+    bench_supply: bool = False
+    """Power the rotors from an ideal constant-voltage supply instead of the LiPo pack."""
+    battery_soc: float = 1.0
+    """State of charge of every pack at the start, 0..1."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -98,7 +111,7 @@ class WorldConfig:
             raise ValueError(f"n_vehicles must be >= 1, got {self.n_vehicles}")
         if not self.physics_hz > 0.0:
             raise ValueError(f"physics_hz must be positive, got {self.physics_hz!r}")
-        for name in ("imu_hz", "gps_hz", "baro_hz", "mag_hz"):
+        for name in ("imu_hz", "gps_hz", "baro_hz", "mag_hz", "battery_hz"):
             rate_divisor(self.physics_hz, getattr(self, name), name)
         if self.mocap_hz:
             rate_divisor(self.physics_hz, self.mocap_hz, "mocap_hz")
@@ -128,6 +141,12 @@ class WorldConfig:
             )
         for name in names:
             airframe_yaml_path(name)  # ValueError naming the unknown airframe
+        if not 0.0 <= self.battery_soc <= 1.0:
+            raise ValueError(f"battery_soc must be in [0, 1], got {self.battery_soc!r}")
+        if len(self.loads) not in (1, self.n_vehicles):
+            raise ValueError(
+                f"loads needs 1 or n_vehicles={self.n_vehicles} entries, got {len(self.loads)}"
+            )
         if self.wind is not None:
             if not isinstance(self.wind, WindConfig):
                 raise ValueError(f"wind must be a WindConfig or None, got {self.wind!r}")
@@ -155,6 +174,7 @@ class _AirframeGroup:
     mag: Magnetometer
     baro: Barometer
     gps: Gps
+    power: FleetPower
 
     def __post_init__(self) -> None:
         shape = (self.n, len(self.spec.rotors))
@@ -225,6 +245,10 @@ class World:
         # Sensor construction order fixes the order of random draws: keep it (group by group in
         # order of first appearance; one group is the single-airframe world).
         rng = np.random.default_rng(config.seed)
+        self._power_div = rate_divisor(config.physics_hz, config.battery_hz, "battery_hz")
+        loads = config.loads * n if len(config.loads) == 1 else config.loads
+        alt = np.array(config.origin_alt_amsl_m)
+        air_density = float(isa_pressure_pa(alt) / (287.05 * isa_temperature_k(alt)))
         self.magnetic_field = _magnetic_field(config)
         """The Earth field at the origin the magnetometers measure (WMM unless overridden)."""
         field = self.magnetic_field.ned_gauss()
@@ -253,6 +277,16 @@ class World:
                         gps_hz=config.gps_hz,
                         rows=_group_rows(members[name]),
                     ),
+                    power=FleetPower(
+                        load_power_spec(spec.yaml_path),
+                        spec.motor.thrust_coefficient_n_s2_rad2,
+                        spec.motor.max_speed_rad_s,
+                        len(spec.rotors),
+                        air_density,
+                        [loads[i] for i in members[name]],
+                        config.bench_supply,
+                        config.battery_soc,
+                    ),
                 )
             )
         self._single = self._groups[0] if len(self._groups) == 1 else None
@@ -278,6 +312,9 @@ class World:
             round(config.mocap.latency_ms * 1e-3 * config.physics_hz) * self._clock.dt_s
         )
         self._last_mocap_tick = -1
+        self._battery_due = True
+        for group in self._groups:
+            self._apply_speed_limit(group)
 
         self._last_poll_tick = -1
         self._last_tick = {"imu": -1, "mag": -1, "baro": -1}
@@ -330,6 +367,43 @@ class World:
             for group in self._groups:
                 group.rotors.advance()
         self._clock.advance()
+        if self._clock.tick % self._power_div == 0:
+            dt = self._power_div * self._clock.dt_s
+            for group in self._groups:
+                group.power.update(group.rotors.speed_rad_s, dt)
+                self._apply_speed_limit(group)
+            self._battery_due = True
+
+    def _apply_speed_limit(self, group: _AirframeGroup) -> None:
+        """Rotor speed at full command from the supply voltage; re-scale the group's commands."""
+        limit = group.spec.motor.max_speed_rad_s * group.power.speed_scale
+        np.multiply(group.ones, limit[:, None], out=group.max_speed_rad_s)
+        u = self._controls if self._single is not None else group.controls
+        np.multiply(u, group.max_speed_rad_s, out=group.rotors.command_rad_s)
+
+    @property
+    def power(self) -> FleetPower:
+        """Electrical state (packs, power, rotor speed limit) of vehicle 0's airframe group.
+
+        In a single-airframe world that is every vehicle (see :meth:`power_of`).
+        """
+        return self._groups[0].power if self._single is not None else self.power_of(0)
+
+    def power_of(self, i: int) -> FleetPower:
+        """The power model of vehicle i's airframe group (its arrays hold the group's vehicles)."""
+        for group in self._groups:
+            if i in group.gps.vehicle_ids:
+                return group.power
+        raise IndexError(f"vehicle index {i} out of range 0..{self.n_vehicles - 1}")
+
+    def _power_column(self, get: Callable[[_AirframeGroup], np.ndarray]) -> np.ndarray:
+        """One (N,) array in vehicle order from every airframe group (a copy)."""
+        if self._single is not None:
+            return np.array(get(self._single), dtype=float)
+        out = np.zeros(self.n_vehicles)
+        for group in self._groups:
+            out[group.rows] = get(group)
+        return out
 
     def _airspeed_flu(self) -> np.ndarray:
         """Velocity relative to the air, body FLU, (N, 1, 3): what rotor and fuselage drag see."""
@@ -394,6 +468,19 @@ class World:
                 scene = self._scene
                 self._mocap.measure(self._clock.time_s, scene.position_enu_m, scene.quaternion_xyzw)
         return self._mocap.release(self._clock.time_s, self._mocap_latency_s)
+
+    def poll_battery(self) -> list[mavlink2.MAVLink_battery_status_message] | None:
+        """BATTERY_STATUS per vehicle (power module: voltage, current) when due, else None.
+
+        Due at ``battery_hz`` (and at the start); a second call at the same time returns None.
+        """
+        if not self._battery_due:
+            return None
+        self._battery_due = False
+        return hil.battery_status_messages(
+            self._power_column(lambda g: g.power.voltage_v),
+            self._power_column(lambda g: g.power.current_a),
+        )
 
     def _interval_s(self, sensor: str, tick: int, divisor: int) -> float:
         """Time since the sensor's previous sample (its nominal period for the first one)."""
@@ -500,7 +587,12 @@ class World:
                 rotation, scene.angular_velocity_enu_rad_s
             ),
             rotor_speed_rad_s=self._rotor_speeds(),
-            rotor_shaft_power_w=self._shaft_power_w(),
+            electrical_power_w=self._power_column(
+                lambda g: g.power.rotor_power_of(g.rotors.speed_rad_s) + g.power.loads_w
+            ),
+            battery_voltage_v=self._power_column(lambda g: g.power.voltage_v),
+            battery_current_a=self._power_column(lambda g: g.power.current_a),
+            battery_soc=self._power_column(lambda g: g.power.pack.soc),
             tilt_rad=np.arccos(np.clip(rotation[:, 2, 2], -1.0, 1.0)),
             wind_enu_m_s=(
                 np.zeros((self.n_vehicles, 3))
@@ -518,14 +610,6 @@ class World:
         for group in self._groups:
             speeds[group.rows, : group.rotors.n_rotors] = group.rotors.speed_rad_s
         return speeds
-
-    def _shaft_power_w(self) -> np.ndarray:
-        if self._single is not None:
-            return self._single.rotors.shaft_power_w()
-        power = np.zeros(self.n_vehicles)
-        for group in self._groups:
-            power[group.rows] = group.rotors.shaft_power_w()
-        return power
 
     def home_geodetic(self, i: int) -> tuple[float, float, float]:
         """Latitude (deg), longitude (deg), altitude AMSL (m) of vehicle i's spawn point (CoM)."""

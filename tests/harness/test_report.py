@@ -21,7 +21,8 @@ def _track():
         "tilt_deg": np.where(landed == 2.0, 12.0, 0.5),
         "landed_state": landed,
         "armed": (landed == 2.0).astype(float),
-        "rotor_power_w": np.where(landed == 2.0, 100.0, 0.0),
+        "electrical_power_w": np.where(landed == 2.0, 100.0, 0.0),
+        "battery_soc": 1.0 - 0.001 * t,
         "wall_s": 1000.0 + t / 2.0,  # paced at 2x
     }
 
@@ -48,7 +49,10 @@ def test_metrics_follow_the_track():
     assert m["hover_error_rms_m"] == pytest.approx(0.0, abs=1e-6)
     assert m["arrival_error_m"] == pytest.approx(0.0, abs=1e-3)
     assert m["max_tilt_deg"] == pytest.approx(12.0)
-    assert m["rotor_shaft_energy_j"] == pytest.approx(100.0 * 30.0, rel=0.01)
+    assert m["electrical_energy_j"] == pytest.approx(100.0 * 30.0, rel=0.01)
+    assert m["hover_power_w"] == pytest.approx(100.0)
+    assert m["battery_soc_used"] == pytest.approx(0.001 * 39.95)
+    assert "hover_endurance_min" not in m  # no pack given
 
 
 def test_failed_flight_is_reported_incomplete():

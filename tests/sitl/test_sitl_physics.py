@@ -140,14 +140,17 @@ def test_commands_are_clipped_and_nan_is_zero(hover_world, caplog):
     assert sum("NaN" in r.message for r in caplog.records) == 1
 
 
-def test_disarmed_commands_zero_and_shaft_power(hover_world):
-    """Without SAFETY_ARMED the rotors spin down; shaft power is sum k_m w^3."""
+def test_disarmed_commands_zero_and_electrical_power(hover_world):
+    """Without SAFETY_ARMED the rotors spin down; the electrical power is the momentum-theory
+    power of the thrust k_f w^2 of each rotor (sitl.power.propulsion) plus the loads."""
     world = hover_world
     run(world, 0.3, [actuator_message([0.5] * 6)])
     truth = world.truth
     spec = world.airframe
-    k_m = spec.motor.moment_coefficient_m * spec.motor.thrust_coefficient_n_s2_rad2
-    assert truth.rotor_shaft_power_w[0] == pytest.approx(6 * k_m * 750.0**3, rel=1e-6)
+    power = world.power
+    thrust = spec.motor.thrust_coefficient_n_s2_rad2 * 750.0**2
+    expected = power.spec.propulsion.hover_power_w([thrust] * 6, power.air_density_kg_m3)
+    assert truth.electrical_power_w[0] == pytest.approx(expected + power.loads_w[0], rel=1e-6)
     run(world, 1.0, [actuator_message([0.5] * 6, armed=False)])
     assert np.all(world.truth.rotor_speed_rad_s < 1.0)
 

@@ -176,7 +176,3 @@ class RotorModel:
         np.multiply(d, self._alpha_down, d)
         self._pick(self._diff_up, d, out=d)
         np.add(self.speed_rad_s, d, self.speed_rad_s)
-
-    def shaft_power_w(self) -> np.ndarray:
-        """Mechanical shaft power of each vehicle's rotors, sum of k_m w^3, W, ``(N,)``."""
-        return self.yaw_coefficient_n_m_s2_rad2 * np.sum(self.speed_rad_s**3, axis=1)

@@ -20,6 +20,7 @@ import yaml
 from sitl.physics.drag import FuselageDrag
 from sitl.physics.earth import GRAVITY_M_S2
 from sitl.physics.rotors import MotorParams, RotorSpec, Spin
+from sitl.power.propulsion import load_power_spec
 from sitl.sensors.baro import BaroParams
 from sitl.sensors.gps import GpsParams
 from sitl.sensors.imu import ImuParams
@@ -35,6 +36,7 @@ TOP_LEVEL_KEYS = frozenset(
         "description",
         "source",
         "urdf",
+        "power",
         "mass_properties",
         "motor",
         "fuselage",
@@ -315,6 +317,7 @@ def load_airframe(name: str | Path) -> MultirotorSpec:
     missing = sorted(TOP_LEVEL_KEYS - set(data))
     if unknown or missing:
         raise ValueError(f"{yaml_path}: missing sections {missing}, unknown sections {unknown}")
+    load_power_spec(yaml_path)  # the power section fails here, at load, naming file and field
     urdf_path = (yaml_path.parent / str(data["urdf"])).resolve()
     body = inspect_urdf(urdf_path)
     links = _links(data["mass_properties"], yaml_path)
