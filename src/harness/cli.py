@@ -350,7 +350,7 @@ def demo(
     flag = _StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        with console.status("flying: takeoff, hover, goto 20 m north, RTL, land ..."):
+        with console.status("flying: takeoff, hover, goto 50 m north, RTL, land ..."):
             sim.run_paced(
                 speed,
                 lambda: proc.poll() is not None or flag.stop or time.monotonic() - t0 > timeout,
@@ -390,6 +390,7 @@ def demo(
             "sim_time_s": sim.time_s,
             "client_exit_code": proc.returncode,
             "events": client["events"],
+            "client_settings": client["settings"],
             "units": "SI; keys carry their unit",
         },
     )

@@ -2,7 +2,10 @@
 
 Every number here comes from what happened in the simulation: the true trajectory recorded by
 :class:`~harness.recorder.FlightRecorder`, with the phases delimited by the companion's own event
-log (wall-clock stamps mapped onto simulation time through the recorder's wall-clock column).
+log. Events carry the vehicle's own time (``vehicle_time_s``, the autopilot's time since boot,
+which is the simulation clock), so the windows are in simulation time however fast the simulation
+actually ran; events without it (older clients) are mapped from their wall-clock stamps through
+the recorder's wall-clock column.
 """
 
 from __future__ import annotations
@@ -39,7 +42,12 @@ def demo_metrics(
     wall, sim = track["wall_s"], t
 
     def at(name: str) -> float | None:
-        return _sim_time_of(ev[name]["wall_s"], wall, sim) if name in ev else None
+        if name not in ev:
+            return None
+        stamp = ev[name].get("vehicle_time_s")
+        if stamp is not None:
+            return float(stamp)
+        return _sim_time_of(ev[name]["wall_s"], wall, sim)
 
     out: dict[str, Any] = {"completed": "disarmed" in ev and "error" not in ev}
     if "error" in ev:
@@ -63,15 +71,21 @@ def demo_metrics(
             out.update(hover_power_metrics(track, win, battery))
     t_goal = at("goto_settled")
     goto = ev.get("goto_commanded")
-    if t_goal is not None and goto is not None:
-        goal = np.array(
+    goto_enu = None
+    if goto is not None:
+        goto_enu = np.array(
             pymap3d.geodetic2enu(goto["lat"], goto["lon"], goto["alt_amsl_m"], *origin_lla)
         )
+    if t_goal is not None and goto_enu is not None:
+        goal = goto_enu
         i = int(np.searchsorted(t, t_goal))
         i = min(i, len(t) - 1)
         out["arrival_error_m"] = float(np.linalg.norm(enu[i] - goal))
         out["arrival_error_horizontal_m"] = float(np.linalg.norm(enu[i, :2] - goal[:2]))
         out["reported_arrival_error_m"] = ev["goto_settled"].get("reported_error_m")
+    t_go, t_arrived = at("goto_commanded"), at("goto_arrived")
+    if goto_enu is not None and t_go is not None and t_arrived is not None:
+        out |= _cruise_metrics(t, enu, goto_enu, t_go, t_arrived, ev.get("parameters", {}))
     flying = track["landed_state"] != 1
     out["max_tilt_deg"] = float(track["tilt_deg"][flying].max()) if flying.any() else 0.0
     out["landing_offset_m"] = float(np.linalg.norm(enu[-1, :2] - start[:2]))
@@ -101,6 +115,46 @@ def hover_power_metrics(
     out = {"hover_power_w": hover_w}
     if battery is not None:
         out["hover_endurance_min"] = endurance_s(battery, hover_w) / 60.0
+    return out
+
+
+CRUISE_SEGMENT = (0.3, 0.7)
+"""Part of the goto leg (fractions of its length) over which the cruise speed is measured: clear
+of the jerk-limited acceleration at the start and the braking before the goal."""
+
+
+def _cruise_metrics(
+    t: np.ndarray,
+    enu: np.ndarray,
+    goal_enu: np.ndarray,
+    t_start: float,
+    t_end: float,
+    parameters: dict[str, Any],
+) -> dict[str, Any]:
+    """Median true horizontal ground speed over the middle of the goto leg, vs MPC_XY_CRUISE."""
+    leg = (t >= t_start) & (t <= t_end)
+    if leg.sum() < 3:
+        return {}
+    tl, pos = t[leg], enu[leg, :2]
+    start, goal = pos[0], goal_enu[:2]
+    length = float(np.linalg.norm(goal - start))
+    if length < 1.0:
+        return {}
+    along = (pos - start) @ ((goal - start) / length)
+    speed = np.hypot(*np.gradient(pos, tl, axis=0).T)
+    lo, hi = CRUISE_SEGMENT
+    middle = (along >= lo * length) & (along <= hi * length)
+    if not middle.any():
+        return {}
+    out: dict[str, Any] = {
+        "goto_leg_m": length,
+        "cruise_speed_m_s": float(np.median(speed[middle])),
+        "max_ground_speed_m_s": float(speed.max()),
+    }
+    param = parameters.get("mpc_xy_cruise_m_s")
+    if param:
+        out["cruise_speed_param_m_s"] = float(param)
+        out["cruise_speed_error_pct"] = 100.0 * (out["cruise_speed_m_s"] / float(param) - 1.0)
     return out
 
 

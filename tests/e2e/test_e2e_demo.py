@@ -31,7 +31,8 @@ PORTS = module_ports(5)
 
 
 def test_demo_writes_a_good_report(tmp_path):
-    """demo exits 0; report.json has finite climb time, hover RMS < 0.5 m, arrival < 1.5 m."""
+    """demo exits 0; report.json has finite climb time, hover RMS < 0.5 m, arrival < 1.5 m,
+    cruise within 10 % of MPC_XY_CRUISE; its phases are stamped with the vehicle's clock."""
     require_free_udp([PORTS.sdk, PORTS.listen])
     assert not mavsdk_servers(PORTS.grpc)
     out = tmp_path / "demo"
@@ -67,6 +68,13 @@ def test_demo_writes_a_good_report(tmp_path):
     assert math.isfinite(metrics["climb_time_s"]) and metrics["climb_time_s"] > 0, metrics
     assert metrics["hover_error_rms_m"] < 0.5, metrics
     assert metrics["arrival_error_m"] < 1.5, metrics
+    assert abs(metrics["cruise_speed_error_pct"]) < 10.0, metrics
+    # Windows are in simulation time: every phase event carries the vehicle's own clock, and the
+    # hover lasted the requested simulated seconds on it.
+    stamps = {e["event"]: e["vehicle_time_s"] for e in report["events"]}
+    assert all(v is not None for v in stamps.values()), stamps
+    hover_s = report["client_settings"]["hover_s"]
+    assert stamps["hover_done"] - stamps["takeoff_reached"] >= hover_s - 0.05, stamps
     assert report["client_exit_code"] == 0
     assert (out / "trajectory.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     header = (out / "truth.csv").read_text().splitlines()

@@ -66,3 +66,37 @@ def test_plot_is_written(tmp_path):
     path = tmp_path / "t.png"
     plot_trajectory(_track(), path, "test")
     assert path.stat().st_size > 10_000
+
+
+def test_vehicle_time_stamps_win_over_wall_time():
+    """An event's vehicle_time_s places it, even when its wall stamp says otherwise."""
+    # The wall stamps claim the hover ended at t = 30 s (during the goto and the return); the
+    # vehicle's clock says 14 s. The window must come from the vehicle's clock.
+    events = [
+        _ev("takeoff_commanded", 5.0, vehicle_time_s=5.0),
+        {"event": "hover_done", "wall_s": 1015.0, "vehicle_time_s": 14.0},
+    ]
+    m = demo_metrics(_track(), events, {"takeoff_alt": 5.0, "hover_s": 5.0}, (47.0, 8.0, 400.0))
+    assert m["hover_error_rms_m"] == pytest.approx(0.0, abs=1e-6)
+    wall_only = [dict(e, vehicle_time_s=None) for e in events]
+    m = demo_metrics(_track(), wall_only, {"takeoff_alt": 5.0, "hover_s": 5.0}, (47.0, 8.0, 400.0))
+    assert m["hover_error_rms_m"] > 1.0
+
+
+def test_cruise_speed_is_the_middle_of_the_goto_leg():
+    """Median ground speed over 30-70 % of the leg, compared with the vehicle's MPC_XY_CRUISE."""
+    origin = (47.397742, 8.545594, 488.0)
+    import pymap3d
+
+    lat, lon, alt = pymap3d.enu2geodetic(0.0, 20.0, 5.2, *origin)
+    events = [
+        _ev("parameters", 0.0, mpc_xy_cruise_m_s=5.0),
+        _ev("goto_commanded", 15.0, lat=lat, lon=lon, alt_amsl_m=alt),
+        _ev("goto_arrived", 21.0),
+        _ev("goto_settled", 25.0, reported_error_m=0.1),
+    ]
+    m = demo_metrics(_track(), events, {"takeoff_alt": 5.0}, origin)
+    assert m["goto_leg_m"] == pytest.approx(20.0, abs=0.1)
+    assert m["cruise_speed_m_s"] == pytest.approx(4.0, rel=1e-6)  # the track flies 4 m/s
+    assert m["cruise_speed_param_m_s"] == 5.0
+    assert m["cruise_speed_error_pct"] == pytest.approx(-20.0, abs=1e-4)

@@ -1,8 +1,13 @@
-"""Demo companion program: take off, hover, go 20 m north, return to launch, land.
+"""Demo companion program: take off, hover, go 50 m north, return to launch, land.
 
 Plain MAVSDK-Python (classic asyncio API, ``mavsdk_grpc``) exactly as it would run on the Pi; it
 knows nothing of the simulator. It writes a JSON event log (what it commanded and when, and what
 it saw) for the harness to merge into the run report.
+
+Hover and settle times are measured on the vehicle's own clock (the ``timestamp_us`` of its
+attitude telemetry, see :mod:`companion.vehicle_clock`), so a simulation that runs slower than its
+nominal speed still hovers for the full simulated time. Each event carries that vehicle time
+(``vehicle_time_s``) as well as the wall time.
 
     python -m companion.scripts.demo_flight --url udpin://0.0.0.0:14540 --events events.json
 """
@@ -22,6 +27,7 @@ from typing import Any
 import pymap3d
 
 from companion import clock
+from companion.vehicle_clock import VehicleClock
 
 
 class FlightError(RuntimeError):
@@ -34,8 +40,15 @@ async def _first(stream: Any) -> Any:
     raise FlightError("telemetry stream ended")
 
 
-async def _wait_for(stream: Any, predicate: Any, timeout_s: float, what: str) -> Any:
-    """Wait (in simulated seconds) until an item of ``stream`` satisfies ``predicate``."""
+async def _wait_for(
+    stream: Any, predicate: Any, timeout_s: float, what: str, vehicle: VehicleClock | None = None
+) -> Any:
+    """Wait until an item of ``stream`` satisfies ``predicate``, for ``timeout_s`` simulated s.
+
+    With a running ``vehicle`` clock the limit is measured on the vehicle's clock (plus a generous
+    wall-clock bound in case telemetry stops); without one (before the first timestamp) it is wall
+    time scaled by the nominal simulation speed.
+    """
 
     async def scan() -> Any:
         async for item in stream:
@@ -43,30 +56,58 @@ async def _wait_for(stream: Any, predicate: Any, timeout_s: float, what: str) ->
                 return item
         raise FlightError(f"telemetry stream ended while waiting for {what}")
 
+    if vehicle is None or not vehicle.started:
+        try:
+            return await asyncio.wait_for(scan(), timeout_s / clock.speed_factor())
+        except TimeoutError as exc:
+            raise FlightError(f"timed out after {timeout_s:.0f} s waiting for {what}") from exc
+    found = asyncio.create_task(scan())
+    limit = asyncio.create_task(vehicle.sleep(timeout_s, 30.0 + 2.0 * timeout_s))
     try:
-        return await asyncio.wait_for(scan(), timeout_s / clock.speed_factor())
-    except TimeoutError as exc:
-        raise FlightError(f"timed out after {timeout_s:.0f} s waiting for {what}") from exc
+        await asyncio.wait({found, limit}, return_when=asyncio.FIRST_COMPLETED)
+        if found.done():
+            return found.result()
+        if limit.exception() is not None:
+            raise FlightError(f"{limit.exception()} while waiting for {what}")
+        raise FlightError(f"timed out after {timeout_s:.0f} s (vehicle time) waiting for {what}")
+    finally:
+        found.cancel()
+        limit.cancel()
 
 
 async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
     """The flight itself."""
     from mavsdk_grpc import System
 
+    vehicle_clock = VehicleClock()
+
     def event(name: str, **data: Any) -> None:
-        events.append({"event": name, "wall_s": time.time(), **data})
+        stamp = vehicle_clock.now_s if vehicle_clock.started else None
+        events.append({"event": name, "wall_s": time.time(), "vehicle_time_s": stamp, **data})
         print(f"[demo] {name} {json.dumps(data) if data else ''}", flush=True)
 
+    async def timestamps() -> Any:
+        async for q in drone.telemetry.attitude_quaternion():
+            yield q.timestamp_us
+
+    def wall_limit(vehicle_s: float) -> float:
+        """Wall-clock bound for a wait of ``vehicle_s`` simulated seconds (generous)."""
+        return 30.0 + 2.0 * vehicle_s / clock.speed_factor()
+
     drone = System(port=args.grpc_port)
+    follower: asyncio.Task | None = None
     try:
         await drone.connect(system_address=args.url)
         await _wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
+        follower = asyncio.create_task(vehicle_clock.follow(timestamps()))
+        await vehicle_clock.wait_started(wall_limit(10.0))
         event("connected")
         await _wait_for(
             drone.telemetry.health(),
             lambda h: h.is_global_position_ok and h.is_home_position_ok,
             60,
             "global position and home",
+            vehicle_clock,
         )
         home = await _first(drone.telemetry.home())
         event(
@@ -75,6 +116,8 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
             home_lon=home.longitude_deg,
             home_alt_amsl_m=home.absolute_altitude_m,
         )
+        cruise = await drone.param.get_param_float("MPC_XY_CRUISE")
+        event("parameters", mpc_xy_cruise_m_s=cruise)
         await drone.action.set_takeoff_altitude(args.takeoff_alt)
         await drone.action.set_return_to_launch_altitude(args.rtl_alt)
         await drone.action.arm()
@@ -86,9 +129,10 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
             lambda p: p.relative_altitude_m >= 0.95 * args.takeoff_alt,
             60,
             "takeoff altitude",
+            vehicle_clock,
         )
         event("takeoff_reached")
-        await clock.sleep(args.hover_s)
+        await vehicle_clock.sleep(args.hover_s, wall_limit(args.hover_s))
         pos = await _first(drone.telemetry.position())
         event("hover_done", relative_alt_m=pos.relative_altitude_m)
 
@@ -110,9 +154,9 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
             )
             return math.sqrt(n * n + e * e + d * d) < args.arrive_radius_m
 
-        await _wait_for(drone.telemetry.position(), arrived, 90, "goto arrival")
+        await _wait_for(drone.telemetry.position(), arrived, 90, "goto arrival", vehicle_clock)
         event("goto_arrived")
-        await clock.sleep(args.settle_s)
+        await vehicle_clock.sleep(args.settle_s, wall_limit(args.settle_s))
         p = await _first(drone.telemetry.position())
         n, e, d = pymap3d.geodetic2ned(
             p.latitude_deg, p.longitude_deg, p.absolute_altitude_m, lat, lon, alt
@@ -120,11 +164,13 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
         event("goto_settled", reported_error_m=math.sqrt(n * n + e * e + d * d))
         await drone.action.return_to_launch()
         event("rtl_commanded")
-        await _wait_for(drone.telemetry.in_air(), lambda a: not a, 180, "landing")
+        await _wait_for(drone.telemetry.in_air(), lambda a: not a, 180, "landing", vehicle_clock)
         event("landed")
-        await _wait_for(drone.telemetry.armed(), lambda a: not a, 30, "auto-disarm")
+        await _wait_for(drone.telemetry.armed(), lambda a: not a, 30, "auto-disarm", vehicle_clock)
         event("disarmed")
     finally:
+        if follower is not None:
+            follower.cancel()
         # Stop this client's mavsdk_server so it does not keep the UDP port (see module notes).
         drone._stop_mavsdk_server()
 
@@ -137,8 +183,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--takeoff-alt", type=float, default=5.0, help="takeoff altitude, m")
     ap.add_argument("--rtl-alt", type=float, default=10.0, help="RTL return altitude, m")
     ap.add_argument("--hover-s", type=float, default=5.0, help="hover time, simulated s")
-    ap.add_argument("--goto-north-m", type=float, default=20.0)
-    ap.add_argument("--goto-east-m", type=float, default=0.0)
+    ap.add_argument("--goto-north-m", type=float, default=50.0, help="goto leg north, m")
+    ap.add_argument("--goto-east-m", type=float, default=0.0, help="goto leg east, m")
     ap.add_argument("--arrive-radius-m", type=float, default=1.0)
     ap.add_argument("--settle-s", type=float, default=3.0, help="hold at the goal, simulated s")
     ap.add_argument("--events", type=Path, help="write the JSON event log here")
