@@ -35,21 +35,23 @@ def _heading_error_deg(world: dict, decl_type: int | None = None) -> tuple[float
 
 
 @pytest.mark.parametrize("world", [{}, SYDNEY], ids=["zurich", "sydney"])
-def test_heading_is_true_with_the_looked_up_declination(world):
-    """Default EKF2_DECL_TYPE: the estimated yaw matches the true yaw within 1 degree although
-    the world's declination (3.5 deg in Zurich, 12.8 deg in Sydney) is nowhere configured in
-    the autopilot; the lookup was saved to EKF2_MAG_DECL."""
+def test_the_looked_up_declination_corrects_the_heading(world):
+    """Default EKF2_DECL_TYPE against the lookup switched off (EKF2_DECL_TYPE 0, EKF2_MAG_DECL
+    0), same seed and so the same sensors: the heading estimates differ by the world's
+    declination (3.5 deg in Zurich, 12.8 deg in Sydney), which is nowhere configured in the
+    autopilot; the lookup was saved to EKF2_MAG_DECL.
+
+    Both runs share the heading error that the IMU's full turn-on biases cause at rest (a
+    horizontal accelerometer bias reads as a tilt until the vehicle manoeuvres, and through the
+    field's inclination as a heading offset; EKF2 has the same limit), so the test compares the
+    two rather than either with the truth.
+    """
     error, declination, saved = _heading_error_deg(world)
-    assert abs(error) < 1.0
+    error_off, _, saved_off = _heading_error_deg(world, decl_type=0)
+    assert saved_off == 0.0
+    assert error - error_off == pytest.approx(declination, abs=1.0)
+    assert abs(error) < abs(error_off) or abs(declination) < 5.0
     assert saved == pytest.approx(declination, abs=1.5)
     lat = world.get("origin_lat_deg", 47.397742)
     lon = world.get("origin_lon_deg", 8.545594)
     assert saved == pytest.approx(magnetic_declination.lookup_declination_deg(lat, lon), abs=0.1)
-
-
-def test_without_the_lookup_the_heading_is_off_by_the_declination():
-    """EKF2_DECL_TYPE 0 and EKF2_MAG_DECL 0 (PX4 defaults otherwise): Sydney's ~12.8 degrees of
-    declination become a heading error of the same size, so the test above can fail."""
-    error, declination, saved = _heading_error_deg(SYDNEY, decl_type=0)
-    assert saved == 0.0
-    assert error == pytest.approx(-declination, abs=1.0)
