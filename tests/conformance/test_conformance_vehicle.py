@@ -284,13 +284,6 @@ def test_hold_stops_the_vehicle(run):
     assert abs(c["along_track_final_m"]) < braking_m + 1.0
 
 
-@pytest.mark.xfail(
-    reason="Hold aims at the braking point as PX4's Loiter does (calculate_breaking_stop) and the "
-    "jerk-limited trajectory stops there, but the vehicle overshoots it and comes back: the "
-    "velocity integrator that cancels the drag at cruise unwinds slowly with the default "
-    "MPC_XY_VEL_I_ACC 0.4 (it passes with PX4's typhoon_h480 gains, P_ACC 3 / I_ACC 4)",
-    strict=False,
-)
 def test_hold_brakes_to_a_stop_without_coming_back(run):
     c = run.check("flight_hold")
     assert c["overshoot_max_m"] - c["along_track_final_m"] < 0.5
