@@ -210,7 +210,7 @@ class FleetEstimator:
     def heading_failure(self) -> np.ndarray:
         """(N,) magnetometer data keep failing the heading gate (PX4's heading preflight fail)."""
         limit = self.config.heading_reject_limit_s
-        return self.attitude_ok & (self.mag_seen_s - self.mag_accepted_s > limit)
+        return self.attitude_ok & (self.mag_seen_s > self.mag_accepted_s + limit)
 
     def set_params(self, params: EstimatorParams | list[ParamStore]) -> None:
         """Apply each vehicle's EKF2_* parameters (an EstimatorParams or the parameter stores)."""
