@@ -49,6 +49,11 @@ class RtlPhase(Enum):
     LAND = "land"
 
 
+_MIN_THRUST_LANDED = 0.1
+"""Collective thrust below which a still vehicle without a learned hover thrust is landed (just
+above the position controller's 0.05 floor)."""
+
+
 @dataclass
 class NavInput:
     """What the navigator reads at each tick (one vehicle, NED, SI)."""
@@ -66,8 +71,8 @@ class NavInput:
     battery_remaining: float = math.nan
     """Estimated state of charge, 0..1."""
     hover_thrust: float = math.nan
-    """Hover thrust the position controller uses (the estimator's, once valid), 0..1; NaN:
-    MPC_THR_HOVER."""
+    """The learned hover thrust (the hover-thrust estimator's, once valid), 0..1; NaN until then
+    (the commander then uses MPC_THR_HOVER, as the position controller does)."""
 
 
 @dataclass
@@ -812,9 +817,15 @@ class Commander:
             ):
                 self.landed_state = LandedState.IN_AIR
             return
-        hover = self._hover_thrust()
         descending = self._descending
-        low_thrust = (not self.armed) or nav.thrust < 0.6 * hover
+        if math.isfinite(nav.hover_thrust):
+            low_thrust = nav.thrust < 0.6 * nav.hover_thrust
+        else:
+            # No learned hover thrust yet (PX4's MPC_THR_HOVER default is a guess that can be
+            # twice the real value): only thrust near the controller's minimum counts as low,
+            # so a vehicle hovering on a light thrust is not "landed" in the air.
+            low_thrust = nav.thrust < _MIN_THRUST_LANDED
+        low_thrust = low_thrust or not self.armed
         # Without a position fix the horizontal velocity estimate drifts: judge by vertical only.
         still = vz < 0.3 and (vxy < 0.5 or not nav.position_ok)
         if still and (low_thrust or (descending and vz < 0.1)):

@@ -118,8 +118,10 @@ class AutopilotFleet:
         self.hover_thrust_estimator: HoverThrustEstimator | None = None
         """PX4's mc_hover_thrust_estimator for each vehicle (built with the gains)."""
         self.hover_thrust = np.zeros(n)
-        """Hover thrust the position controller uses: the estimate once valid, else
+        """Hover thrust the position controller uses: the last valid estimate since arming, else
         MPC_THR_HOVER, (N,) 0..1."""
+        self.hover_thrust_learned = np.zeros(n, dtype=bool)
+        """The hover-thrust estimator has been valid since arming: ``hover_thrust`` is learned."""
         self._controls = [0.0] * 16
         self._pressure_alt_m = np.zeros(n)
         self.metres_per_degree = np.ones((n, 2))
@@ -255,7 +257,9 @@ class AutopilotFleet:
         ok = est.position_ok
         origin = est.origin_lla.tolist()
         remaining = self.battery.remaining.tolist()
-        hover = self.hover_thrust.tolist()
+        # The commander gets the learned hover thrust only (NaN until the estimator is valid):
+        # its land detector must not judge "low thrust" against the MPC_THR_HOVER guess.
+        hover = np.where(self.hover_thrust_learned, self.hover_thrust, np.nan).tolist()
         sp = self._sp
         for i, cmd in enumerate(self.commanders):
             lat, lon, alt = origin[i] if est.origin_set[i] else (math.nan, math.nan, 0.0)
@@ -312,8 +316,9 @@ class AutopilotFleet:
         """Fuse one sample into the hover-thrust estimators; hand the result to the controller.
 
         Inputs are the autopilot's own: the estimated vertical acceleration and the upward part
-        of the last collective thrust command. While an estimate is not valid the controller
-        uses MPC_THR_HOVER. When the value in use changes, the vertical velocity integrator
+        of the last collective thrust command. Until an estimate is valid the controller uses
+        MPC_THR_HOVER; afterwards the last valid estimate (PX4 keeps it while a manoeuvre makes
+        the estimate invalid). When the value in use changes, the vertical velocity integrator
         absorbs the change so the thrust stays continuous (as PX4's updateHoverThrust).
         """
         hte = self.hover_thrust_estimator
@@ -325,6 +330,7 @@ class AutopilotFleet:
         flying &= self.armed
         if not self.armed.all():
             hte.reset(~self.armed)
+            self.hover_thrust_learned &= self.armed
         hte.update(
             flying,
             -est.accel_ned_m_s2[:, 2],
@@ -332,8 +338,12 @@ class AutopilotFleet:
             est.velocity_ned_m_s,
             dt,
         )
-        hover = np.where(hte.valid, hte.hover_thrust, hte.params.initial)
+        # As PX4's position controller: a valid estimate replaces the hover thrust in use, an
+        # invalid one (variance bumped by a manoeuvre) leaves the last valid value in place.
         old = self.hover_thrust
+        self.hover_thrust_learned |= hte.valid
+        kept = np.where(self.hover_thrust_learned, old, hte.params.initial)
+        hover = np.where(hte.valid, hte.hover_thrust, kept)
         changed = (hover != old) & (old > 0.0)
         if changed.any():
             integ = self.position_control.vel_int

@@ -23,7 +23,8 @@ from sitl.power.battery import endurance_s
 PUBLISHED_FLIGHT_TIME_MIN = 25.0
 """Yuneec Typhoon H: "flight time up to 25 min"."""
 PUBLISHED_TAKEOFF_MASS_KG = 1.695
-"""Yuneec Typhoon H: weight 1695 g with battery and camera."""
+"""Yuneec Typhoon H: weight 1695 g with battery and camera (the commonly quoted spec-sheet
+figures; Yuneec's own page was not reachable from the machine this was written on)."""
 
 
 def _hover(
@@ -70,7 +71,7 @@ def test_hover_power_is_the_momentum_theory_power_of_the_weight(hover_flight):
 def test_endurance_from_the_measured_hover_power(hover_flight):
     """The pack integrated at the measured hover power lasts as long as the model predicts.
 
-    This is ~11 min against Yuneec's 25 min: see the module docstring for the gap (mass).
+    This is ~12 min against Yuneec's 25 min: see the module docstring for the gap (mass).
     """
     sim, measured_w = hover_flight
     pack = sim.world.power.spec.battery
