@@ -31,7 +31,6 @@ import numpy as np
 from autopilot_emu.modes import MainMode
 from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
 from harness.simulation import Simulation, SimulationConfig
-from sitl.physics.drag import level_flight_speed_m_s
 from sitl.power.battery import endurance_s
 
 TILT_LIMIT_DEG = 35.0
@@ -103,14 +102,7 @@ def fly(frame: str, seed: int) -> dict[str, float]:
         top = float(last[:, 3].mean())
         tilt = float(last[:, 4].mean())
         spec = sim.world.airframe
-        closed = level_flight_speed_m_s(
-            tilt,
-            spec.mass_kg,
-            len(spec.rotors),
-            spec.motor.thrust_coefficient_n_s2_rad2,
-            spec.motor.rotor_drag_coefficient_n_s_m_rad,
-            spec.fuselage,
-        ).speed_m_s
+        closed = spec.level_flight(tilt).speed_m_s
         return {
             "mass_kg": spec.mass_kg,
             "hover_w": hover_w,

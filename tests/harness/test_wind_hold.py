@@ -17,7 +17,6 @@ import pytest
 
 from harness.recorder import COLUMNS
 from harness.simulation import Simulation, SimulationConfig
-from sitl.physics.drag import level_flight_speed_m_s
 from sitl.physics.wind import TURBULENCE_W20_M_S, WindConfig
 from sitl.vehicles.multirotor import load_airframe
 
@@ -71,14 +70,7 @@ def _closed_form_tilt_deg(airspeed_m_s: float) -> float:
     spec = load_airframe("typhoon_h480")
 
     def speed(tilt_rad: float) -> float:
-        return level_flight_speed_m_s(
-            tilt_rad,
-            spec.mass_kg,
-            len(spec.rotors),
-            spec.motor.thrust_coefficient_n_s2_rad2,
-            spec.motor.rotor_drag_coefficient_n_s_m_rad,
-            spec.fuselage,
-        ).speed_m_s
+        return spec.level_flight(tilt_rad).speed_m_s
 
     lo, hi = 0.0, math.radians(80.0)
     for _ in range(60):

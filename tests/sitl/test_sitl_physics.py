@@ -253,16 +253,7 @@ def fly_level_at_fixed_tilt(world, tilt_rad: float, seconds: float) -> float:
 
 
 def level_flight_closed_form(spec, tilt_rad: float):
-    from sitl.physics.drag import level_flight_speed_m_s
-
-    return level_flight_speed_m_s(
-        tilt_rad,
-        spec.mass_kg,
-        len(spec.rotors),
-        spec.motor.thrust_coefficient_n_s2_rad2,
-        spec.motor.rotor_drag_coefficient_n_s_m_rad,
-        spec.fuselage,
-    )
+    return spec.level_flight(tilt_rad)
 
 
 @pytest.mark.parametrize(

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from sitl.physics.drag import FuselageDrag
+from sitl.physics.drag import FuselageDrag, LevelFlight, level_flight_speed_m_s
 from sitl.physics.earth import GRAVITY_M_S2
 from sitl.physics.rotors import MotorParams, RotorSpec, Spin
 from sitl.power.propulsion import load_power_spec
@@ -111,6 +111,17 @@ class MultirotorSpec:
     def hover_command(self) -> float:
         """Normalised motor command of hover, ``hover_speed_rad_s / max_speed_rad_s``."""
         return self.hover_speed_rad_s / self.motor.max_speed_rad_s
+
+    def level_flight(self, tilt_rad: float) -> LevelFlight:
+        """Steady level flight at a fixed tilt (closed form of the airframe's drag model)."""
+        return level_flight_speed_m_s(
+            tilt_rad,
+            self.mass_kg,
+            len(self.rotors),
+            self.motor.thrust_coefficient_n_s2_rad2,
+            self.motor.rotor_drag_coefficient_n_s_m_rad,
+            self.fuselage,
+        )
 
     @property
     def composite(self) -> CompositeBody:
