@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot_emu.params import ParamStore
+from autopilot_emu.params import ParamStore, param_column
 
 EV_HORIZONTAL_POSITION, EV_VERTICAL_POSITION, EV_VELOCITY, EV_YAW = 1, 2, 4, 8
 """EKF2_EV_CTRL bits (PX4 meaning)."""
@@ -84,7 +84,7 @@ class EstimatorParams:
         """Read the EKF2_* parameters of every vehicle."""
 
         def col(name: str, scale: float = 1.0) -> np.ndarray:
-            return np.array([float(p.get(name)) * scale for p in params])
+            return param_column(params, name, scale)
 
         return cls(
             acc_noise_m_s2=col("EKF2_ACC_NOISE"),

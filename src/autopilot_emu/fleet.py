@@ -37,7 +37,7 @@ from autopilot_emu.modes.offboard import (
     OffboardSetpoint,
     to_local_ned,
 )
-from autopilot_emu.params import ParamStore
+from autopilot_emu.params import ParamStore, param_column
 from autopilot_emu.telemetry import FleetTelemetry
 
 _ACC_BITS, _GYRO_BITS, _MAG_BITS = 0x7, 0x38, 0x1C0
@@ -520,7 +520,7 @@ class AutopilotFleet:
 
 def _hover_thrust_params(params: list[ParamStore]) -> HoverThrustParams:
     def col(name: str) -> np.ndarray:
-        return np.array([float(p.get(name)) for p in params])
+        return param_column(params, name)
 
     return HoverThrustParams(
         initial=col("MPC_THR_HOVER"),
@@ -535,7 +535,7 @@ def _hover_thrust_params(params: list[ParamStore]) -> HoverThrustParams:
 
 def _battery_params(params: list[ParamStore]) -> BatteryParams:
     def col(name: str) -> np.ndarray:
-        return np.array([float(p.get(name)) for p in params])
+        return param_column(params, name)
 
     return BatteryParams(
         n_cells=col("BAT1_N_CELLS"),
@@ -562,7 +562,7 @@ class _Gains:
     @classmethod
     def from_params(cls, params: list[ParamStore]) -> _Gains:
         def col(name: str) -> np.ndarray:
-            return np.array([float(p.get(name)) for p in params])
+            return param_column(params, name)
 
         def rpy(fmt: str) -> np.ndarray:
             return np.stack([col(fmt.format(a)) for a in ("ROLL", "PITCH", "YAW")], axis=1)

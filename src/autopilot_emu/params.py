@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import yaml
 from pymavlink.dialects.v20 import common as mavlink2
 
@@ -277,3 +278,8 @@ class ParamStore:
             self._values[name] = stored
             self._version += 1
         return stored
+
+
+def param_column(stores: list[ParamStore], name: str, scale: float = 1.0) -> np.ndarray:
+    """Parameter ``name`` of every vehicle's store as a float array (N,), times ``scale``."""
+    return np.array([float(store.get(name)) * scale for store in stores])
