@@ -27,6 +27,7 @@ from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import BulletScene
 from sitl.physics.earth import isa_pressure_pa, isa_temperature_k
 from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
+from sitl.physics.obstacles import BoxObstacle, add_boxes
 from sitl.physics.rotors import RotorModel
 from sitl.physics.wind import WindConfig, WindField
 from sitl.power.loads import PayloadLoads
@@ -103,6 +104,8 @@ class WorldConfig:
     """Power the rotors from an ideal constant-voltage supply instead of the LiPo pack."""
     battery_soc: float = 1.0
     """State of charge of every pack at the start, 0..1."""
+    obstacles: tuple[BoxObstacle, ...] = ()
+    """Static boxes (walls, pillars) the vehicles can hit and the sensors see."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -141,6 +144,10 @@ class WorldConfig:
             )
         for name in names:
             airframe_yaml_path(name)  # ValueError naming the unknown airframe
+        object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        for k, box in enumerate(self.obstacles):
+            if not isinstance(box, BoxObstacle):
+                raise ValueError(f"obstacles[{k}] must be a BoxObstacle, got {box!r}")
         if not 0.0 <= self.battery_soc <= 1.0:
             raise ValueError(f"battery_soc must be in [0, 1], got {self.battery_soc!r}")
         if len(self.loads) not in (1, self.n_vehicles):
@@ -241,6 +248,8 @@ class World:
         self._scene = BulletScene(
             [spec.urdf_path for spec in self.airframes], self._spawn_enu, tuple(facing_north), dt
         )
+        self.obstacle_ids: list[int] = add_boxes(self._scene.client_id, config.obstacles)
+        """PyBullet body ids of ``config.obstacles``, in order."""
 
         # Sensor construction order fixes the order of random draws: keep it (group by group in
         # order of first appearance; one group is the single-airframe world).
