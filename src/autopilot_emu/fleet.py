@@ -38,7 +38,9 @@ from autopilot_emu.modes.offboard import (
     to_local_ned,
 )
 from autopilot_emu.params import ParamStore, param_column
+from autopilot_emu.rangefinder import FleetRangefinders
 from autopilot_emu.telemetry import FleetTelemetry
+from autopilot_emu.terrain import FleetTerrain, TerrainParams
 
 _ACC_BITS, _GYRO_BITS, _MAG_BITS = 0x7, 0x38, 0x1C0
 _PRESSURE_ALT_BIT = 0x800
@@ -133,6 +135,13 @@ class AutopilotFleet:
         """Offboard collective thrust of attitude / rate setpoints (NaN: position control)."""
         self._rate_target = np.full((n, 3), np.nan)
         """Offboard body-rate setpoints, rad/s (NaN: from the attitude loop)."""
+        self.rangefinders = FleetRangefinders(n)
+        """Latest DISTANCE_SENSOR reading of every sensor of every vehicle."""
+        self.terrain = FleetTerrain(n)
+        """Terrain under each vehicle from its downward range finder (EKF2_RNG_CTRL)."""
+        self.terrain_params: TerrainParams | None = None
+        self.terrain_updates = 0
+        """Count of terrain updates (telemetry re-reads its rows when it changes)."""
         self.telemetry = FleetTelemetry(self)
         """Per-vehicle telemetry snapshots, read from these arrays once per instant."""
 
@@ -207,6 +216,31 @@ class AutopilotFleet:
         amps = np.array([m.current_battery * 0.01 for m in msgs], dtype=float)
         amps[amps < 0.0] = np.nan
         self.battery.update(volts, amps, self.time_usec * 1e-6)
+
+    def handle_distance_sensors(
+        self, msgs: list[list[mavlink2.MAVLink_distance_sensor_message]]
+    ) -> None:
+        """Consume DISTANCE_SENSOR messages, one list per vehicle (empty: none from it).
+
+        Each becomes that sensor's latest reading (forwarded on the vehicle's MAVLink links); a
+        downward-facing one also feeds the terrain estimate (``autopilot_emu.terrain``).
+        """
+        self._refresh_gains()
+        new_down = self.rangefinders.update(msgs)
+        if new_down.any() and self.terrain_params is not None:
+            est, rf = self.estimator, self.rangefinders
+            self.terrain.update(
+                est.time_s,
+                new_down,
+                rf.down_distance_m,
+                rf.down_valid,
+                est.position_ned_m[:, 2],
+                est.position_variance_m2[:, 2],
+                est.velocity_ned_m_s,
+                est.r,
+                self.terrain_params,
+            )
+            self.terrain_updates += 1
 
     def handle_gps(self, msgs: list[mavlink2.MAVLink_hil_gps_message]) -> None:
         """Consume one HIL_GPS per vehicle."""
@@ -440,6 +474,7 @@ class AutopilotFleet:
                 magnetic_declination.declinations_deg(self.params, est.origin_lla, est.origin_set)
             )
             self.battery.set_params(_battery_params(self.params))
+            self.terrain_params = TerrainParams.from_params(self.params)
             hte_params = _hover_thrust_params(self.params)
             if self.hover_thrust_estimator is None:
                 self.hover_thrust_estimator = HoverThrustEstimator(hte_params)

@@ -78,7 +78,7 @@ class FleetTelemetry:
     def _refresh(self) -> None:
         """Read the fleet's arrays into per-vehicle rows, once per instant of simulation time."""
         f = self._fleet
-        key = (f.time_usec, f.last_gps, f.last_sensors)
+        key = (f.time_usec, f.last_gps, f.last_sensors, f.terrain_updates)
         if key == self._key:
             return
         est, bat, sp = f.estimator, f.battery, f.setpoint
@@ -108,6 +108,8 @@ class FleetTelemetry:
                 est.pos_horiz_ratio[:, None],  # 47
                 est.pos_vert_ratio[:, None],  # 48
                 est.mag_ratio[:, None],  # 49
+                f.terrain.terrain_d_m[:, None],  # 50
+                f.terrain.valid(est.time_s)[:, None],  # 51
             ),
             axis=1,
         ).tolist()
@@ -210,6 +212,11 @@ class FleetTelemetry:
         )
         gps = f.last_gps[i]
         gps_fields = _NO_GPS if gps is None else _gps_fields(gps)
+        extra = {}
+        if row[51]:  # terrain valid: PX4's ALTITUDE fills terrain altitude and bottom clearance
+            extra["bottom_clearance_m"] = row[50] - d
+            if origin_ok:
+                extra["altitude_terrain_m"] = o_alt - row[50]
         return TelemetrySnapshot(
             time_usec=f.time_usec,
             armed=cmd.armed,
@@ -237,6 +244,8 @@ class FleetTelemetry:
             setpoint=setpoint,
             imu=_imu_sample(f.last_sensors, i),
             estimator=estimator,
+            distance_sensors=f.rangefinders.readings(i),
+            extra=extra,
             **gps_fields,
         )
 

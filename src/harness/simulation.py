@@ -23,6 +23,7 @@ from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.params import ParamStore
+from autopilot_emu.rangefinder import ROTATION_DOWNWARD
 from harness.mocap_publisher import MocapPublisher
 from harness.recorder import FlightRecorder
 from sitl.physics.wind import WindConfig
@@ -149,6 +150,17 @@ def apply_airframe_params(store: ParamStore, airframe: MultirotorSpec) -> set[st
     return unknown
 
 
+def apply_rangefinder_params(store: ParamStore, airframe: MultirotorSpec) -> None:
+    """EKF2_RNG_POS_X/Y/Z: where the airframe's downward range finder sits (as a PX4 user sets).
+
+    Nothing changes for an airframe without a downward-facing (MAV_SENSOR_ROTATION 25) one.
+    """
+    down = [s for s in airframe.rangefinders if s.orientation == ROTATION_DOWNWARD]
+    if down:
+        for axis, value in zip("XYZ", down[0].position_frd_m, strict=True):
+            store.set(f"EKF2_RNG_POS_{axis}", value)
+
+
 class Simulation:
     """World, autopilots and endpoints of one run."""
 
@@ -171,6 +183,8 @@ class Simulation:
         """Parameters of the airframes' ``px4`` sections this autopilot does not know (skipped)."""
         for store, spec in zip(stores, self.world.airframes, strict=True):
             self.airframe_params_skipped |= apply_airframe_params(store, spec)
+            if self.world.config.rangefinders:
+                apply_rangefinder_params(store, spec)
         if self.airframe_params_skipped:
             log.warning(
                 "airframe parameters unknown to the autopilot, not set: %s",
@@ -234,6 +248,7 @@ class Simulation:
                     tlog_path=(out / f"vehicle{i + 1}{suffix}.tlog") if out is not None else None,
                     epoch_start_s=self.epoch_start_s,
                     gps_rate_hz=self.world.config.gps_hz,
+                    distance_sensor_rate_hz=self._rangefinder_rate_hz(i),
                     ftp_root=ftp_root,
                     stream_rates_hz=self.config.stream_rates_hz.get(profile, {}),
                 )
@@ -243,6 +258,12 @@ class Simulation:
                 link.close()
             raise
         return links
+
+    def _rangefinder_rate_hz(self, i: int) -> float:
+        """Rate of vehicle i's fastest range finder, Hz (0: none, or switched off)."""
+        if not self.world.config.rangefinders:
+            return 0.0
+        return max((s.rate_hz for s in self.world.airframes[i].rangefinders), default=0.0)
 
     def _ftp_root(self, i: int) -> Path:
         """Create vehicle i's FTP root with an empty ``log/`` (PX4 SITL's rootfs has one)."""
@@ -278,6 +299,9 @@ class Simulation:
         battery = self.world.poll_battery()
         if battery is not None:
             self.fleet.handle_battery(battery)
+        ranges = self.world.poll_rangefinders()
+        if ranges is not None:
+            self.fleet.handle_distance_sensors(ranges)
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:
             self._poll_links(self.world.time_s)
@@ -299,6 +323,7 @@ class Simulation:
         self._actuators = None  # None: the world keeps every command
         t1 = clock()
         sensors, gps = self.world.poll_sensors()
+        ranges = self.world.poll_rangefinders()
         t2 = clock()
         if gps is not None:
             self.fleet.handle_gps(gps)
@@ -309,6 +334,8 @@ class Simulation:
         battery = self.world.poll_battery()
         if battery is not None:
             self.fleet.handle_battery(battery)
+        if ranges is not None:
+            self.fleet.handle_distance_sensors(ranges)
         t3 = clock()
         self._step_count += 1
         if self.endpoints and self._step_count % self._poll_every == 0:

@@ -1,4 +1,6 @@
-"""The PX4 simulator messages: HIL_SENSOR, HIL_GPS, BATTERY_STATUS out, HIL_ACTUATOR_CONTROLS in.
+"""The PX4 simulator messages: HIL_SENSOR, HIL_GPS, BATTERY_STATUS and DISTANCE_SENSOR out.
+
+HIL_ACTUATOR_CONTROLS comes in.
 
 Units and frames are MAVLink's: body FRD, m/s^2, rad/s, gauss, hPa, degE7, mm, cm, cm/s, cdeg.
 ``time_usec`` is simulation time. Messages are built only when a sensor is due.
@@ -13,6 +15,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from sitl.sensors.baro import BaroSample
 from sitl.sensors.gps import GpsSample
+from sitl.sensors.rangefinder import MAV_DISTANCE_SENSOR_ULTRASOUND, RangeReadings
 
 FIELDS_IMU = (
     mavlink2.HIL_SENSOR_UPDATED_XACC
@@ -195,3 +198,59 @@ def battery_status_messages(
             )
         )
     return msgs
+
+
+SIGNAL_QUALITY_ECHO = 100
+"""DISTANCE_SENSOR signal_quality of a reading with an echo (MAVLink: 100 = perfect signal)."""
+SIGNAL_QUALITY_NO_ECHO = 1
+"""DISTANCE_SENSOR signal_quality without an echo (MAVLink: 1 = invalid signal; 0 = unknown)."""
+COVARIANCE_UNKNOWN = 255
+"""DISTANCE_SENSOR covariance when unknown (UINT8_MAX), here: no echo."""
+_NO_QUATERNION = [0.0, 0.0, 0.0, 0.0]
+
+
+def distance_sensor_messages(
+    readings: RangeReadings, n_vehicles: int
+) -> list[list[mavlink2.MAVLink_distance_sensor_message]]:
+    """DISTANCE_SENSOR of each reading, as one list per vehicle (vehicle order; may be empty).
+
+    As the PX4 simulator interface carries them (simulator_mavlink.cpp handles DISTANCE_SENSOR
+    from the simulator): ``time_boot_ms`` simulation time; distances in cm; ``type`` ULTRASOUND;
+    ``id`` and ``orientation`` (MAV_SENSOR_ROTATION) of the mount; ``covariance`` the noise
+    variance at the measured range in cm^2 (at most 254); fields of view the full beam angle, rad;
+    ``quaternion`` zero (the orientation is not CUSTOM). No echo (nothing in range, or a dropout):
+    ``current_distance = max_distance + 1`` cm, outside the valid range so every consumer (PX4's
+    EKF2 included) discards it, with ``signal_quality`` 1 (invalid) and covariance unknown (255);
+    a reading with an echo has ``signal_quality`` 100.
+    """
+    out: list[list[mavlink2.MAVLink_distance_sensor_message]] = [[] for _ in range(n_vehicles)]
+    time_boot_ms = readings.time_usec // 1000
+    make = mavlink2.MAVLink_distance_sensor_message
+    distances = readings.distance_m.tolist()
+    for i, spec, d in zip(readings.vehicle.tolist(), readings.specs, distances, strict=True):
+        min_cm = round(spec.min_range_m * 100.0)
+        max_cm = round(spec.max_range_m * 100.0)
+        if d == d:  # an echo (not NaN)
+            current = min(max(round(d * 100.0), min_cm), max_cm)
+            covariance = min(round((spec.noise_sigma_at(d) * 100.0) ** 2), 254)
+            quality = SIGNAL_QUALITY_ECHO
+        else:
+            current, covariance, quality = max_cm + 1, COVARIANCE_UNKNOWN, SIGNAL_QUALITY_NO_ECHO
+        fov = spec.fov_rad
+        out[i].append(
+            make(
+                time_boot_ms,
+                min_cm,
+                max_cm,
+                current,
+                MAV_DISTANCE_SENSOR_ULTRASOUND,
+                spec.id,
+                spec.orientation,
+                covariance,
+                fov,
+                fov,
+                _NO_QUATERNION,
+                quality,
+            )
+        )
+    return out

@@ -38,6 +38,7 @@ from sitl.sensors.gps import Gps, GpsOutages
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer
 from sitl.sensors.mocap import Mocap, MocapParams, MocapSample
+from sitl.sensors.rangefinder import RangefinderArray
 from sitl.truth import TruthState
 from sitl.vehicles.multirotor import MultirotorSpec, airframe_yaml_path, load_airframe
 
@@ -106,6 +107,9 @@ class WorldConfig:
     """State of charge of every pack at the start, 0..1."""
     obstacles: tuple[BoxObstacle, ...] = ()
     """Static boxes (walls, pillars) the vehicles can hit and the sensors see."""
+    rangefinders: bool = True
+    """Fly the airframes' ultrasonic rangefinders (their ``rangefinders`` section); False: none
+    (``poll_rangefinders`` returns None)."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -321,6 +325,17 @@ class World:
             round(config.mocap.latency_ms * 1e-3 * config.physics_hz) * self._clock.dt_s
         )
         self._last_mocap_tick = -1
+        # The rangefinders' noise and dropouts come from a child spawned after every other one:
+        # switching them on or off changes no other sensor's draws.
+        self.rangefinders = RangefinderArray(
+            self._scene.client_id,
+            self._scene.body_ids,
+            [spec.rangefinders if config.rangefinders else () for spec in self.airframes],
+            config.physics_hz,
+            rng.spawn(1)[0],
+        )
+        """Every vehicle's rangefinders (none when ``config.rangefinders`` is False)."""
+        self._last_range_tick = -1
         self._battery_due = True
         for group in self._groups:
             self._apply_speed_limit(group)
@@ -477,6 +492,25 @@ class World:
                 scene = self._scene
                 self._mocap.measure(self._clock.time_s, scene.position_enu_m, scene.quaternion_xyzw)
         return self._mocap.release(self._clock.time_s, self._mocap_latency_s)
+
+    def poll_rangefinders(self) -> list[list[mavlink2.MAVLink_distance_sensor_message]] | None:
+        """DISTANCE_SENSOR of the rangefinders due now, one list per vehicle (vehicle order).
+
+        None when no rangefinder is due (or there are none); a vehicle with no sensor due has an
+        empty list. All due rays of all vehicles are cast in one batch. Call after every step, as
+        ``poll_sensors``; a second call at the same time returns None.
+        """
+        tick = self._clock.tick
+        if tick == self._last_range_tick or not self.rangefinders.due(tick):
+            return None
+        self._last_range_tick = tick
+        scene = self._scene
+        readings = self.rangefinders.sample(
+            tick, self._clock.time_usec, scene.position_enu_m, scene.rotation
+        )
+        if readings is None:
+            return None
+        return hil.distance_sensor_messages(readings, self.n_vehicles)
 
     def poll_battery(self) -> list[mavlink2.MAVLink_battery_status_message] | None:
         """BATTERY_STATUS per vehicle (power module: voltage, current) when due, else None.

@@ -41,6 +41,7 @@ from autopilot_emu.mavlink.commands import (
     CommandDispatcher,
     CommandRequest,
 )
+from autopilot_emu.mavlink.distance_sensor import DistanceSensorForwarder, latest_messages
 from autopilot_emu.mavlink.ftp import FtpServer
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.mission_protocol import MissionProtocol
@@ -122,6 +123,9 @@ class EndpointConfig:
     gps_rate_hz: float = 10.0
     """Rate of the vehicle's GPS receiver, Hz: PX4's onboard profile sends GPS_RAW_INT on every
     new fix ("unlimited" rate), so the stream runs at this rate."""
+    distance_sensor_rate_hz: float = 0.0
+    """Rate of the vehicle's fastest range finder, Hz: DISTANCE_SENSOR goes out at this rate
+    with each new reading (0: no range finders, the stream is off until requested)."""
     ftp_root: Path | None = None
     """Directory served over MAVLink FTP (must exist); None: FILE_TRANSFER_PROTOCOL is not
     answered, as PX4 with FTP off (``mavlink start`` without ``-x``)."""
@@ -133,6 +137,10 @@ class EndpointConfig:
             raise ValueError(f"listen_port must be 0..65535, got {self.listen_port}")
         if not self.gps_rate_hz > 0:
             raise ValueError(f"gps_rate_hz must be positive, got {self.gps_rate_hz}")
+        if not self.distance_sensor_rate_hz >= 0:
+            raise ValueError(
+                f"distance_sensor_rate_hz must be >= 0, got {self.distance_sensor_rate_hz}"
+            )
 
 
 @dataclass
@@ -208,8 +216,10 @@ class MavlinkEndpoint:
         self._hub = hub if hub is not None else LinkHub(vehicle)
         self._cursor = self._hub.subscribe()
         self._streams = StreamScheduler(
-            profile_streams(config.profile, config.gps_rate_hz), config.stream_rates_hz
+            profile_streams(config.profile, config.gps_rate_hz, config.distance_sensor_rate_hz),
+            config.stream_rates_hz,
         )
+        self._distance_sensors = DistanceSensorForwarder()
         self._mav = mavlink2.MAVLink(None, srcSystem=config.sysid, srcComponent=config.compid)
         """The parser of received frames."""
         self._mav.robust_parsing = True
@@ -459,6 +469,10 @@ class MavlinkEndpoint:
             return None
 
     def _emit(self, msg_id: int) -> None:
+        if msg_id == mavlink2.MAVLINK_MSG_ID_DISTANCE_SENSOR:
+            for reading in self._distance_sensors.new_messages(self._telemetry().distance_sensors):
+                self._send(reading)
+            return
         message = self._build(msg_id)
         if message is not None:
             self._send(message)
@@ -712,7 +726,14 @@ class MavlinkEndpoint:
     # --- CommandServices (called by the dispatcher) ------------------------------------------
 
     def request_message(self, msg_id: int) -> int:
-        """MAV_CMD_REQUEST_MESSAGE: build ``msg_id`` now, send it after the ACK."""
+        """MAV_CMD_REQUEST_MESSAGE: build ``msg_id`` now, send it after the ACK.
+
+        DISTANCE_SENSOR: the latest reading of every range finder (denied without any).
+        """
+        if msg_id == mavlink2.MAVLINK_MSG_ID_DISTANCE_SENSOR:
+            readings = latest_messages(self._telemetry().distance_sensors)
+            self._replies.extend(readings)
+            return ACCEPTED if readings else DENIED
         if msg_id not in messages.BUILDERS and msg_id != mavlink2.MAVLINK_MSG_ID_MISSION_CURRENT:
             return DENIED
         message = self._build(msg_id)

@@ -364,14 +364,18 @@ def vfr_hud(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
 
 
 def altitude(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
-    """ALTITUDE (141): AMSL, local (-z) and relative altitudes; terrain unknown (NaN)."""
+    """ALTITUDE (141): AMSL, local (-z) and relative altitudes; terrain from the range finder.
+
+    As PX4's ALTITUDE stream: ``altitude_terrain`` is the terrain's altitude AMSL and
+    ``bottom_clearance`` the height above it, both NaN while the terrain estimate is invalid.
+    """
     return mavlink2.MAVLink_altitude_message(
         time_usec=snapshot.time_usec,
         altitude_monotonic=float(snapshot.alt_amsl_m),
         altitude_amsl=float(snapshot.alt_amsl_m),
         altitude_local=-float(snapshot.position_ned_m[2]),
         altitude_relative=float(snapshot.relative_alt_m),
-        altitude_terrain=math.nan,
+        altitude_terrain=float(snapshot.extra.get("altitude_terrain_m", math.nan)),
         bottom_clearance=float(snapshot.extra.get("bottom_clearance_m", math.nan)),
     )
 

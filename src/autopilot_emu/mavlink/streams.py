@@ -74,6 +74,7 @@ PROFILES: dict[StreamProfile, dict[str, float]] = {
         "POSITION_TARGET_LOCAL_NED": 1.5,
         "SYS_STATUS": 1.0,
         "VFR_HUD": 4.0,
+        "DISTANCE_SENSOR": UNLIMITED,
     },
     StreamProfile.ONBOARD: {
         "TIMESYNC": 10.0,
@@ -96,10 +97,16 @@ PROFILES: dict[StreamProfile, dict[str, float]] = {
         "SYS_STATUS": 5.0,
         "SYSTEM_TIME": 1.0,
         "VFR_HUD": 10.0,
+        "DISTANCE_SENSOR": UNLIMITED,
     },
 }
 """PX4's default rates per mode, Hz, for the messages the emulator fills (PX4 order: the
-low-latency streams first); :data:`UNLIMITED` = on every update of the source."""
+low-latency streams first); :data:`UNLIMITED` = on every update of the source.
+
+DISTANCE_SENSOR departs from PX4 (0.5 Hz in the normal mode, 10 Hz onboard, in
+configure_streams_to_default): here every new reading of every range finder goes out on both
+links, at the sensors' rate, so that a ground station and the companion both see each sensor as
+it reads (issue 8); SET_MESSAGE_INTERVAL can slow it down or stop it per link."""
 
 ON_REQUEST: tuple[str, ...] = ("FLIGHT_INFORMATION",)
 """Off in every profile until a client asks (MAVSDK's info.flight_information() sets
@@ -131,20 +138,24 @@ class StreamSpec:
     """Rate in simulation time, Hz (0 = off by default)."""
 
 
-def profile_streams(profile: StreamProfile, unlimited_rate_hz: float) -> tuple[StreamSpec, ...]:
+def profile_streams(
+    profile: StreamProfile, unlimited_rate_hz: float, distance_sensor_rate_hz: float = 0.0
+) -> tuple[StreamSpec, ...]:
     """Every streamable message with its default rate in ``profile`` (0 = off).
 
     Args:
         profile: the link's PX4 mode.
         unlimited_rate_hz: rate that stands in for PX4's unlimited rate, Hz (the rate at which
             the source has new data, e.g. the GPS receiver's).
+        distance_sensor_rate_hz: rate of the fastest range finder, Hz, the DISTANCE_SENSOR
+            stream's (0: the vehicle has none, the stream is off).
     """
     rates = {**EVERY_LINK, **PROFILES[profile]}
     specs = []
     for name in STREAMABLE:
         rate = rates.get(name, 0.0)
         if rate == UNLIMITED:
-            rate = unlimited_rate_hz
+            rate = distance_sensor_rate_hz if name == "DISTANCE_SENSOR" else unlimited_rate_hz
         specs.append(StreamSpec(name, getattr(mavlink2, f"MAVLINK_MSG_ID_{name}"), rate))
     return tuple(specs)
 

@@ -22,6 +22,7 @@ import numpy as np
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes.offboard import GlobalSetpoint, LocalFrame, OffboardSetpoint
 from autopilot_emu.params import ParamStore
+from autopilot_emu.rangefinder import RangeReading
 
 
 @dataclass(slots=True)
@@ -171,7 +172,10 @@ class TelemetrySnapshot:
     estimator: EstimatorSnapshot | None = None
     """None if the flight stack does not report it."""
     extra: dict[str, float] = field(default_factory=dict)
-    """Free-form extras for optional streams."""
+    """Free-form extras for optional streams (``bottom_clearance_m``: height above the terrain,
+    ``altitude_terrain_m``: terrain altitude AMSL, when the terrain estimate is valid)."""
+    distance_sensors: tuple[RangeReading, ...] = ()
+    """Latest reading of each distance sensor, by id (DISTANCE_SENSOR stream)."""
 
 
 class VehiclePort(Protocol):

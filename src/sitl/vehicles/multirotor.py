@@ -25,6 +25,7 @@ from sitl.sensors.baro import BaroParams
 from sitl.sensors.gps import GpsParams
 from sitl.sensors.imu import ImuParams
 from sitl.sensors.mag import MagParams
+from sitl.sensors.rangefinder import MODELS, RangefinderSpec, rangefinder_from_model
 from sitl.vehicles.mass_properties import CompositeBody, LinkInertial, composite_body
 from sitl.vehicles.urdf import UrdfBody, inspect_urdf
 
@@ -48,7 +49,9 @@ TOP_LEVEL_KEYS = frozenset(
         "px4",
     }
 )
-"""Every key an airframe YAML has (all required)."""
+"""Every key an airframe YAML must have."""
+OPTIONAL_KEYS = frozenset({"rangefinders"})
+"""Keys an airframe YAML may have (absent: the airframe has none of that equipment)."""
 
 MAV_TYPE_OF_ROTOR_COUNT = {4: 2, 6: 13, 8: 14}
 """MAVLink MAV_TYPE of a multirotor with that many rotors (QUADROTOR, HEXAROTOR, OCTOROTOR)."""
@@ -100,6 +103,8 @@ class MultirotorSpec:
     """GNSS error model."""
     px4_params: Mapping[str, int | float]
     """PX4 parameters the airframe sets (PX4's airframe file), name -> value, read-only."""
+    rangefinders: tuple[RangefinderSpec, ...] = ()
+    """Ultrasonic rangefinders and their mounts (the YAML's ``rangefinders``); () for none."""
 
     @property
     def hover_speed_rad_s(self) -> float:
@@ -289,6 +294,60 @@ def _px4_params(data: Any, rotors: tuple[RotorSpec, ...], path: Path) -> Mapping
     return MappingProxyType(dict(params))
 
 
+def _bounding_radius_m(rotors: tuple[RotorSpec, ...], power: Any) -> float:
+    """Radius of the sphere around the centre of mass that holds the airframe, m.
+
+    The farthest rotor hub plus a propeller radius: the rotor discs are a multirotor's outline.
+    """
+    hubs = max(float(np.linalg.norm(r.position_frd_m)) for r in rotors)
+    return hubs + power.propulsion.rotor_diameter_m / 2.0
+
+
+def _rangefinders(data: Any, bounding_radius_m: float, path: Path) -> tuple[RangefinderSpec, ...]:
+    """The ``rangefinders`` section: section-wide model and numbers, then one row per sensor.
+
+    Errors name the file, the sensor (its index in ``sensors``) and the field.
+    """
+    if data is None:
+        return ()
+    if not isinstance(data, dict) or not isinstance(data.get("sensors"), list):
+        raise ValueError(f"{path}: section 'rangefinders' needs a 'sensors' list")
+    shared = {k: v for k, v in data.items() if k not in ("description", "source", "sensors")}
+    specs: list[RangefinderSpec] = []
+    for i, row in enumerate(data["sensors"]):
+        where = f"{path}: rangefinders.sensors[{i}]"
+        if not isinstance(row, dict):
+            raise ValueError(f"{where} must be a mapping")
+        values = {**shared, **row}
+        model = str(values.pop("model", "hc_sr04"))
+        if model not in MODELS:
+            raise ValueError(f"{where}.model: {model!r} is not one of {sorted(MODELS)}")
+        try:
+            position = tuple(float(values.pop(k)) for k in ("x_m", "y_m", "z_m"))
+            sensor_id = values.pop("id")
+            orientation = values.pop("orientation")
+        except KeyError as exc:
+            raise ValueError(
+                f"{where} needs id, orientation, x_m, y_m and z_m: missing {exc}"
+            ) from exc
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{where}: x_m, y_m, z_m must be numbers ({exc})") from exc
+        try:
+            spec = rangefinder_from_model(model, sensor_id, orientation, position, **values)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{where} (id {sensor_id}): {exc}") from exc
+        distance = float(np.linalg.norm(position))
+        if distance > bounding_radius_m:
+            raise ValueError(
+                f"{where} (id {sensor_id}): position_frd_m {position} is {distance:.3f} m from the "
+                f"centre of mass, outside the airframe (bounding radius {bounding_radius_m:.3f} m)"
+            )
+        if any(s.id == spec.id for s in specs):
+            raise ValueError(f"{where}: id {spec.id} is used twice (ids must be distinct)")
+        specs.append(spec)
+    return tuple(specs)
+
+
 def _check_urdf_against_links(body: UrdfBody, links: tuple[LinkInertial, ...], path: Path) -> None:
     """The URDF body must be the composite of the YAML's links (mass and diagonal inertia)."""
     composite = composite_body(links)
@@ -324,7 +383,7 @@ def load_airframe(name: str | Path) -> MultirotorSpec:
         raise ValueError(f"{yaml_path}: not valid YAML ({exc})") from exc
     if not isinstance(data, dict):
         raise ValueError(f"{yaml_path}: expected a mapping at the top level")
-    unknown = sorted(set(data) - TOP_LEVEL_KEYS)
+    unknown = sorted(set(data) - TOP_LEVEL_KEYS - OPTIONAL_KEYS)
     missing = sorted(TOP_LEVEL_KEYS - set(data))
     if unknown or missing:
         raise ValueError(f"{yaml_path}: missing sections {missing}, unknown sections {unknown}")
@@ -352,4 +411,9 @@ def load_airframe(name: str | Path) -> MultirotorSpec:
         baro=_build(BaroParams, data["baro"], "baro", yaml_path),
         gps=_build(GpsParams, data["gps"], "gps", yaml_path),
         px4_params=_px4_params(data["px4"], rotors, yaml_path),
+        rangefinders=_rangefinders(
+            data.get("rangefinders"),
+            _bounding_radius_m(rotors, load_power_spec(yaml_path)),
+            yaml_path,
+        ),
     )
