@@ -1,0 +1,129 @@
+"""Issue 8, done when: a plain pymavlink ground station sees the range finders, the downward one
+reads the ground; the onboard (offboard API) link too; HAGL goes out in ALTITUDE."""
+
+from __future__ import annotations
+
+import socket
+from collections import defaultdict
+
+import pytest
+from pymavlink.dialects.v20 import common as mavlink2
+
+from harness.simulation import PortPlan, Simulation, SimulationConfig
+from sitl.physics.obstacles import BoxObstacle
+
+PORTS = PortPlan(sdk_base=45140, listen_base=45180, gcs_port=45050, gcs_listen_base=45270)
+
+
+class _Client:
+    """A UDP socket and a pymavlink parser, read without blocking between simulation steps."""
+
+    def __init__(self, port: int) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", port))
+        self.sock.setblocking(False)
+        self.mav = mavlink2.MAVLink(None, srcSystem=255, srcComponent=190)
+        self.peer: tuple[str, int] | None = None
+        self.messages: list[mavlink2.MAVLink_message] = []
+
+    def read(self) -> None:
+        while True:
+            try:
+                data, self.peer = self.sock.recvfrom(65535)
+            except BlockingIOError:
+                return
+            self.messages.extend(self.mav.parse_buffer(data) or [])
+
+    def of(self, kind: str) -> list[mavlink2.MAVLink_message]:
+        return [m for m in self.messages if m.get_type() == kind]
+
+    def command(self, command: int, *params: float) -> None:
+        assert self.peer is not None
+        p = [*params, 0, 0, 0, 0, 0, 0, 0][:7]
+        msg = mavlink2.MAVLink_command_long_message(1, 1, command, 0, *p)
+        self.sock.sendto(msg.pack(self.mav), self.peer)
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+@pytest.fixture
+def clients():
+    gcs, onboard = _Client(PORTS.gcs_port), _Client(PORTS.sdk_port(0))
+    yield gcs, onboard
+    gcs.close()
+    onboard.close()
+
+
+def _run(sim: Simulation, clients, seconds: float) -> None:
+    for _ in range(round(seconds * sim.config.physics_hz / 10)):
+        for _ in range(10):
+            sim.step()
+        for c in clients:
+            c.read()
+
+
+def test_ground_station_and_onboard_links_see_every_rangefinder(clients):
+    gcs, onboard = clients
+    with Simulation(SimulationConfig(ports=PORTS, record_hz=0)) as sim:
+        _run(sim, clients, 2.0)
+        true_height = sim.world.truth.position_enu_m[0, 2]
+    mount = sim.world.airframe.rangefinders[6].position_frd_m[2]
+    for client in (gcs, onboard):
+        by_id = defaultdict(list)
+        for m in client.of("DISTANCE_SENSOR"):
+            by_id[m.id].append(m)
+        assert len(by_id) >= 6
+        assert {m[0].orientation for m in by_id.values()} >= {0, 25}
+        assert all(38 <= len(v) <= 41 for v in by_id.values())  # 20 Hz for 2 s
+        down = [m for m in by_id[6] if m.signal_quality == 100]
+        assert down and all(m.orientation == 25 and m.type == 1 for m in down)
+        mean_cm = sum(m.current_distance for m in down) / len(down)
+        assert abs(mean_cm - 100 * (true_height - mount)) < 2.0
+        clearance = [m.bottom_clearance for m in client.of("ALTITUDE")][-1]
+        assert abs(clearance - true_height) < 0.05
+
+
+def test_message_interval_and_request_message_for_distance_sensor(clients):
+    gcs, onboard = clients
+    with Simulation(SimulationConfig(ports=PORTS, record_hz=0)) as sim:
+        _run(sim, clients, 0.5)
+        gcs.command(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 132, -1)
+        _run(sim, clients, 0.1)
+        gcs.messages.clear()
+        onboard.messages.clear()
+        _run(sim, clients, 1.0)
+        assert gcs.of("DISTANCE_SENSOR") == []
+        assert len(onboard.of("DISTANCE_SENSOR")) >= 6 * 19
+        gcs.command(mavlink2.MAV_CMD_REQUEST_MESSAGE, 132)
+        _run(sim, clients, 0.1)
+        assert len({m.id for m in gcs.of("DISTANCE_SENSOR")}) == 7
+        gcs.command(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 132, 0)  # back to the default
+        _run(sim, clients, 0.1)
+        gcs.messages.clear()
+        _run(sim, clients, 1.0)
+        assert len(gcs.of("DISTANCE_SENSOR")) >= 6 * 19
+
+
+def test_hagl_over_a_box_and_no_rangefinders(clients):
+    """Resting on a 1 m box: ALTITUDE's terrain is the box top, the clearance the height over it."""
+    gcs, onboard = clients
+    box = BoxObstacle((0.0, 0.0, 0.5), (2.0, 2.0, 1.0))
+    overrides = {"obstacles": (box,), "spawn_altitude_m": 1.3}
+    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world_overrides=overrides)) as sim:
+        _run(sim, clients, 3.0)
+        height_over_box = sim.world.truth.position_enu_m[0, 2] - 1.0
+    altitude = onboard.of("ALTITUDE")[-1]
+    assert abs(altitude.bottom_clearance - height_over_box) < 0.05
+    assert altitude.altitude_terrain == pytest.approx(
+        altitude.altitude_amsl - altitude.bottom_clearance, abs=1e-3
+    )
+    gcs.messages.clear()
+    onboard.messages.clear()
+    config = SimulationConfig(ports=PORTS, record_hz=0, world_overrides={"rangefinders": False})
+    with Simulation(config) as sim:
+        _run(sim, clients, 1.0)
+    assert onboard.of("DISTANCE_SENSOR") == [] and gcs.of("DISTANCE_SENSOR") == []
+    assert onboard.of("ALTITUDE") and all(
+        m.bottom_clearance != m.bottom_clearance for m in onboard.of("ALTITUDE")
+    )
