@@ -183,6 +183,14 @@ def up(
             "(repeatable; e.g. 30:40 or 30:40:2)",
         ),
     ] = None,
+    rangefinders: Annotated[
+        bool,
+        typer.Option(
+            "--rangefinders/--no-rangefinders",
+            help="fly the airframes' ultrasonic rangefinders (DISTANCE_SENSOR on both links, "
+            "terrain estimate; docs/sensors.md); --no-rangefinders switches them off",
+        ),
+    ] = True,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -204,6 +212,8 @@ def up(
     Example:  swarmsitl up --vehicles 2 --mocap 50   (poses to UDP 15400, 15401)
 
     Example:  swarmsitl up --gps-outage 60:70   (no GPS fix from 60 s to 70 s simulated)
+
+    Example:  swarmsitl up --vehicles 10 --no-rangefinders   (no DISTANCE_SENSOR, no ray casts)
     """
     frames = parse_frames(frame, vehicles)
     physics_hz = SimulationConfig().physics_hz
@@ -230,6 +240,7 @@ def up(
         wind=wind_config(parse_wind(wind), parse_turbulence(turbulence), parse_gusts(gusts)),
         world_overrides={
             **({"mocap_hz": mocap} if mocap > 0 else {}),
+            **({} if rangefinders else {"rangefinders": False}),
             **(
                 {"gps_outages": GpsOutages(windows=parse_gps_outages(gps_outage))}
                 if gps_outage

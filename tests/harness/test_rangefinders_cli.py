@@ -1,0 +1,45 @@
+"""``swarmsitl up --no-rangefinders`` switches the range finders off (no DISTANCE_SENSOR)."""
+
+from __future__ import annotations
+
+import socket
+
+import pytest
+from pymavlink.dialects.v20 import common as mavlink2
+from typer.testing import CliRunner
+
+from harness.cli import app
+
+
+def _distance_sensors_sent(tmp_path, *flags: str) -> set[int]:
+    """Run ``up`` for 1 simulated second; ids of the DISTANCE_SENSOR its onboard link sent."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sink:
+        sink.bind(("127.0.0.1", 45150))
+        sink.setblocking(False)
+        args = ["up", "--speed", "50", "--duration", "1", "--gcs-port", "0"]
+        args += ["--out", str(tmp_path), "--sdk-port", "45150", "--listen-port", "0", *flags]
+        result = CliRunner().invoke(app, args)
+        assert result.exit_code == 0, result.output
+        parser = mavlink2.MAVLink(None)
+        ids = set()
+        while True:
+            try:
+                data = sink.recv(65535)
+            except BlockingIOError:
+                break
+            ids |= {
+                m.id for m in parser.parse_buffer(data) or [] if m.get_type() == "DISTANCE_SENSOR"
+            }
+    return ids
+
+
+@pytest.mark.parametrize(
+    ("flags", "expected"), [((), set(range(7))), (("--no-rangefinders",), set())]
+)
+def test_no_rangefinders_flag(tmp_path, flags, expected):
+    assert _distance_sensors_sent(tmp_path, *flags) == expected
+
+
+def test_help_documents_the_flag():
+    result = CliRunner().invoke(app, ["up", "--help"])
+    assert "--no-rangefinders" in result.output
