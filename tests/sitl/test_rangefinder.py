@@ -13,6 +13,7 @@ import yaml
 
 from sitl.physics.obstacles import BoxObstacle
 from sitl.sensors.rangefinder import (
+    RAYS_PER_SENSOR,
     RangefinderArray,
     rangefinder_from_model,
 )
@@ -125,6 +126,26 @@ def test_out_of_range_is_no_echo_and_a_7_m_model_still_reads_it():
         )
         r = far.sample(0, 0, position, rot)
     assert r.distance_m[0] == pytest.approx(6.0, abs=0.15)
+
+
+def test_a_sensor_never_sees_its_own_vehicle():
+    """Mounted above the Typhoon's left skid, looking down: the rays that hit the skid are cast
+    again past it, and the reading is the ground."""
+    with World(WorldConfig(spawn_altitude_m=2.0)) as world:
+        position, rot = _pose(world)
+        mount = (0.0, -0.143, 0.05)  # body FRD: the skid tube is at y -0.143 m, z +0.165 m
+        spec = rangefinder_from_model("hc_sr04", 0, 25, mount, dropout_probability=0.0)
+        array = RangefinderArray(
+            world._scene.client_id,
+            world._scene.body_ids,
+            [[spec]],
+            500.0,
+            np.random.default_rng(3),
+        )
+        readings = [array.sample(k * DIV, 0, position, rot).distance_m[0] for k in range(50)]
+    assert array.rays_cast > 50 * RAYS_PER_SENSOR  # some rays hit the skid and were re-cast
+    expected = 2.0 - mount[2]
+    assert abs(np.mean(readings) - expected) < 4 * spec.noise_sigma_at(expected) / math.sqrt(50)
 
 
 def test_dropouts_happen_at_their_probability_and_no_echo_is_reported_out_of_range():

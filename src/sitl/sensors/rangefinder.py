@@ -11,8 +11,10 @@ along the ray (a slant range). Then:
 - otherwise the range plus white Gaussian noise of ``noise_sigma_m + noise_per_m * range``.
 
 Every vehicle's due rays go into one ``pybullet.rayTestBatch`` per sensor tick (split only above
-PyBullet's batch limit). Rays that hit the vehicle carrying the sensor (a mount point on or inside
-its collision shapes) are cast again from just past that hit, so a vehicle never sees itself.
+PyBullet's batch limit). Rays that hit the vehicle carrying the sensor (e.g. a downward beam
+crossing a landing skid) are cast again from just past that hit, so a vehicle never sees itself
+(measured: a ray that starts inside a collision shape does not report it, so a mount on or inside
+the fuselage needs no special case; the shipped mounts need no re-cast at all).
 
 Frames: mounts and directions in body FRD (x forward, y right, z down), m, as MAVLink's
 MAV_SENSOR_ROTATION describes them; the scene is ENU with body FLU axes (``sitl.frames``).
