@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import math
 import os
@@ -29,8 +30,9 @@ from harness.wind_options import (
     parse_wind,
     wind_config,
 )
+from sitl.sensors.camera import MOUNT_PITCH_DEG, CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
-from sitl.vehicles.multirotor import airframe_yaml_path
+from sitl.vehicles.multirotor import airframe_yaml_path, load_airframe
 
 app = typer.Typer(
     add_completion=False,
@@ -65,6 +67,51 @@ def _open_simulation(cfg: SimulationConfig) -> Simulation:
             "ports with --listen-port / --gcs-listen-port."
         )
         raise typer.Exit(2) from exc
+    except (OSError, ValueError) as exc:  # a taken video port, a camera that sees its vehicle
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from exc
+
+
+def camera_override(
+    frames: tuple[str, ...],
+    mount: str | None,
+    size: str | None,
+    rate_hz: float | None,
+    fov_deg: float | None,
+    physics_hz: float,
+) -> CameraSpec | None:
+    """The camera every vehicle gets from the ``--camera-*`` options; None: the airframes' own.
+
+    The options modify the camera of the first airframe that has one (else the default
+    CameraSpec), and the result is given to every vehicle.
+    """
+    if mount is None and size is None and rate_hz is None and fov_deg is None:
+        return None
+    specs = [load_airframe(name).camera for name in dict.fromkeys(frames)]
+    spec = next((s for s in specs if s is not None), CameraSpec())
+    changes: dict[str, object] = {}
+    if size is not None:
+        width, sep, height = size.lower().partition("x")
+        try:
+            changes["width_px"], changes["height_px"] = int(width), int(height)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise typer.BadParameter(f"{size!r}: expected WIDTHxHEIGHT, e.g. 640x480")
+    if rate_hz is not None:
+        ratio = physics_hz / rate_hz if rate_hz > 0 else 0.0
+        if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
+            raise typer.BadParameter(
+                f"--camera-hz {rate_hz:g}: must divide the {physics_hz:g} Hz physics rate"
+            )
+        changes["rate_hz"] = rate_hz
+    if fov_deg is not None:
+        changes["hfov_deg"] = fov_deg
+    try:
+        spec = dataclasses.replace(spec, **changes)
+        return with_mount(spec, mount) if mount is not None else spec
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from exc
 
 
 def parse_stream_rates(specs: list[str]) -> dict[StreamProfile, dict[str, float]]:
@@ -183,6 +230,37 @@ def up(
             "(repeatable; e.g. 30:40 or 30:40:2)",
         ),
     ] = None,
+    camera: Annotated[
+        bool,
+        typer.Option(
+            "--camera/--no-camera",
+            help="render the cameras of the airframes that have one and stream them as MJPEG "
+            "over HTTP (--no-camera: no rendering, no streams)",
+        ),
+    ] = True,
+    camera_mount: Annotated[
+        str | None,
+        typer.Option(
+            metavar="down|forward",
+            help="point every camera down (pitch -90, outdoor) or forward (pitch 0, indoor) "
+            "[default: the airframe's]",
+        ),
+    ] = None,
+    camera_size: Annotated[
+        str | None,
+        typer.Option(metavar="WxH", help="camera resolution, e.g. 640x480 [default: airframe's]"),
+    ] = None,
+    camera_hz: Annotated[
+        float | None,
+        typer.Option(help="camera frame rate, Hz; divides the physics rate [default: airframe's]"),
+    ] = None,
+    camera_fov: Annotated[
+        float | None,
+        typer.Option(help="camera horizontal field of view, degrees [default: airframe's]"),
+    ] = None,
+    video_port: Annotated[
+        int, typer.Option(help="TCP port of vehicle 0's camera stream (+i); 0: the OS picks")
+    ] = 5600,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -204,9 +282,22 @@ def up(
     Example:  swarmsitl up --vehicles 2 --mocap 50   (poses to UDP 15400, 15401)
 
     Example:  swarmsitl up --gps-outage 60:70   (no GPS fix from 60 s to 70 s simulated)
+
+    Example:  swarmsitl up --camera-mount forward --camera-size 640x480 --camera-hz 5
+    (OpenCV reads vehicle 1's camera: cv2.VideoCapture("http://127.0.0.1:5600/video.mjpg"))
     """
     frames = parse_frames(frame, vehicles)
     physics_hz = SimulationConfig().physics_hz
+    if camera_mount is not None and camera_mount not in MOUNT_PITCH_DEG:
+        raise typer.BadParameter(
+            f"{camera_mount!r}: expected one of {', '.join(MOUNT_PITCH_DEG)}",
+            param_hint="--camera-mount",
+        )
+    camera_spec = (
+        camera_override(frames, camera_mount, camera_size, camera_hz, camera_fov, physics_hz)
+        if camera
+        else None
+    )
     if mocap < 0 or (mocap > 0 and abs(physics_hz / mocap - round(physics_hz / mocap)) > 1e-9):
         raise typer.BadParameter(
             f"--mocap {mocap:g}: must be 0 or divide the {physics_hz:g} Hz physics rate"
@@ -218,6 +309,7 @@ def up(
         listen_base=listen_port,
         gcs_port=gcs_port,
         gcs_listen_base=gcs_listen_port,
+        video_base=video_port,
     )
     cfg = SimulationConfig(
         n_vehicles=vehicles,
@@ -229,6 +321,7 @@ def up(
         stream_rates_hz=parse_stream_rates(stream_rate or []),
         wind=wind_config(parse_wind(wind), parse_turbulence(turbulence), parse_gusts(gusts)),
         world_overrides={
+            **({"cameras": True, "camera": camera_spec} if camera else {}),
             **({"mocap_hz": mocap} if mocap > 0 else {}),
             **(
                 {"gps_outages": GpsOutages(windows=parse_gps_outages(gps_outage))}
@@ -271,6 +364,12 @@ def up(
             f"motion capture: {mocap:g} Hz, vehicle i's poses to udp {ports.peer_addr}:"
             f"{mocap_port}+i (bridge: python -m companion.scripts.mocap_bridge)"
         )
+    for i, (uri, spec) in enumerate(zip(sim.video_uris, sim.world.camera_specs, strict=True)):
+        if uri is not None and spec is not None:
+            console.print(
+                f"camera of vehicle {i + 1}: {uri}  ({spec.width_px}x{spec.height_px}, "
+                f"{spec.rate_hz:g} Hz, hfov {spec.hfov_deg:g} deg, pitch {spec.pitch_deg:g} deg)"
+            )
     console.print("Press Ctrl-C to stop.")
     flag = _StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
