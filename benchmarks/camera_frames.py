@@ -58,9 +58,7 @@ def ms_per_frame(camera: CameraSpec, repeat: int) -> float:
         best = float("inf")
         for _ in range(repeat):
             t0 = time.perf_counter()
-            rig.render_due(
-                0, 0.0, scene.position_enu_m, scene.rotation, scene.quaternion_xyzw
-            )
+            rig.render_due(0, 0.0, scene.position_enu_m, scene.rotation, scene.quaternion_xyzw)
             best = min(best, time.perf_counter() - t0)
     return best * 1e3
 

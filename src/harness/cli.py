@@ -30,7 +30,7 @@ from harness.wind_options import (
     parse_wind,
     wind_config,
 )
-from sitl.sensors.camera import MOUNT_PITCH_DEG, CameraSpec, with_mount
+from sitl.sensors.camera import MOUNT_PITCH_DEG, RENDER_S_PER_PIXEL, CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
 from sitl.vehicles.multirotor import airframe_yaml_path, load_airframe
 
@@ -79,16 +79,14 @@ def camera_override(
     rate_hz: float | None,
     fov_deg: float | None,
     physics_hz: float,
-) -> CameraSpec | None:
-    """The camera every vehicle gets from the ``--camera-*`` options; None: the airframes' own.
+) -> tuple[CameraSpec | None, ...] | None:
+    """Each vehicle's camera from the ``--camera-*`` options; None: the airframes' own.
 
-    The options modify the camera of the first airframe that has one (else the default
-    CameraSpec), and the result is given to every vehicle.
+    The options modify the camera of each vehicle's airframe (``frames``: one per vehicle);
+    vehicles whose airframe has no camera get none.
     """
     if mount is None and size is None and rate_hz is None and fov_deg is None:
         return None
-    specs = [load_airframe(name).camera for name in dict.fromkeys(frames)]
-    spec = next((s for s in specs if s is not None), CameraSpec())
     changes: dict[str, object] = {}
     if size is not None:
         width, sep, height = size.lower().partition("x")
@@ -107,11 +105,17 @@ def camera_override(
         changes["rate_hz"] = rate_hz
     if fov_deg is not None:
         changes["hfov_deg"] = fov_deg
-    try:
-        spec = dataclasses.replace(spec, **changes)
-        return with_mount(spec, mount) if mount is not None else spec
-    except ValueError as exc:
-        raise typer.BadParameter(str(exc)) from exc
+    cameras: dict[str, CameraSpec | None] = {}
+    for name in dict.fromkeys(frames):
+        spec = load_airframe(name).camera
+        if spec is not None:
+            try:
+                spec = dataclasses.replace(spec, **changes)
+                spec = with_mount(spec, mount) if mount is not None else spec
+            except ValueError as exc:
+                raise typer.BadParameter(str(exc)) from exc
+        cameras[name] = spec
+    return tuple(cameras[name] for name in frames)
 
 
 def parse_stream_rates(specs: list[str]) -> dict[StreamProfile, dict[str, float]]:
@@ -293,8 +297,9 @@ def up(
             f"{camera_mount!r}: expected one of {', '.join(MOUNT_PITCH_DEG)}",
             param_hint="--camera-mount",
         )
+    per_vehicle = frames * vehicles if len(frames) == 1 else frames
     camera_spec = (
-        camera_override(frames, camera_mount, camera_size, camera_hz, camera_fov, physics_hz)
+        camera_override(per_vehicle, camera_mount, camera_size, camera_hz, camera_fov, physics_hz)
         if camera
         else None
     )
@@ -370,6 +375,19 @@ def up(
                 f"camera of vehicle {i + 1}: {uri}  ({spec.width_px}x{spec.height_px}, "
                 f"{spec.rate_hz:g} Hz, hfov {spec.hfov_deg:g} deg, pitch {spec.pitch_deg:g} deg)"
             )
+    if camera and not any(sim.video_uris):
+        console.print("cameras: none of these airframes has one (no streams)")
+    render_load = (
+        speed
+        * RENDER_S_PER_PIXEL
+        * sum(s.rate_hz * s.width_px * s.height_px for s in sim.world.camera_specs if s is not None)
+    )
+    if render_load > 0.5:
+        console.print(
+            f"[yellow]note:[/yellow] rendering the cameras takes about {render_load:.1f} CPU "
+            f"seconds per wall second at --speed {speed:g}; lighten it with --camera-hz, "
+            "--camera-size, or --no-camera"
+        )
     console.print("Press Ctrl-C to stop.")
     flag = _StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}

@@ -110,9 +110,10 @@ class WorldConfig:
     """Static boxes (walls, pillars) the vehicles can hit and the sensors see."""
     cameras: bool = False
     """Render the vehicles' cameras (``poll_cameras``); off: no camera costs anything."""
-    camera: CameraSpec | None = None
-    """With ``cameras``: the camera of every vehicle (overriding the airframes'); None: each
-    airframe's own camera (the YAML's ``camera`` section; vehicles without one have none)."""
+    camera: CameraSpec | tuple[CameraSpec | None, ...] | None = None
+    """With ``cameras``, overrides the airframes' cameras: one CameraSpec for every vehicle, or a
+    tuple with one entry per vehicle (None: that vehicle has no camera). None: each airframe's
+    own camera (the YAML's ``camera`` section; vehicles without one have none)."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -162,11 +163,22 @@ class WorldConfig:
                 f"loads needs 1 or n_vehicles={self.n_vehicles} entries, got {len(self.loads)}"
             )
         if self.camera is not None:
-            if not isinstance(self.camera, CameraSpec):
-                raise ValueError(f"camera must be a CameraSpec or None, got {self.camera!r}")
             if not self.cameras:
                 raise ValueError("camera: a camera spec is given but cameras=False")
-            rate_divisor(self.physics_hz, self.camera.rate_hz, "camera.rate_hz")
+            if isinstance(self.camera, CameraSpec):
+                rate_divisor(self.physics_hz, self.camera.rate_hz, "camera.rate_hz")
+            else:
+                object.__setattr__(self, "camera", tuple(self.camera))
+                if len(self.camera) != self.n_vehicles:
+                    raise ValueError(
+                        f"camera: {len(self.camera)} entries for {self.n_vehicles} vehicles (give "
+                        "one CameraSpec for all, or one entry per vehicle)"
+                    )
+                for k, spec in enumerate(self.camera):
+                    if spec is not None and not isinstance(spec, CameraSpec):
+                        raise ValueError(f"camera[{k}] must be a CameraSpec or None, got {spec!r}")
+                    if spec is not None:
+                        rate_divisor(self.physics_hz, spec.rate_hz, f"camera[{k}].rate_hz")
         if self.wind is not None:
             if not isinstance(self.wind, WindConfig):
                 raise ValueError(f"wind must be a WindConfig or None, got {self.wind!r}")
@@ -362,10 +374,14 @@ class World:
         """The camera rig (None if no vehicle has a camera), with the scenery the cameras see."""
         config = self.config
         specs: list[CameraSpec | None] = []
-        for airframe in self.airframes:
-            spec = config.camera if config.camera is not None else airframe.camera
+        for i, airframe in enumerate(self.airframes):
+            if config.camera is None:
+                spec, where = airframe.camera, f"{airframe.name} camera"
+            elif isinstance(config.camera, CameraSpec):
+                spec, where = config.camera, "camera"
+            else:
+                spec, where = config.camera[i], f"camera[{i}]"
             if spec is not None:
-                where = "camera" if config.camera is not None else f"{airframe.name} camera"
                 airframe.check_mount(spec, where)
                 rate_divisor(config.physics_hz, spec.rate_hz, f"{where}.rate_hz")
             specs.append(spec)
@@ -374,9 +390,12 @@ class World:
         self._scene.set_ground_texture(ground_texture(scenery_rng, tile_m=GROUND_TILE_M))
         rig = CameraRig(self._scene.client_id, specs, config.physics_hz)
         scene = self._scene
+        checked: set[tuple[str, CameraSpec]] = set()  # same airframe, same camera: same view
         for i, spec in enumerate(specs):
-            if spec is None:
+            key = (str(self.airframes[i].urdf_path), spec)
+            if spec is None or key in checked:
                 continue
+            checked.add(key)
             own = scene.body_ids[i]
             if own in rig.visible_bodies(i, scene.position_enu_m[i], scene.rotation[i]):
                 raise ValueError(

@@ -14,13 +14,15 @@ def test_no_camera_option_keeps_the_airframes_cameras():
     assert camera_override(("typhoon_h480",), None, None, None, None, 500.0) is None
 
 
-def test_options_modify_the_airframe_camera():
+def test_options_modify_each_airframes_camera_and_give_none_to_others():
     typhoon = load_airframe("typhoon_h480").camera
-    spec = camera_override(("x500", "typhoon_h480"), "forward", "640x480", 5.0, 90.0, 500.0)
+    frames = ("x500", "typhoon_h480", "typhoon_h480")
+    x500, spec, again = camera_override(frames, "forward", "640x480", 5.0, 90.0, 500.0)
+    assert x500 is None and again == spec
     assert (spec.width_px, spec.height_px, spec.rate_hz, spec.hfov_deg) == (640, 480, 5.0, 90.0)
     assert spec.pitch_deg == 0.0
     assert spec.position_frd_m == typhoon.position_frd_m
-    down = camera_override(("typhoon_h480",), "down", None, None, None, 500.0)
+    [down] = camera_override(("typhoon_h480",), "down", None, None, None, 500.0)
     assert down.pitch_deg == -90.0 and down.width_px == typhoon.width_px
 
 

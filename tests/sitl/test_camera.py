@@ -156,6 +156,21 @@ def test_every_vehicle_with_a_camera_gets_its_frame_and_others_none():
         )
 
 
+def test_one_camera_per_vehicle():
+    """A tuple gives each vehicle its own camera (None: none); a wrong length names the field."""
+    down, forward = CameraSpec(), with_mount(CameraSpec(rate_hz=5.0), "forward")
+    config = WorldConfig(n_vehicles=3, cameras=True, camera=(down, None, forward))
+    with World(config) as world:
+        assert world.camera_specs == (down, None, forward)
+        for _ in range(100):
+            world.step()
+        assert [f.vehicle for f in world.poll_cameras()] == [0, 2]
+    with pytest.raises(ValueError, match="camera: 2 entries for 3 vehicles"):
+        WorldConfig(n_vehicles=3, cameras=True, camera=(down, forward))
+    with pytest.raises(ValueError, match=r"camera\[1\].rate_hz"):
+        WorldConfig(n_vehicles=2, cameras=True, camera=(down, CameraSpec(rate_hz=3.0)))
+
+
 def test_cameras_are_off_by_default_and_change_no_other_sensor():
     """No camera without ``cameras``; with them, the other sensors' draws are the same."""
     with World(WorldConfig()) as world:

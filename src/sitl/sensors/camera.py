@@ -133,6 +133,10 @@ class CameraFrame:
 MOUNT_PITCH_DEG = {"down": -90.0, "forward": 0.0}
 """Mount presets: pitch of the optical axis, degrees ("down": outdoor survey, "forward": indoor)."""
 
+RENDER_S_PER_PIXEL = 2.3e-7
+"""Rough TinyRenderer cost per pixel of a frame the ground fills, s (18 ms at 320x240 on the
+development machine, ``benchmarks/camera_frames.py``): for load estimates, not a guarantee."""
+
 SKY_RGB = (135, 185, 235)
 """Colour of every pixel that sees nothing (the sky), RGB."""
 
