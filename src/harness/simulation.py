@@ -10,6 +10,7 @@ drive the next step. The MAVLink endpoints are polled on the simulation clock. T
 
 from __future__ import annotations
 
+import errno
 import logging
 import select
 import tempfile
@@ -25,7 +26,9 @@ from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.params import ParamStore
 from harness.mocap_publisher import MocapPublisher
 from harness.recorder import FlightRecorder
+from sitl.devices.mjpeg_server import MjpegServer
 from sitl.physics.wind import WindConfig
+from sitl.sensors.camera import CameraFrame
 from sitl.vehicles.multirotor import MultirotorSpec
 from sitl.world import World, WorldConfig
 
@@ -56,9 +59,12 @@ class PortPlan:
     """Port vehicle 0's GCS link listens on."""
     peer_addr: str = "127.0.0.1"
     """Where the companion / ground station run."""
+    video_base: int = 5600
+    """TCP port of vehicle 0's camera stream (MJPEG over HTTP, +i; PX4's Gazebo camera streams
+    to 5600); 0: the OS picks."""
 
     def __post_init__(self) -> None:
-        for name in ("sdk_base", "listen_base", "gcs_port", "gcs_listen_base"):
+        for name in ("sdk_base", "listen_base", "gcs_port", "gcs_listen_base", "video_base"):
             if not 0 <= getattr(self, name) <= 65535:
                 raise ValueError(f"{name} must be 0..65535, got {getattr(self, name)}")
 
@@ -73,6 +79,10 @@ class PortPlan:
     def gcs_listen_port(self, i: int) -> int:
         """UDP port vehicle i's ground-station link listens on."""
         return self.gcs_listen_base + i if self.gcs_listen_base else 0
+
+    def video_port(self, i: int) -> int:
+        """TCP port of vehicle i's camera stream (0: the OS picks)."""
+        return self.video_base + i if self.video_base else 0
 
     def onboard_peers(self, i: int) -> tuple[tuple[str, int], ...]:
         """Destinations of vehicle i's onboard link."""
@@ -199,6 +209,14 @@ class Simulation:
         """Sends motion-capture datagrams when the world has mocap_hz > 0 and mocap_port."""
         if config.mocap_port and self.world.config.mocap_hz > 0:
             self.mocap = MocapPublisher(config.ports.peer_addr, config.mocap_port, n)
+        self.video_servers: list[MjpegServer | None] = []
+        """Each vehicle's camera stream server (None: no camera, or cameras off)."""
+        try:
+            for i, spec in enumerate(self.world.camera_specs):
+                self.video_servers.append(None if spec is None else self._video_server(i))
+        except BaseException:
+            self.close()
+            raise
         self._readiness = select.poll()
         self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
         for _, fd in self._link_fds:
@@ -244,6 +262,33 @@ class Simulation:
             raise
         return links
 
+    def _video_server(self, i: int) -> MjpegServer:
+        """Vehicle i's MJPEG stream on TCP ports.video_port(i)."""
+        ports = self.config.ports
+        try:
+            return MjpegServer(ports.bind_addr, ports.video_port(i))
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise OSError(
+                    errno.EADDRINUSE,
+                    f"TCP {ports.bind_addr}:{ports.video_port(i)} (camera stream of vehicle "
+                    f"{i + 1}) is already in use; choose another video port base",
+                ) from exc
+            raise
+
+    @property
+    def video_uris(self) -> list[str | None]:
+        """Each vehicle's camera stream URL (cv2.VideoCapture opens it), None without a camera."""
+        return [None if s is None else s.uri for s in self.video_servers]
+
+    def _on_frames(self, frames: list[CameraFrame]) -> None:
+        """Hand the frames taken this step to their vehicles' stream servers."""
+        servers = self.video_servers
+        for frame in frames:
+            server = servers[frame.vehicle]
+            if server is not None:
+                server.publish(frame)
+
     def _ftp_root(self, i: int) -> Path:
         """Create vehicle i's FTP root with an empty ``log/`` (PX4 SITL's rootfs has one)."""
         base = self.config.out_dir
@@ -275,6 +320,9 @@ class Simulation:
             self._actuators = self.fleet.handle_sensors(sensors)
         if self.mocap is not None:
             self.mocap.publish(self.world.poll_mocap())
+        frames = self.world.poll_cameras()
+        if frames is not None:
+            self._on_frames(frames)
         battery = self.world.poll_battery()
         if battery is not None:
             self.fleet.handle_battery(battery)
@@ -299,6 +347,9 @@ class Simulation:
         self._actuators = None  # None: the world keeps every command
         t1 = clock()
         sensors, gps = self.world.poll_sensors()
+        frames = self.world.poll_cameras()
+        if frames is not None:
+            self._on_frames(frames)
         t2 = clock()
         if gps is not None:
             self.fleet.handle_gps(gps)
@@ -381,6 +432,9 @@ class Simulation:
                 log.warning("closing endpoint failed: %s", exc)
         if getattr(self, "mocap", None) is not None:
             self.mocap.close()
+        for server in getattr(self, "video_servers", []):
+            if server is not None:
+                server.close()
         if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
             self.recorder.write_csv(self.config.out_dir / "truth.csv")
         if self._scratch is not None:
