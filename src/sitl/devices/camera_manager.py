@@ -411,7 +411,7 @@ class CameraProtocol:
             q=q,
             image_index=index,
             capture_result=1 if ok else 0,
-            file_url=url,
+            file_url=url.encode(),
         )
         self._captured[index] = message
         while len(self._captured) > MAX_REMEMBERED_CAPTURES:
@@ -456,7 +456,7 @@ class CameraProtocol:
             lens_id=0,
             flags=flags,
             cam_definition_version=0,
-            cam_definition_uri="",
+            cam_definition_uri=b"",
             gimbal_device_id=0,
             camera_device_id=0,
         )
@@ -489,7 +489,7 @@ class CameraProtocol:
             read_speed=math.nan,
             write_speed=math.nan,
             type=mavlink2.STORAGE_TYPE_OTHER,
-            name="run directory",
+            name=b"run directory",
             storage_usage=mavlink2.STORAGE_USAGE_FLAG_SET | mavlink2.STORAGE_USAGE_FLAG_PHOTO,
         )
 
@@ -522,8 +522,8 @@ class CameraProtocol:
             bitrate=0,
             rotation=0,
             hfov=round(spec.hfov_deg),
-            name="MJPEG",
-            uri=self.stream_uri or "",
+            name=b"MJPEG",
+            uri=(self.stream_uri or "").encode(),
             encoding=VIDEO_STREAM_ENCODING,
             camera_device_id=0,
         )
