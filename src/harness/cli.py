@@ -64,7 +64,7 @@ def _open_simulation(cfg: SimulationConfig) -> Simulation:
         console.print(f"[red]error:[/red] {exc}")
         console.print(
             "Another swarmsitl (or PX4 SITL) is probably running; stop it or choose other "
-            "ports with --listen-port / --gcs-listen-port."
+            "ports with --listen-port / --gcs-listen-port / --payload-listen-port."
         )
         raise typer.Exit(2) from exc
     except (OSError, ValueError) as exc:  # a taken video port, a camera that sees its vehicle
@@ -265,6 +265,20 @@ def up(
     video_port: Annotated[
         int, typer.Option(help="TCP port of vehicle 0's camera stream (+i); 0: the OS picks")
     ] = 5600,
+    payload_port: Annotated[
+        int,
+        typer.Option(
+            help="UDP port of vehicle 0's MAVLink camera (compid 100, +i; PX4 SITL's 14030), "
+            "where its payload link sends; 0: no MAVLink camera"
+        ),
+    ] = 14030,
+    payload_listen_port: Annotated[
+        int,
+        typer.Option(
+            help="UDP port vehicle 0's payload link (its camera's) listens on (+i; PX4 SITL's "
+            "14280); 0: the OS picks"
+        ),
+    ] = 14280,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -273,7 +287,9 @@ def up(
     listen_port+i and streams to sdk_port+i (MAVSDK: udpin://0.0.0.0:14540+i); the
     ground-station link (normal profile) listens on gcs_listen_port+i and streams to gcs_port
     (QGroundControl, MAVProxy: udpin:0.0.0.0:14550). Each link writes a .tlog to the run
-    directory (vehicleN.tlog, vehicleN-gcs.tlog).
+    directory (vehicleN.tlog, vehicleN-gcs.tlog). A vehicle with a camera is also a MAVLink
+    camera (component 100) on a third, payload link (payload_listen_port+i <-> payload_port+i);
+    the links forward its traffic, so MAVSDK's camera plugin finds it.
 
     Example:  swarmsitl up --vehicles 3 --speed 2
 
@@ -315,6 +331,8 @@ def up(
         gcs_port=gcs_port,
         gcs_listen_base=gcs_listen_port,
         video_base=video_port,
+        payload_listen_base=payload_listen_port,
+        payload_base=payload_port,
     )
     cfg = SimulationConfig(
         n_vehicles=vehicles,
@@ -374,6 +392,13 @@ def up(
             console.print(
                 f"camera of vehicle {i + 1}: {uri}  ({spec.width_px}x{spec.height_px}, "
                 f"{spec.rate_hz:g} Hz, hfov {spec.hfov_deg:g} deg, pitch {spec.pitch_deg:g} deg)"
+            )
+    for i, manager in enumerate(sim.camera_managers):
+        if manager is not None:
+            console.print(
+                f"MAVLink camera of vehicle {i + 1}: system {i + 1} component 100, "
+                f"udp {manager.local_address[0]}:{manager.local_address[1]} <-> payload link "
+                f"{bind}:{ports.payload_listen_port(i)} (forwarded to the links above)"
             )
     if camera and not any(sim.video_uris):
         console.print("cameras: none of these airframes has one (no streams)")

@@ -202,3 +202,18 @@ def test_a_command_for_the_camera_comes_out_of_the_payload_link(tmp_path):
         finally:
             camera.close()
             sdk.close()
+
+
+def test_a_taken_camera_port_is_a_clear_error():
+    ports = _ports(40)
+    blocker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    blocker.bind(("127.0.0.1", ports.payload_port(0)))
+    try:
+        config = SimulationConfig(ports=ports, record_hz=0, world_overrides={"cameras": True})
+        with pytest.raises(OSError, match=f"{ports.payload_port(0)}.*camera of system 1"):
+            Simulation(config)
+    finally:
+        blocker.close()
+    # Everything the failed start opened was closed: the same ports start now.
+    with Simulation(config) as sim:
+        assert sim.camera_managers[0] is not None
