@@ -265,7 +265,8 @@ class Simulation:
             raise
         self._readiness = select.poll()
         self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
-        for _, fd in self._link_fds:
+        self._camera_fds = [(c, c.fileno()) for c in self.camera_managers if c is not None]
+        for _, fd in (*self._link_fds, *self._camera_fds):
             self._readiness.register(fd, select.POLLIN)
         self._poll_every = round(config.physics_hz / config.mavlink_poll_hz)
         self._step_count = 0
@@ -431,9 +432,8 @@ class Simulation:
         ready = {fd for fd, _ in self._readiness.poll(0)}
         for ep, fd in self._link_fds:
             ep.poll(now_s, fd in ready)
-        for camera in self.camera_managers:
-            if camera is not None:
-                camera.poll(now_s)
+        for camera, fd in self._camera_fds:
+            camera.poll(now_s, fd in ready)
 
     def _step_timed(self) -> None:
         """``step`` with the wall time of each phase added to ``phase_seconds``."""

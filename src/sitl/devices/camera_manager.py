@@ -618,13 +618,22 @@ class CameraManager:
         """A new rendered frame of this camera."""
         self.protocol.on_frame(frame)
 
-    def poll(self, now_s: float) -> None:
-        """Handle received commands, then send what is due at simulation time ``now_s``."""
+    def fileno(self) -> int:
+        """File descriptor of the socket, for a readiness poll of many sockets at once."""
+        if self._sock is None:
+            raise RuntimeError("camera manager is closed")
+        return self._sock.fileno()
+
+    def poll(self, now_s: float, receive: bool = True) -> None:
+        """Handle received commands, then send what is due at simulation time ``now_s``.
+
+        ``receive=False`` skips reading the socket (the caller knows it holds nothing).
+        """
         sock = self._sock
         if sock is None:
             return
         protocol = self.protocol
-        for _ in range(MAX_DATAGRAMS_PER_POLL):
+        for _ in range(MAX_DATAGRAMS_PER_POLL if receive else 0):
             try:
                 data, _address = sock.recvfrom(65535)
             except BlockingIOError:
