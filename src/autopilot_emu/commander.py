@@ -20,6 +20,7 @@ from autopilot_emu import geodesy
 from autopilot_emu.control.trajectory import braking_distance
 from autopilot_emu.estimator import GRAVITY_M_S2
 from autopilot_emu.failsafe import ACTION_NAMES, Action, FailsafeInput, FailsafeMonitor
+from autopilot_emu.mission.camera_items import ComponentCommand
 from autopilot_emu.mission.executor import LegKind, MissionExecutor, StepInput, Tolerances
 from autopilot_emu.mission.feasibility import (
     PlanContext,
@@ -132,6 +133,8 @@ class Commander:
         self.missions = MissionStore()
         self.mission = MissionExecutor()
         self.mission_reached: list[int] = []
+        self.component_commands: list[ComponentCommand] = []
+        """Commands for the vehicle's other components (mission camera items), not yet sent."""
         self.fence = Fence()
         self.fence_breached = False
         self.failsafe = FailsafeMonitor(params)
@@ -674,6 +677,8 @@ class Commander:
         )
         self.mission_reached.extend(mission.reached)
         mission.reached.clear()
+        self.component_commands.extend(mission.component_commands)
+        mission.component_commands.clear()
         for text in mission.texts:
             self._say(SEVERITY_INFO, text)
         mission.texts.clear()

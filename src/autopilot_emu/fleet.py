@@ -28,6 +28,7 @@ from autopilot_emu.control.rate import RateController
 from autopilot_emu.control.trajectory import JerkLimitedTrajectory, TrajectoryLimits
 from autopilot_emu.estimator import GRAVITY_M_S2, EstimatorConfig, FleetEstimator
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
+from autopilot_emu.mission.camera_items import ComponentCommand
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes import LandedState
 from autopilot_emu.modes.offboard import (
@@ -757,6 +758,11 @@ class FleetVehicle:
         """Items completed since the last call."""
         reached, self.commander.mission_reached = self.commander.mission_reached, []
         return reached
+
+    def pop_component_commands(self) -> list[ComponentCommand]:
+        """Commands for the vehicle's other components (its camera) since the last call."""
+        commands, self.commander.component_commands = self.commander.component_commands, []
+        return commands
 
     def gcs_heartbeat(self) -> None:
         """A ground station is alive."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import math
 import os
@@ -29,8 +30,9 @@ from harness.wind_options import (
     parse_wind,
     wind_config,
 )
+from sitl.sensors.camera import MOUNT_PITCH_DEG, RENDER_S_PER_PIXEL, CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
-from sitl.vehicles.multirotor import airframe_yaml_path
+from sitl.vehicles.multirotor import airframe_yaml_path, load_airframe
 
 app = typer.Typer(
     add_completion=False,
@@ -62,9 +64,58 @@ def _open_simulation(cfg: SimulationConfig) -> Simulation:
         console.print(f"[red]error:[/red] {exc}")
         console.print(
             "Another swarmsitl (or PX4 SITL) is probably running; stop it or choose other "
-            "ports with --listen-port / --gcs-listen-port."
+            "ports with --listen-port / --gcs-listen-port / --payload-listen-port."
         )
         raise typer.Exit(2) from exc
+    except (OSError, ValueError) as exc:  # a taken video port, a camera that sees its vehicle
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from exc
+
+
+def camera_override(
+    frames: tuple[str, ...],
+    mount: str | None,
+    size: str | None,
+    rate_hz: float | None,
+    fov_deg: float | None,
+    physics_hz: float,
+) -> tuple[CameraSpec | None, ...] | None:
+    """Each vehicle's camera from the ``--camera-*`` options; None: the airframes' own.
+
+    The options modify the camera of each vehicle's airframe (``frames``: one per vehicle);
+    vehicles whose airframe has no camera get none.
+    """
+    if mount is None and size is None and rate_hz is None and fov_deg is None:
+        return None
+    changes: dict[str, object] = {}
+    if size is not None:
+        width, sep, height = size.lower().partition("x")
+        try:
+            changes["width_px"], changes["height_px"] = int(width), int(height)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise typer.BadParameter(f"{size!r}: expected WIDTHxHEIGHT, e.g. 640x480")
+    if rate_hz is not None:
+        ratio = physics_hz / rate_hz if rate_hz > 0 else 0.0
+        if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
+            raise typer.BadParameter(
+                f"--camera-hz {rate_hz:g}: must divide the {physics_hz:g} Hz physics rate"
+            )
+        changes["rate_hz"] = rate_hz
+    if fov_deg is not None:
+        changes["hfov_deg"] = fov_deg
+    cameras: dict[str, CameraSpec | None] = {}
+    for name in dict.fromkeys(frames):
+        spec = load_airframe(name).camera
+        if spec is not None:
+            try:
+                spec = dataclasses.replace(spec, **changes)
+                spec = with_mount(spec, mount) if mount is not None else spec
+            except ValueError as exc:
+                raise typer.BadParameter(str(exc)) from exc
+        cameras[name] = spec
+    return tuple(cameras[name] for name in frames)
 
 
 def parse_stream_rates(specs: list[str]) -> dict[StreamProfile, dict[str, float]]:
@@ -191,6 +242,51 @@ def up(
             "terrain estimate; docs/sensors.md); --no-rangefinders switches them off",
         ),
     ] = True,
+    camera: Annotated[
+        bool,
+        typer.Option(
+            "--camera/--no-camera",
+            help="render the cameras of the airframes that have one and stream them as MJPEG "
+            "over HTTP (--no-camera: no rendering, no streams)",
+        ),
+    ] = True,
+    camera_mount: Annotated[
+        str | None,
+        typer.Option(
+            metavar="down|forward",
+            help="point every camera down (pitch -90, outdoor) or forward (pitch 0, indoor) "
+            "[default: the airframe's]",
+        ),
+    ] = None,
+    camera_size: Annotated[
+        str | None,
+        typer.Option(metavar="WxH", help="camera resolution, e.g. 640x480 [default: airframe's]"),
+    ] = None,
+    camera_hz: Annotated[
+        float | None,
+        typer.Option(help="camera frame rate, Hz; divides the physics rate [default: airframe's]"),
+    ] = None,
+    camera_fov: Annotated[
+        float | None,
+        typer.Option(help="camera horizontal field of view, degrees [default: airframe's]"),
+    ] = None,
+    video_port: Annotated[
+        int, typer.Option(help="TCP port of vehicle 0's camera stream (+i); 0: the OS picks")
+    ] = 5600,
+    payload_port: Annotated[
+        int,
+        typer.Option(
+            help="UDP port of vehicle 0's MAVLink camera (compid 100, +i; PX4 SITL's 14030), "
+            "where its payload link sends; 0: no MAVLink camera"
+        ),
+    ] = 14030,
+    payload_listen_port: Annotated[
+        int,
+        typer.Option(
+            help="UDP port vehicle 0's payload link (its camera's) listens on (+i; PX4 SITL's "
+            "14280); 0: the OS picks"
+        ),
+    ] = 14280,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -199,7 +295,9 @@ def up(
     listen_port+i and streams to sdk_port+i (MAVSDK: udpin://0.0.0.0:14540+i); the
     ground-station link (normal profile) listens on gcs_listen_port+i and streams to gcs_port
     (QGroundControl, MAVProxy: udpin:0.0.0.0:14550). Each link writes a .tlog to the run
-    directory (vehicleN.tlog, vehicleN-gcs.tlog).
+    directory (vehicleN.tlog, vehicleN-gcs.tlog). A vehicle with a camera is also a MAVLink
+    camera (component 100) on a third, payload link (payload_listen_port+i <-> payload_port+i);
+    the links forward its traffic, so MAVSDK's camera plugin finds it.
 
     Example:  swarmsitl up --vehicles 3 --speed 2
 
@@ -214,9 +312,22 @@ def up(
     Example:  swarmsitl up --gps-outage 60:70   (no GPS fix from 60 s to 70 s simulated)
 
     Example:  swarmsitl up --vehicles 10 --no-rangefinders   (no DISTANCE_SENSOR, no ray casts)
+    Example:  swarmsitl up --camera-mount forward --camera-size 640x480 --camera-hz 5
+    (OpenCV reads vehicle 1's camera: cv2.VideoCapture("http://127.0.0.1:5600/video.mjpg"))
     """
     frames = parse_frames(frame, vehicles)
     physics_hz = SimulationConfig().physics_hz
+    if camera_mount is not None and camera_mount not in MOUNT_PITCH_DEG:
+        raise typer.BadParameter(
+            f"{camera_mount!r}: expected one of {', '.join(MOUNT_PITCH_DEG)}",
+            param_hint="--camera-mount",
+        )
+    per_vehicle = frames * vehicles if len(frames) == 1 else frames
+    camera_spec = (
+        camera_override(per_vehicle, camera_mount, camera_size, camera_hz, camera_fov, physics_hz)
+        if camera
+        else None
+    )
     if mocap < 0 or (mocap > 0 and abs(physics_hz / mocap - round(physics_hz / mocap)) > 1e-9):
         raise typer.BadParameter(
             f"--mocap {mocap:g}: must be 0 or divide the {physics_hz:g} Hz physics rate"
@@ -228,6 +339,9 @@ def up(
         listen_base=listen_port,
         gcs_port=gcs_port,
         gcs_listen_base=gcs_listen_port,
+        video_base=video_port,
+        payload_listen_base=payload_listen_port,
+        payload_base=payload_port,
     )
     cfg = SimulationConfig(
         n_vehicles=vehicles,
@@ -239,6 +353,7 @@ def up(
         stream_rates_hz=parse_stream_rates(stream_rate or []),
         wind=wind_config(parse_wind(wind), parse_turbulence(turbulence), parse_gusts(gusts)),
         world_overrides={
+            **({"cameras": True, "camera": camera_spec} if camera else {}),
             **({"mocap_hz": mocap} if mocap > 0 else {}),
             **({} if rangefinders else {"rangefinders": False}),
             **(
@@ -281,6 +396,32 @@ def up(
         console.print(
             f"motion capture: {mocap:g} Hz, vehicle i's poses to udp {ports.peer_addr}:"
             f"{mocap_port}+i (bridge: python -m companion.scripts.mocap_bridge)"
+        )
+    for i, (uri, spec) in enumerate(zip(sim.video_uris, sim.world.camera_specs, strict=True)):
+        if uri is not None and spec is not None:
+            console.print(
+                f"camera of vehicle {i + 1}: {uri}  ({spec.width_px}x{spec.height_px}, "
+                f"{spec.rate_hz:g} Hz, hfov {spec.hfov_deg:g} deg, pitch {spec.pitch_deg:g} deg)"
+            )
+    for i, manager in enumerate(sim.camera_managers):
+        if manager is not None:
+            console.print(
+                f"MAVLink camera of vehicle {i + 1}: system {i + 1} component 100, "
+                f"udp {manager.local_address[0]}:{manager.local_address[1]} <-> payload link "
+                f"{bind}:{ports.payload_listen_port(i)} (forwarded to the links above)"
+            )
+    if camera and not any(sim.video_uris):
+        console.print("cameras: none of these airframes has one (no streams)")
+    render_load = (
+        speed
+        * RENDER_S_PER_PIXEL
+        * sum(s.rate_hz * s.width_px * s.height_px for s in sim.world.camera_specs if s is not None)
+    )
+    if render_load > 0.5:
+        console.print(
+            f"[yellow]note:[/yellow] rendering the cameras takes about {render_load:.1f} CPU "
+            f"seconds per wall second at --speed {speed:g}; lighten it with --camera-hz, "
+            "--camera-size, or --no-camera"
         )
     console.print("Press Ctrl-C to stop.")
     flag = _StopFlag()

@@ -10,6 +10,7 @@ drive the next step. The MAVLink endpoints are polled on the simulation clock. T
 
 from __future__ import annotations
 
+import errno
 import logging
 import select
 import tempfile
@@ -21,16 +22,28 @@ from pathlib import Path
 from autopilot_emu.fleet import AutopilotFleet, FleetConfig
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
-from autopilot_emu.mavlink.streams import StreamProfile
+from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from autopilot_emu.params import ParamStore
 from autopilot_emu.rangefinder import ROTATION_DOWNWARD
 from harness.mocap_publisher import MocapPublisher
 from harness.recorder import FlightRecorder
+from sitl.devices.camera_manager import CameraManager, CameraProtocol, JpegStore
+from sitl.devices.mjpeg_server import MjpegServer
 from sitl.physics.wind import WindConfig
+from sitl.sensors.camera import CameraFrame, CameraSpec
 from sitl.vehicles.multirotor import MultirotorSpec
 from sitl.world import World, WorldConfig
 
 log = logging.getLogger(__name__)
+
+_PAYLOAD = "-payload"
+PAYLOAD_STREAM_RATES_HZ: dict[str, float] = {
+    **dict.fromkeys(STREAMABLE, 0.0),
+    "HEARTBEAT": 1.0,
+}
+"""Streams of the payload link: HEARTBEAT only. PX4 runs it in the onboard mode at 4000 B/s,
+which scales its streams down to a trickle; the camera here geotags from the rendered frame's
+pose and needs no telemetry, and commands for it arrive by forwarding."""
 
 
 @dataclass(frozen=True)
@@ -41,6 +54,9 @@ class PortPlan:
       listen_base+i, sends to sdk_base+i;
     * ground-station link (QGroundControl, MAVProxy; normal profile): listens on
       gcs_listen_base+i, sends to gcs_port (the same port for every vehicle).
+    * onboard payload link (vehicles with a camera): listens on payload_listen_base+i, sends to
+      payload_base+i, where the vehicle's MAVLink camera (compid 100) listens; the links forward
+      the camera's traffic to each other (autopilot_emu.mavlink.forwarding).
 
     A base of 0 lets the OS pick the listen port (for one vehicle).
     """
@@ -57,9 +73,26 @@ class PortPlan:
     """Port vehicle 0's GCS link listens on."""
     peer_addr: str = "127.0.0.1"
     """Where the companion / ground station run."""
+    video_base: int = 5600
+    """TCP port of vehicle 0's camera stream (MJPEG over HTTP, +i; PX4's Gazebo camera streams
+    to 5600); 0: the OS picks."""
+    payload_listen_base: int = 14280
+    """Port vehicle 0's onboard payload link listens on (PX4 SITL: 14280+i; its camera talks to
+    it); 0: the OS picks."""
+    payload_base: int = 14030
+    """Port of vehicle 0's camera, where the payload link sends (PX4 SITL: 14030+i, the Gazebo
+    camera's MAVLink port); 0: no payload link and no MAVLink camera."""
 
     def __post_init__(self) -> None:
-        for name in ("sdk_base", "listen_base", "gcs_port", "gcs_listen_base"):
+        for name in (
+            "sdk_base",
+            "listen_base",
+            "gcs_port",
+            "gcs_listen_base",
+            "video_base",
+            "payload_listen_base",
+            "payload_base",
+        ):
             if not 0 <= getattr(self, name) <= 65535:
                 raise ValueError(f"{name} must be 0..65535, got {getattr(self, name)}")
 
@@ -74,6 +107,18 @@ class PortPlan:
     def gcs_listen_port(self, i: int) -> int:
         """UDP port vehicle i's ground-station link listens on."""
         return self.gcs_listen_base + i if self.gcs_listen_base else 0
+
+    def video_port(self, i: int) -> int:
+        """TCP port of vehicle i's camera stream (0: the OS picks)."""
+        return self.video_base + i if self.video_base else 0
+
+    def payload_listen_port(self, i: int) -> int:
+        """UDP port vehicle i's payload link listens on (0: the OS picks)."""
+        return self.payload_listen_base + i if self.payload_listen_base else 0
+
+    def payload_port(self, i: int) -> int:
+        """UDP port of vehicle i's camera (its payload link sends there); 0: no payload link."""
+        return self.payload_base + i if self.payload_base else 0
 
     def onboard_peers(self, i: int) -> tuple[tuple[str, int], ...]:
         """Destinations of vehicle i's onboard link."""
@@ -195,6 +240,7 @@ class Simulation:
             p.set("MAV_SYS_ID", i + 1)
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
+        self._payload_links: list[MavlinkEndpoint | None] = [None] * n
         """Every MAVLink link: vehicle 0's onboard link, its GCS link (if any), vehicle 1's ..."""
         self.ftp_roots: list[Path] = []
         """Directory each vehicle serves over MAVLink FTP: ``<out_dir>/vehicle<N>/fs``, or a
@@ -213,9 +259,28 @@ class Simulation:
         """Sends motion-capture datagrams when the world has mocap_hz > 0 and mocap_port."""
         if config.mocap_port and self.world.config.mocap_hz > 0:
             self.mocap = MocapPublisher(config.ports.peer_addr, config.mocap_port, n)
+        self.video_servers: list[MjpegServer | None] = []
+        """Each vehicle's camera stream server (None: no camera, or cameras off)."""
+        try:
+            for i, spec in enumerate(self.world.camera_specs):
+                self.video_servers.append(None if spec is None else self._video_server(i))
+        except BaseException:
+            self.close()
+            raise
+        self.camera_managers: list[CameraManager | None] = [None] * n
+        """Each vehicle's MAVLink camera (compid 100) on its payload link; None: no camera, no
+        MAVLink or no payload link."""
+        try:
+            for i, spec in enumerate(self.world.camera_specs):
+                if spec is not None and self._payload_links[i] is not None:
+                    self.camera_managers[i] = self._camera_manager(i, spec)
+        except BaseException:
+            self.close()
+            raise
         self._readiness = select.poll()
         self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
-        for _, fd in self._link_fds:
+        self._camera_fds = [(c, c.fileno()) for c in self.camera_managers if c is not None]
+        for _, fd in (*self._link_fds, *self._camera_fds):
             self._readiness.register(fd, select.POLLIN)
         self._poll_every = round(config.physics_hz / config.mavlink_poll_hz)
         self._step_count = 0
@@ -235,9 +300,12 @@ class Simulation:
         plan = [(StreamProfile.ONBOARD, ports.listen_port(i), ports.onboard_peers(i), "")]
         if ports.gcs_port:
             plan.append((StreamProfile.NORMAL, ports.gcs_listen_port(i), ports.gcs_peers(), "-gcs"))
+        if ports.payload_base and self.world.camera_specs[i] is not None:
+            plan.append(self._payload_plan(i))
         links: list[MavlinkEndpoint] = []
         try:
             for profile, listen_port, peers, suffix in plan:
+                payload = suffix == _PAYLOAD
                 config = EndpointConfig(
                     sysid=i + 1,
                     compid=1,
@@ -245,14 +313,24 @@ class Simulation:
                     listen_port=listen_port,
                     peers=peers,
                     profile=profile,
-                    tlog_path=(out / f"vehicle{i + 1}{suffix}.tlog") if out is not None else None,
+                    tlog_path=(
+                        (out / f"vehicle{i + 1}{suffix}.tlog")
+                        if out is not None and not payload
+                        else None
+                    ),
                     epoch_start_s=self.epoch_start_s,
                     gps_rate_hz=self.world.config.gps_hz,
                     distance_sensor_rate_hz=self._rangefinder_rate_hz(i),
                     ftp_root=ftp_root,
-                    stream_rates_hz=self.config.stream_rates_hz.get(profile, {}),
+                    stream_rates_hz=(
+                        PAYLOAD_STREAM_RATES_HZ
+                        if payload
+                        else self.config.stream_rates_hz.get(profile, {})
+                    ),
                 )
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
+                if payload:
+                    self._payload_links[i] = links[-1]
         except BaseException:
             for link in links:
                 link.close()
@@ -264,6 +342,68 @@ class Simulation:
         if not self.world.config.rangefinders:
             return 0.0
         return max((s.rate_hz for s in self.world.airframes[i].rangefinders), default=0.0)
+
+    def _payload_plan(self, i: int) -> tuple[StreamProfile, int, tuple[tuple[str, int], ...], str]:
+        """Vehicle i's onboard payload link, its camera's: few streams, forwarding on.
+
+        PX4 SITL: ``mavlink start -x -u 14280+i -r 4000 -f -m onboard -o 14030+i``. PX4 starts
+        it whether a camera is there or not; here only vehicles with a camera have it (nothing
+        else would use it, and a run without cameras binds no extra ports).
+        """
+        ports = self.config.ports
+        peers = ((ports.bind_addr, ports.payload_port(i)),)
+        return (StreamProfile.ONBOARD, ports.payload_listen_port(i), peers, _PAYLOAD)
+
+    def _camera_manager(self, i: int, spec: CameraSpec) -> CameraManager:
+        """Vehicle i's camera as MAVLink component 100 on its payload link."""
+        base = self.config.out_dir
+        if base is None:
+            if self._scratch is None:
+                self._scratch = tempfile.TemporaryDirectory(prefix="swarmsitl-fs-")
+            base = Path(self._scratch.name)
+        protocol = CameraProtocol(
+            spec,
+            sysid=i + 1,
+            origin=self.world.origin,
+            epoch_start_s=self.epoch_start_s,
+            store=JpegStore(base / f"vehicle{i + 1}" / "camera"),
+            stream_uri=self.video_uris[i],
+        )
+        ports = self.config.ports
+        link = self._payload_links[i]
+        return CameraManager(
+            protocol, ports.bind_addr, ports.payload_port(i), link.local_address[1]
+        )
+
+    def _video_server(self, i: int) -> MjpegServer:
+        """Vehicle i's MJPEG stream on TCP ports.video_port(i)."""
+        ports = self.config.ports
+        try:
+            return MjpegServer(ports.bind_addr, ports.video_port(i))
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise OSError(
+                    errno.EADDRINUSE,
+                    f"TCP {ports.bind_addr}:{ports.video_port(i)} (camera stream of vehicle "
+                    f"{i + 1}) is already in use; choose another video port base",
+                ) from exc
+            raise
+
+    @property
+    def video_uris(self) -> list[str | None]:
+        """Each vehicle's camera stream URL (cv2.VideoCapture opens it), None without a camera."""
+        return [None if s is None else s.uri for s in self.video_servers]
+
+    def _on_frames(self, frames: list[CameraFrame]) -> None:
+        """Hand the frames taken this step to their vehicles' stream servers."""
+        servers = self.video_servers
+        for frame in frames:
+            server = servers[frame.vehicle]
+            if server is not None:
+                server.publish(frame)
+            camera = self.camera_managers[frame.vehicle]
+            if camera is not None:
+                camera.on_frame(frame)
 
     def _ftp_root(self, i: int) -> Path:
         """Create vehicle i's FTP root with an empty ``log/`` (PX4 SITL's rootfs has one)."""
@@ -296,6 +436,9 @@ class Simulation:
             self._actuators = self.fleet.handle_sensors(sensors)
         if self.mocap is not None:
             self.mocap.publish(self.world.poll_mocap())
+        frames = self.world.poll_cameras()
+        if frames is not None:
+            self._on_frames(frames)
         battery = self.world.poll_battery()
         if battery is not None:
             self.fleet.handle_battery(battery)
@@ -313,6 +456,8 @@ class Simulation:
         ready = {fd for fd, _ in self._readiness.poll(0)}
         for ep, fd in self._link_fds:
             ep.poll(now_s, fd in ready)
+        for camera, fd in self._camera_fds:
+            camera.poll(now_s, fd in ready)
 
     def _step_timed(self) -> None:
         """``step`` with the wall time of each phase added to ``phase_seconds``."""
@@ -324,6 +469,9 @@ class Simulation:
         t1 = clock()
         sensors, gps = self.world.poll_sensors()
         ranges = self.world.poll_rangefinders()
+        frames = self.world.poll_cameras()
+        if frames is not None:
+            self._on_frames(frames)
         t2 = clock()
         if gps is not None:
             self.fleet.handle_gps(gps)
@@ -408,6 +556,12 @@ class Simulation:
                 log.warning("closing endpoint failed: %s", exc)
         if getattr(self, "mocap", None) is not None:
             self.mocap.close()
+        for server in getattr(self, "video_servers", []):
+            if server is not None:
+                server.close()
+        for camera in getattr(self, "camera_managers", []):
+            if camera is not None:
+                camera.close()
         if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
             self.recorder.write_csv(self.config.out_dir / "truth.csv")
         if self._scratch is not None:

@@ -220,3 +220,17 @@ def geodetic_to_enu(
     _, _, h_ell = pymap3d.enu2geodetic(e, n, up, lat0, lon0, h0)
     e, n, _ = pymap3d.geodetic2enu(lat_deg, lon_deg, h_ell, lat0, lon0, h0)
     return np.stack([np.asarray(e), np.asarray(n), np.broadcast_to(up, np.shape(e))], axis=-1)
+
+
+def camera_attitude_ned(
+    vehicle_q_xyzw: np.ndarray, mount_pitch_deg: float, mount_yaw_deg: float
+) -> np.ndarray:
+    """Attitude (w, x, y, z) of a camera in NED, as MAVLink's camera and gimbal messages give it.
+
+    The camera's frame has x along the optical axis, y right and z down (its FRD), so a level,
+    north-facing vehicle's down-looking camera (pitch -90 deg) has Euler angles (0, -90, 0).
+    The mount turns ``mount_yaw_deg`` right of the body's forward axis, then
+    ``mount_pitch_deg`` up (``CameraSpec``).
+    """
+    mount = quat_from_euler_ned_frd(0.0, np.radians(mount_pitch_deg), np.radians(mount_yaw_deg))
+    return _canonical(_quat_mul_wxyz(quat_enu_flu_to_ned_frd(vehicle_q_xyzw), mount))

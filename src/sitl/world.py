@@ -25,9 +25,10 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from sitl import frames, hil
 from sitl.clock import SimClock, rate_divisor
-from sitl.physics.bullet import BulletScene
+from sitl.physics.bullet import GROUND_TILE_M, BulletScene
 from sitl.physics.earth import isa_pressure_pa, isa_temperature_k
 from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
+from sitl.physics.ground_texture import ground_texture
 from sitl.physics.obstacles import BoxObstacle, add_boxes
 from sitl.physics.rotors import RotorModel
 from sitl.physics.wind import WindConfig, WindField
@@ -35,6 +36,7 @@ from sitl.power.loads import PayloadLoads
 from sitl.power.propulsion import load_power_spec
 from sitl.power.system import FleetPower
 from sitl.sensors.baro import Barometer, BaroSample
+from sitl.sensors.camera import CameraFrame, CameraRig, CameraSpec
 from sitl.sensors.gps import Gps, GpsOutages
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer
@@ -111,6 +113,12 @@ class WorldConfig:
     rangefinders: bool = True
     """Fly the airframes' ultrasonic rangefinders (their ``rangefinders`` section); False: none
     (``poll_rangefinders`` returns None)."""
+    cameras: bool = False
+    """Render the vehicles' cameras (``poll_cameras``); off: no camera costs anything."""
+    camera: CameraSpec | tuple[CameraSpec | None, ...] | None = None
+    """With ``cameras``, overrides the airframes' cameras: one CameraSpec for every vehicle, or a
+    tuple with one entry per vehicle (None: that vehicle has no camera). None: each airframe's
+    own camera (the YAML's ``camera`` section; vehicles without one have none)."""
 
     def __post_init__(self) -> None:
         if isinstance(self.n_vehicles, bool) or not isinstance(self.n_vehicles, int):
@@ -159,6 +167,23 @@ class WorldConfig:
             raise ValueError(
                 f"loads needs 1 or n_vehicles={self.n_vehicles} entries, got {len(self.loads)}"
             )
+        if self.camera is not None:
+            if not self.cameras:
+                raise ValueError("camera: a camera spec is given but cameras=False")
+            if isinstance(self.camera, CameraSpec):
+                rate_divisor(self.physics_hz, self.camera.rate_hz, "camera.rate_hz")
+            else:
+                object.__setattr__(self, "camera", tuple(self.camera))
+                if len(self.camera) != self.n_vehicles:
+                    raise ValueError(
+                        f"camera: {len(self.camera)} entries for {self.n_vehicles} vehicles (give "
+                        "one CameraSpec for all, or one entry per vehicle)"
+                    )
+                for k, spec in enumerate(self.camera):
+                    if spec is not None and not isinstance(spec, CameraSpec):
+                        raise ValueError(f"camera[{k}] must be a CameraSpec or None, got {spec!r}")
+                    if spec is not None:
+                        rate_divisor(self.physics_hz, spec.rate_hz, f"camera[{k}].rate_hz")
         if self.wind is not None:
             if not isinstance(self.wind, WindConfig):
                 raise ValueError(f"wind must be a WindConfig or None, got {self.wind!r}")
@@ -353,6 +378,49 @@ class World:
         # Magnetometer and barometer fall due at tick 0, so they are sampled for (at the latest)
         # the first HIL_SENSOR, whenever the first poll happens.
         self._baro_sample: BaroSample | None = None
+        # The scenery (ground texture) draws from its own child generator, spawned after every
+        # other one, with or without cameras: no other stream changes.
+        scenery_rng = rng.spawn(1)[0]
+        self._cameras: CameraRig | None = None
+        self._last_camera_tick = -1
+        if config.cameras:
+            self._cameras = self._build_cameras(scenery_rng)
+
+    def _build_cameras(self, scenery_rng: np.random.Generator) -> CameraRig | None:
+        """The camera rig (None if no vehicle has a camera), with the scenery the cameras see."""
+        config = self.config
+        specs: list[CameraSpec | None] = []
+        for i, airframe in enumerate(self.airframes):
+            if config.camera is None:
+                spec, where = airframe.camera, f"{airframe.name} camera"
+            elif isinstance(config.camera, CameraSpec):
+                spec, where = config.camera, "camera"
+            else:
+                spec, where = config.camera[i], f"camera[{i}]"
+            if spec is not None:
+                airframe.check_mount(spec, where)
+                rate_divisor(config.physics_hz, spec.rate_hz, f"{where}.rate_hz")
+            specs.append(spec)
+        if all(spec is None for spec in specs):
+            return None
+        self._scene.set_ground_texture(ground_texture(scenery_rng, tile_m=GROUND_TILE_M))
+        rig = CameraRig(self._scene.client_id, specs, config.physics_hz)
+        scene = self._scene
+        checked: set[tuple[str, CameraSpec]] = set()  # same airframe, same camera: same view
+        for i, spec in enumerate(specs):
+            key = (str(self.airframes[i].urdf_path), spec)
+            if spec is None or key in checked:
+                continue
+            checked.add(key)
+            own = scene.body_ids[i]
+            if own in rig.visible_bodies(i, scene.position_enu_m[i], scene.rotation[i]):
+                raise ValueError(
+                    f"camera of vehicle {i} ({self.airframes[i].name}): its own body is in view "
+                    f"from position_frd_m={spec.position_frd_m}, pitch_deg={spec.pitch_deg:g}, "
+                    f"yaw_deg={spec.yaw_deg:g}, hfov_deg={spec.hfov_deg:g}; mount it lower, "
+                    "farther out or narrow the field of view"
+                )
+        return rig
 
     # -- time ---------------------------------------------------------------------------------
 
@@ -525,6 +593,33 @@ class World:
             self._power_column(lambda g: g.power.voltage_v),
             self._power_column(lambda g: g.power.current_a),
         )
+
+    @property
+    def camera_specs(self) -> tuple[CameraSpec | None, ...]:
+        """Each vehicle's camera (None: no camera; all None when ``cameras`` is off)."""
+        if self._cameras is None:
+            return (None,) * self.n_vehicles
+        return self._cameras.specs
+
+    def poll_cameras(self) -> list[CameraFrame] | None:
+        """The frames taken at the current time, in vehicle order, or None if none is due.
+
+        Every camera renders once per ``physics_hz / rate_hz`` steps, all due cameras in one pass
+        (nothing is rendered between). A second call at the same time returns None. Call it after
+        every step, as ``poll_sensors``: a skipped step can skip a frame.
+        """
+        rig = self._cameras
+        if rig is None:
+            return None
+        tick = self._clock.tick
+        if tick == self._last_camera_tick or not rig.due(tick):
+            return None
+        self._last_camera_tick = tick
+        scene = self._scene
+        frames = rig.render_due(
+            tick, self._clock.time_s, scene.position_enu_m, scene.rotation, scene.quaternion_xyzw
+        )
+        return frames or None
 
     def _interval_s(self, sensor: str, tick: int, divisor: int) -> float:
         """Time since the sensor's previous sample (its nominal period for the first one)."""

@@ -344,6 +344,7 @@ def start_swarm(
         "--gcs-port", gcs_port,
         "--gcs-listen-port", ports.gcs_listen,
         "--out", out,
+        "--no-camera",  # no rendering, no TCP 5600+i; a test that wants them passes --camera
         *extra,
     )  # fmt: skip
     with log_path.open("w") as log:

@@ -26,7 +26,7 @@ PORTS = module_ports(4)
 def run_up(out, vehicles: int, sdk: int, listen: int) -> subprocess.CompletedProcess:
     cmd = cli_command(
         "up", "--vehicles", vehicles, "--speed", SPEED, "--sdk-port", sdk,
-        "--listen-port", listen, "--gcs-port", 0, "--out", out, "--duration", 5,
+        "--listen-port", listen, "--gcs-port", 0, "--out", out, "--duration", 5, "--no-camera",
     )  # fmt: skip
     return subprocess.run(
         cmd, cwd=REPO_ROOT, env=cli_env(), capture_output=True, text=True, timeout=120

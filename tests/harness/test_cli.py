@@ -36,6 +36,7 @@ def test_ctrl_c_during_shutdown_does_not_cut_the_recordings(tmp_path, monkeypatc
     monkeypatch.setattr(Simulation, "close", close_interrupted)
     out = tmp_path / "run"
     args = ["up", "--speed", "50", "--duration", "2", "--gcs-port", "0", "--out", str(out)]
+    args += ["--no-camera"]
     args += ["--sdk-port", "0", "--listen-port", "0"]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
@@ -80,7 +81,7 @@ def test_up_with_mocap_announces_where_the_poses_go(tmp_path):
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sink:
         sink.bind(("127.0.0.1", 0))
         port = sink.getsockname()[1]
-        args = ["up", "--speed", "50", "--duration", "0.5", "--gcs-port", "0"]
+        args = ["up", "--speed", "50", "--duration", "0.5", "--gcs-port", "0", "--no-camera"]
         args += ["--out", str(tmp_path), "--sdk-port", "0", "--listen-port", "0"]
         result = CliRunner().invoke(app, [*args, "--mocap", "50", "--mocap-port", str(port)])
         sink.settimeout(1.0)

@@ -21,6 +21,7 @@ def test_up_flies_mixed_frames_and_lists_them(tmp_path):
     """``up --frame typhoon_h480,x500`` starts a hexacopter and a quad and names them."""
     out = tmp_path / "run"
     args = ["up", "-n", "2", "--frame", "typhoon_h480,x500", "--speed", "50", "--duration", "1"]
+    args += ["--no-camera"]
     args += ["--gcs-port", "0", "--sdk-port", "0", "--listen-port", "0", "--out", str(out)]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output

@@ -15,8 +15,10 @@ message is built only when its stream is due. A poll with no traffic and nothing
 failing ``recvfrom`` and one comparison.
 
 Every frame goes to the configured peers and to every address MAVLink has been received from, as
-PX4 does. Malformed input is counted in :attr:`MavlinkEndpoint.stats` and logged, never raised;
-errors while sending are counted and otherwise ignored.
+PX4 does. Frames for or from the vehicle's other components (a camera) are relayed between its
+links (:mod:`autopilot_emu.mavlink.forwarding`). Malformed input is counted in
+:attr:`MavlinkEndpoint.stats` and logged, never raised; errors while sending are counted and
+otherwise ignored.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from autopilot_emu.mavlink.commands import (
     CommandRequest,
 )
 from autopilot_emu.mavlink.distance_sensor import DistanceSensorForwarder, latest_messages
+from autopilot_emu.mavlink.forwarding import should_forward
 from autopilot_emu.mavlink.ftp import FtpServer
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.mission_protocol import MissionProtocol
@@ -60,6 +63,7 @@ from autopilot_emu.mavlink.vision import (
     decode_odometry,
     decode_vision_position_estimate,
 )
+from autopilot_emu.mission.camera_items import ComponentCommand
 from autopilot_emu.modes.offboard import LocalFrame
 from autopilot_emu.params import ParamError
 
@@ -129,6 +133,9 @@ class EndpointConfig:
     ftp_root: Path | None = None
     """Directory served over MAVLink FTP (must exist); None: FILE_TRANSFER_PROTOCOL is not
     answered, as PX4 with FTP off (``mavlink start`` without ``-x``)."""
+    forwarding: bool = True
+    """Relay frames for and from the vehicle's other components to and from its other links
+    with forwarding on (PX4's ``mavlink start -f``, on for every PX4 SITL link)."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255 or not 1 <= self.compid <= 255:
@@ -164,7 +171,11 @@ class EndpointStats:
     commands_duplicate: int = 0
     """Retransmissions re-ACKed from the cache without executing."""
     commands_ignored: int = 0
-    """Commands addressed to another system or component (no ACK, as PX4)."""
+    """Commands addressed to another system or component and not forwarded (no ACK, as PX4)."""
+    frames_forwarded: int = 0
+    """Received frames relayed to the vehicle's other links (forwarding.should_forward)."""
+    frames_relayed: int = 0
+    """Frames received by another link of the vehicle and sent out of this one."""
     setpoints_received: int = 0
     """Offboard setpoints addressed to us and passed to the vehicle."""
     setpoints_ignored: int = 0
@@ -292,6 +303,9 @@ class MavlinkEndpoint:
         self._statustext_id = 0
         self._check_sysid_param()
         self._sock: socket.socket | None = self._bind(config.bind_addr, config.listen_port)
+        self._forwarded = False
+        """The frame being handled was relayed to the vehicle's other links."""
+        self._forward_member = self._hub.forwarding.join(self._relay) if config.forwarding else None
 
     # --- lifecycle ---------------------------------------------------------------------------
 
@@ -335,6 +349,9 @@ class MavlinkEndpoint:
 
     def close(self) -> None:
         """Flush and close the tlog, close the socket and the FTP session. Safe to call twice."""
+        if self._forward_member is not None:
+            self._hub.forwarding.leave(self._forward_member)
+            self._forward_member = None
         if self._ftp is not None:
             self._ftp.close()
         if self._tlog is not None:
@@ -405,6 +422,8 @@ class MavlinkEndpoint:
             for severity, text in texts:
                 self.announce(severity, text)
             self._mission_events(reached)
+            for command in self._hub.component_commands(self._cursor):
+                self._send_component_command(command)
         if self._params.list_pending:
             self._params.send_list_batch()
         if self._missions.busy:
@@ -451,6 +470,41 @@ class MavlinkEndpoint:
                     self.stats.send_errors += 1
         if self._tlog is not None:
             self._tlog.write(self._now_s, frame)
+
+    def _relay(self, frame: bytes) -> None:
+        """Send a frame another link of the vehicle received, unchanged (forwarding)."""
+        self.stats.frames_relayed += 1
+        sock = self._sock
+        if sock is None:
+            return
+        for peer in self._peers:
+            try:
+                sock.sendto(frame, peer)
+            except OSError:
+                self.stats.send_errors += 1
+        if self._tlog is not None:
+            self._tlog.write(self._now_s, frame)
+
+    def _send_component_command(self, command: ComponentCommand) -> None:
+        """Send a COMMAND_LONG from the autopilot to another component of its system.
+
+        PX4 sends a vehicle command addressed elsewhere on every link; the camera ACKs it.
+        """
+        self._send(
+            mavlink2.MAVLink_command_long_message(
+                target_system=self._config.sysid,
+                target_component=command.target_component,
+                command=command.command,
+                confirmation=0,
+                param1=command.params[0],
+                param2=command.params[1],
+                param3=command.params[2],
+                param4=command.params[3],
+                param5=command.params[4],
+                param6=command.params[5],
+                param7=command.params[6],
+            )
+        )
 
     def _build(self, msg_id: int) -> mavlink2.MAVLink_message | None:
         """Build message ``msg_id`` from this poll's snapshot (None: nothing to report).
@@ -520,6 +574,14 @@ class MavlinkEndpoint:
             if not learned:
                 self._learn_peer(address)
                 learned = True
+            self._forwarded = False
+            if self._forward_member is not None and should_forward(
+                msg, self._config.sysid, self._config.compid
+            ):
+                frame = bytes(msg.get_msgbuf())
+                if self._hub.forwarding.forward(self._forward_member, frame):
+                    self.stats.frames_forwarded += 1
+                    self._forwarded = True
             handler = self._handlers.get(msg_id)
             if handler is None or self._from_ourselves(msg):
                 continue
@@ -579,7 +641,8 @@ class MavlinkEndpoint:
 
     def _on_command(self, msg: mavlink2.MAVLink_message) -> None:
         if not self._command_targets_us(msg):
-            self.stats.commands_ignored += 1
+            if not self._forwarded:
+                self.stats.commands_ignored += 1
             return
         self._replies.clear()
         reply = self._commands.handle(CommandRequest.from_message(msg))

@@ -5,14 +5,18 @@ link), all reading the same vehicle. Two things must then not be consumed by whi
 first: the telemetry snapshot (read once per instant of simulation time, whatever number of links
 stream from it) and the announcements the vehicle makes once (status texts, mission items
 reached), which every link must forward. :class:`LinkHub` owns both; each link reads the
-announcements through its own cursor.
+announcements through its own cursor. It also holds the links' forwarding group
+(:mod:`autopilot_emu.mavlink.forwarding`) and the commands the vehicle sends to its other
+components (a mission's camera items), which every link sends once.
 """
 
 from __future__ import annotations
 
 from collections import deque
 
+from autopilot_emu.mavlink.forwarding import ForwardingGroup
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
+from autopilot_emu.mission.camera_items import ComponentCommand
 
 MAX_PENDING_ANNOUNCEMENTS = 256
 """Announcements kept for a link that has not read them yet; older ones are dropped."""
@@ -36,6 +40,9 @@ class LinkHub:
         self._log: deque[tuple[int, Announcement]] = deque(maxlen=MAX_PENDING_ANNOUNCEMENTS)
         self._next_seq = 0
         self._cursors: list[int] = []
+        self.forwarding = ForwardingGroup()
+        """The links that relay frames for the vehicle's other components to each other."""
+        self._command_queues: list[deque[ComponentCommand]] = []
 
     # --- telemetry -------------------------------------------------------------------------
 
@@ -56,7 +63,18 @@ class LinkHub:
     def subscribe(self) -> int:
         """A new link: its cursor id (it sees announcements made from now on)."""
         self._cursors.append(self._next_seq)
+        self._command_queues.append(deque(maxlen=MAX_PENDING_ANNOUNCEMENTS))
         return len(self._cursors) - 1
+
+    def component_commands(self, cursor: int) -> list[ComponentCommand]:
+        """Commands for the vehicle's other components that link ``cursor`` has not sent yet."""
+        for command in self.vehicle.pop_component_commands():
+            for queue in self._command_queues:
+                queue.append(command)
+        queue = self._command_queues[cursor]
+        commands = list(queue)
+        queue.clear()
+        return commands
 
     def announcements(self, cursor: int) -> tuple[list[tuple[int, str]], list[int]]:
         """Status texts and mission items reached that link ``cursor`` has not seen yet."""

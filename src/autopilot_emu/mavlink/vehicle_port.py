@@ -19,6 +19,7 @@ from typing import Protocol
 
 import numpy as np
 
+from autopilot_emu.mission.camera_items import ComponentCommand
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes.offboard import GlobalSetpoint, LocalFrame, OffboardSetpoint
 from autopilot_emu.params import ParamStore
@@ -248,6 +249,13 @@ class VehiclePort(Protocol):
 
     def pop_mission_reached(self) -> list[int]:
         """Mission items completed since the last call, for MISSION_ITEM_REACHED."""
+        ...
+
+    def pop_component_commands(self) -> list[ComponentCommand]:
+        """Commands for the vehicle's other components since the last call.
+
+        Every link sends each as COMMAND_LONG from the autopilot (a mission's camera items).
+        """
         ...
 
     def gcs_heartbeat(self) -> None:

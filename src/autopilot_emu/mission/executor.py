@@ -15,7 +15,8 @@ Each navigation tick the commander hands in the vehicle's position and gets back
   then the commander flies RTL.
 * NAV_DELAY (param1 s, holding), DO_JUMP (param1 target, param2 repeats, -1 forever),
   DO_CHANGE_SPEED (param2 m/s, -1 default), DO_SET_ROI_LOCATION / DO_SET_ROI_NONE (yaw towards
-  a point); camera, gimbal and actuator items complete at once.
+  a point); camera, gimbal and actuator items complete at once, the camera items after being
+  sent on to the camera as commands (:mod:`autopilot_emu.mission.camera_items`).
 
 A mission started on the ground first takes off vertically to the higher of MIS_TAKEOFF_ALT and
 the first position item's altitude (PX4 before v1.14, and what MAVSDK's examples expect).
@@ -31,6 +32,11 @@ from enum import Enum
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
+from autopilot_emu.mission.camera_items import (
+    CAMERA_ITEM_COMMANDS,
+    CameraItemEmitter,
+    ComponentCommand,
+)
 from autopilot_emu.mission.feasibility import INSTANT_COMMANDS, POSITION_COMMANDS
 from autopilot_emu.mission.items import MissionItem, MissionState
 
@@ -110,6 +116,9 @@ class MissionExecutor:
     """Events since the commander last read them (STATUSTEXT, info)."""
     speed_m_s: float | None = None
     """A DO_CHANGE_SPEED since the last read (NaN: back to the default)."""
+    component_commands: list[ComponentCommand] = field(default_factory=list)
+    """Commands for the camera from camera items, since the commander last read them."""
+    _camera: CameraItemEmitter = field(default_factory=CameraItemEmitter)
     _started_item: int | None = None
     _target: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     _yaw: float = math.nan
@@ -263,6 +272,10 @@ class MissionExecutor:
             self._roi = inp.to_ned(item.lat_deg, item.lon_deg, alt if math.isfinite(alt) else 0.0)
         elif command == DO_SET_ROI_NONE:
             self._roi = None
+        elif command in CAMERA_ITEM_COMMANDS:
+            emitted = self._camera.command_for(item)
+            if emitted is not None:
+                self.component_commands.append(emitted)
 
     def _item_done(self, item: MissionItem, inp: StepInput) -> bool:
         command = item.command

@@ -8,10 +8,15 @@ down) after turning ``yaw_deg`` to the right of it.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import pybullet as p
+
+from sitl.clock import rate_divisor
 
 
 @dataclass(frozen=True)
@@ -123,3 +128,159 @@ class CameraFrame:
     """Attitude of the vehicle body (FLU -> ENU) at the exposure, (x, y, z, w)."""
     spec: CameraSpec
     """The camera that took it."""
+
+
+MOUNT_PITCH_DEG = {"down": -90.0, "forward": 0.0}
+"""Mount presets: pitch of the optical axis, degrees ("down": outdoor survey, "forward": indoor)."""
+
+RENDER_S_PER_PIXEL = 2.3e-7
+"""Rough TinyRenderer cost per pixel of a frame the ground fills, s (18 ms at 320x240 on the
+development machine, ``benchmarks/camera_frames.py``): for load estimates, not a guarantee."""
+
+SKY_RGB = (135, 185, 235)
+"""Colour of every pixel that sees nothing (the sky), RGB."""
+
+_SKY_DEPTH = np.nextafter(np.float32(1.0), np.float32(0.0))  # TinyRenderer clears to this or 1
+_FRD_TO_FLU = np.diag([1.0, -1.0, -1.0])
+_OPTICAL_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])  # OpenGL eye: x right, y up, looking along -z
+
+
+def with_mount(spec: CameraSpec, mount: str) -> CameraSpec:
+    """``spec`` pointed by a preset: "down" (pitch -90 deg) or "forward" (pitch 0), yaw 0."""
+    if mount not in MOUNT_PITCH_DEG:
+        raise ValueError(f"camera mount must be one of {sorted(MOUNT_PITCH_DEG)}, got {mount!r}")
+    return dataclasses.replace(spec, pitch_deg=MOUNT_PITCH_DEG[mount], yaw_deg=0.0)
+
+
+def optical_axes_frd(spec: CameraSpec) -> np.ndarray:
+    """Rotation optical -> body FRD (3, 3): columns are the optical x, y, z axes in FRD."""
+    pitch, yaw = math.radians(spec.pitch_deg), math.radians(spec.yaw_deg)
+    cp = math.cos(pitch)
+    z = np.array([cp * math.cos(yaw), cp * math.sin(yaw), -math.sin(pitch)])
+    x = np.array([-math.sin(yaw), math.cos(yaw), 0.0])
+    return np.column_stack((x, np.cross(z, x), z))
+
+
+def camera_pose_enu(
+    spec: CameraSpec, body_position_enu_m: np.ndarray, body_rotation_flu_enu: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Optical centre (3,) in ENU and rotation optical -> ENU (3, 3) of a camera on a body.
+
+    Args:
+        spec: the camera and its mount.
+        body_position_enu_m: centre of mass, ENU, m.
+        body_rotation_flu_enu: attitude, ``v_enu = R @ v_flu``.
+    """
+    to_flu = _FRD_TO_FLU
+    centre = body_position_enu_m + body_rotation_flu_enu @ (to_flu @ spec.position_frd_m)
+    return centre, body_rotation_flu_enu @ to_flu @ optical_axes_frd(spec)
+
+
+def view_matrix(centre_enu_m: np.ndarray, optical_to_enu: np.ndarray) -> list[float]:
+    """PyBullet (OpenGL, column-major) view matrix of a camera at that pose."""
+    world_to_optical = np.eye(4)
+    world_to_optical[:3, :3] = optical_to_enu.T
+    world_to_optical[:3, 3] = -optical_to_enu.T @ centre_enu_m
+    return (_OPTICAL_TO_GL @ world_to_optical).flatten(order="F").tolist()
+
+
+def projection_matrix(spec: CameraSpec) -> list[float]:
+    """PyBullet (OpenGL, column-major) projection matrix of the spec's pinhole intrinsics.
+
+    A point of the optical frame lands on the pixel ``spec.intrinsics().project`` gives (image
+    row 0 at the top, as ``getCameraImage`` returns it); depth is clipped to [near_m, far_m].
+    """
+    k = spec.intrinsics()
+    w, h, n, f = k.width_px, k.height_px, spec.near_m, spec.far_m
+    proj = np.array(
+        [
+            [2.0 * k.fx_px / w, 0.0, 1.0 - 2.0 * k.cx_px / w, 0.0],
+            [0.0, 2.0 * k.fy_px / h, 2.0 * k.cy_px / h - 1.0, 0.0],
+            [0.0, 0.0, -(f + n) / (f - n), -2.0 * f * n / (f - n)],
+            [0.0, 0.0, -1.0, 0.0],
+        ]
+    )
+    return proj.flatten(order="F").tolist()
+
+
+def render(
+    client_id: int,
+    spec: CameraSpec,
+    centre_enu_m: np.ndarray,
+    optical_to_enu: np.ndarray,
+    segmentation: bool = False,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """One image with PyBullet's TinyRenderer (CPU): RGB (H, W, 3) uint8, and body ids if asked.
+
+    Pixels that see nothing get ``SKY_RGB``. The segmentation (H, W) holds each pixel's PyBullet
+    body id (-1: sky); it costs extra, so frames are rendered without it.
+    """
+    flags = 0 if segmentation else p.ER_NO_SEGMENTATION_MASK
+    _, _, rgba, depth, seg = p.getCameraImage(
+        spec.width_px,
+        spec.height_px,
+        view_matrix(centre_enu_m, optical_to_enu),
+        projection_matrix(spec),
+        renderer=p.ER_TINY_RENDERER,
+        flags=flags,
+        physicsClientId=client_id,
+    )
+    shape = (spec.height_px, spec.width_px)
+    rgb = np.asarray(rgba, dtype=np.uint8).reshape(*shape, 4)[:, :, :3].copy()
+    rgb[np.asarray(depth, dtype=np.float32).reshape(shape) >= _SKY_DEPTH] = SKY_RGB
+    return rgb, np.asarray(seg).reshape(shape) if segmentation else None
+
+
+class CameraRig:
+    """Every vehicle's camera in one PyBullet scene, rendered only when due at its rate.
+
+    Rendering is the whole cost (TinyRenderer runs on the CPU: a few ms per 320x240 frame); the
+    rig does nothing at the physics steps between frames but one integer test.
+    """
+
+    def __init__(
+        self, client_id: int, specs: Sequence[CameraSpec | None], physics_hz: float
+    ) -> None:
+        self.client_id = client_id
+        self.specs: tuple[CameraSpec | None, ...] = tuple(specs)
+        """Each vehicle's camera, None for a vehicle without one."""
+        self._cameras = [
+            (i, spec, rate_divisor(physics_hz, spec.rate_hz, "camera rate_hz"))
+            for i, spec in enumerate(self.specs)
+            if spec is not None
+        ]
+        self._every = math.gcd(*(divisor for _, _, divisor in self._cameras))
+
+    def due(self, tick: int) -> bool:
+        """Whether any camera takes a frame at this physics step."""
+        return bool(self._every) and tick % self._every == 0
+
+    def render_due(
+        self,
+        tick: int,
+        time_s: float,
+        positions_enu_m: np.ndarray,
+        rotations_flu_enu: np.ndarray,
+        quaternions_xyzw: np.ndarray,
+    ) -> list[CameraFrame]:
+        """The frames of every camera due at ``tick``, in vehicle order (one pass)."""
+        frames = []
+        for i, spec, divisor in self._cameras:
+            if tick % divisor:
+                continue
+            centre, axes = camera_pose_enu(spec, positions_enu_m[i], rotations_flu_enu[i])
+            rgb, _ = render(self.client_id, spec, centre, axes)
+            frames.append(CameraFrame(i, time_s, rgb, centre, quaternions_xyzw[i].copy(), spec))
+        return frames
+
+    def visible_bodies(
+        self, i: int, position_enu_m: np.ndarray, rotation_flu_enu: np.ndarray
+    ) -> np.ndarray:
+        """PyBullet body ids vehicle i's camera sees from that pose (a render with segmentation)."""
+        spec = self.specs[i]
+        if spec is None:
+            raise ValueError(f"vehicle {i} has no camera")
+        centre, axes = camera_pose_enu(spec, position_enu_m, rotation_flu_enu)
+        _, seg = render(self.client_id, spec, centre, axes, segmentation=True)
+        assert seg is not None
+        return np.unique(seg[seg >= 0])

@@ -22,6 +22,7 @@ from sitl.physics.earth import GRAVITY_M_S2
 from sitl.physics.rotors import MotorParams, RotorSpec, Spin
 from sitl.power.propulsion import load_power_spec
 from sitl.sensors.baro import BaroParams
+from sitl.sensors.camera import CameraSpec
 from sitl.sensors.gps import GpsParams
 from sitl.sensors.imu import ImuParams
 from sitl.sensors.mag import MagParams
@@ -50,7 +51,7 @@ TOP_LEVEL_KEYS = frozenset(
     }
 )
 """Every key an airframe YAML must have."""
-OPTIONAL_KEYS = frozenset({"rangefinders"})
+OPTIONAL_KEYS = frozenset({"rangefinders", "camera"})
 """Keys an airframe YAML may have (absent: the airframe has none of that equipment)."""
 
 MAV_TYPE_OF_ROTOR_COUNT = {4: 2, 6: 13, 8: 14}
@@ -105,6 +106,27 @@ class MultirotorSpec:
     """PX4 parameters the airframe sets (PX4's airframe file), name -> value, read-only."""
     rangefinders: tuple[RangefinderSpec, ...] = ()
     """Ultrasonic rangefinders and their mounts (the YAML's ``rangefinders``); () for none."""
+    camera: CameraSpec | None = None
+    """The airframe's camera (the YAML's optional ``camera`` section); None: no camera."""
+
+    @property
+    def extent_m(self) -> float:
+        """Radius of the body around the centre of mass, m.
+
+        The farthest rotor hub or the ground contact, whichever is farther: a sensor mounted
+        farther out is outside the body.
+        """
+        hubs = max(float(np.linalg.norm(r.position_frd_m)) for r in self.rotors)
+        return max(hubs, self.ground_clearance_m)
+
+    def check_mount(self, camera: CameraSpec, where: str = "camera") -> None:
+        """Raise ValueError naming ``<where>.position_frd_m`` if the camera is outside the body."""
+        distance = float(np.linalg.norm(camera.position_frd_m))
+        if distance > self.extent_m:
+            raise ValueError(
+                f"{where}.position_frd_m {camera.position_frd_m} m is {distance:.3f} m from the "
+                f"centre of mass of {self.name}, outside its body (extent {self.extent_m:.3f} m)"
+            )
 
     @property
     def hover_speed_rad_s(self) -> float:
@@ -393,7 +415,7 @@ def load_airframe(name: str | Path) -> MultirotorSpec:
     links = _links(data["mass_properties"], yaml_path)
     _check_urdf_against_links(body, links, urdf_path)
     rotors = _rotors(data["rotors"], links, yaml_path)
-    return MultirotorSpec(
+    spec = MultirotorSpec(
         name=yaml_path.stem,
         description=str(data["description"]).strip(),
         source=str(data["source"]).strip(),
@@ -417,3 +439,30 @@ def load_airframe(name: str | Path) -> MultirotorSpec:
             yaml_path,
         ),
     )
+    if data.get("camera") is None:
+        return spec
+    camera = _camera(data["camera"], yaml_path)
+    try:
+        spec.check_mount(camera)
+    except ValueError as exc:
+        raise ValueError(f"{yaml_path}: {exc}") from exc
+    return dataclasses.replace(spec, camera=camera)
+
+
+def _camera(data: Any, path: Path) -> CameraSpec:
+    """The optional ``camera`` section: CameraSpec fields (omitted ones keep their defaults)."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: section 'camera' must be a mapping")
+    names = {f.name for f in dataclasses.fields(CameraSpec)}
+    values = {k: v for k, v in data.items() if k not in ("description", "source")}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        raise ValueError(
+            f"{path}: section 'camera': unknown keys {unknown} (known: {sorted(names)})"
+        )
+    if "position_frd_m" in values and isinstance(values["position_frd_m"], list):
+        values["position_frd_m"] = tuple(values["position_frd_m"])
+    try:
+        return CameraSpec(**values)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{path}: section 'camera': {exc}") from exc

@@ -109,6 +109,7 @@ class FakeVehicle:
     mission_result: int = mavlink2.MAV_MISSION_ACCEPTED
     current_seq: int = 0
     reached: list[int] = field(default_factory=list)
+    component_commands: list = field(default_factory=list)
 
     def telemetry(self) -> TelemetrySnapshot:
         self.telemetry_calls += 1
@@ -174,6 +175,10 @@ class FakeVehicle:
     def pop_mission_reached(self) -> list[int]:
         reached, self.reached = self.reached, []
         return reached
+
+    def pop_component_commands(self) -> list:
+        commands, self.component_commands = self.component_commands, []
+        return commands
 
     def gcs_heartbeat(self) -> None:
         self.calls.append(("gcs_heartbeat",))

@@ -378,3 +378,41 @@ def test_heading_faces_travel_or_item_yaw():
     f.run(lambda f: f.seqs == [0])
     f.tick()
     assert f.track[-1][2].yaw_rad == pytest.approx(math.radians(45.0))
+
+
+def test_camera_items_are_sent_on_to_the_camera_once_and_the_mission_goes_on():
+    """As PX4's navigator: IMAGE_START_CAPTURE (single shots numbered 1, 2, ...), a series and
+    IMAGE_STOP_CAPTURE each become one command for compid 100 (param1 names another camera),
+    in mission order, when the item starts; the mission does not wait for the camera."""
+    start = mavlink2.MAV_CMD_IMAGE_START_CAPTURE
+    stop = mavlink2.MAV_CMD_IMAGE_STOP_CAPTURE
+    items = [
+        waypoint(10, 0),
+        item(start, params=(0, 0, 1, 0), frame=MISSION),
+        waypoint(20, 0),
+        item(start, params=(0, 0, 1, 0), frame=MISSION),
+        item(start, params=(101, 2.0, 0, 0), frame=MISSION),
+        item(stop, params=(0, 0, 0, 0), frame=MISSION),
+        waypoint(30, 0),
+    ]
+    f = fly(items)
+    commands = []
+
+    def collect(fl: Flight) -> bool:
+        commands.extend((round(fl.t, 3), c) for c in fl.executor.component_commands)
+        fl.executor.component_commands.clear()
+        return complete(fl)
+
+    f.run(collect)
+    assert f.seqs == list(range(7))
+    sent = [
+        (c.command, c.target_component, c.params[1], c.params[2], c.params[3]) for _, c in commands
+    ]
+    assert sent == [
+        (start, 100, 0.0, 1.0, 1.0),
+        (start, 100, 0.0, 1.0, 2.0),
+        (start, 101, 2.0, 0.0, 0.0),
+        (stop, 100, 0.0, 0.0, 0.0),
+    ]
+    reached_at = dict((seq, t) for t, seq in f.reached)
+    assert commands[0][0] == pytest.approx(reached_at[1], abs=2 * DT)  # sent as item 1 starts

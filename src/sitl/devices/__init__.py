@@ -1,0 +1,1 @@
+"""Devices the simulated vehicles carry that talk to the outside world (camera streams, ...)."""

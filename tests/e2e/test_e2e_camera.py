@@ -1,0 +1,90 @@
+"""MAVSDK's camera plugin against the simulated camera (component 100, via the vehicle's links).
+
+The simulation runs in this process, paced at :data:`e2e_support.SPEED`; the client runs in its
+own process with its own mavsdk_server (gRPC 58000+). UDP ports: 47100-47199.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+import numpy as np
+import pytest
+from e2e_support import SPEED, require_free_udp, start_client
+
+from harness.simulation import PortPlan, Simulation, SimulationConfig
+from sitl import frames
+
+pytestmark = pytest.mark.e2e
+
+BASE = 47100
+GRPC = 58000
+
+
+def _ports(offset: int) -> PortPlan:
+    b = BASE + offset
+    return PortPlan(
+        sdk_base=b,
+        listen_base=b + 1,
+        gcs_port=0,
+        video_base=b + 4,
+        payload_listen_base=b + 5,
+        payload_base=b + 6,
+    )
+
+
+def _run_with_client(sim: Simulation, script: str, args: list[str], logs: Path, grpc: int):
+    """Run the simulation paced until the client ends (bounded); return the client's result."""
+    client = start_client(script, args, logs, timeout_s=240, grpc_port=grpc)
+    try:
+        sim.run_paced(SPEED, lambda: client.proc.poll() is not None, max_duration_s=240 * SPEED)
+    finally:
+        result = client.result()
+    return result
+
+
+@pytest.mark.parametrize(
+    ("script", "offset", "grpc"),
+    [("classic_camera.py", 0, GRPC), ("native_camera.py", 10, None)],
+    ids=["classic", "native"],
+)
+def test_camera_plugin_takes_a_geotagged_photo(tmp_path, client_logs, script, offset, grpc):
+    """MAVSDK's camera plugin (classic mavsdk_grpc, native mavsdk 4.x): the camera is listed
+    with the spec's optics, its stream URI is the simulation's, and take_photo yields a
+    successful CaptureInfo whose file exists and whose position is where the vehicle stands."""
+    ports = _ports(offset)
+    require_free_udp([ports.sdk_port(0)])
+    config = SimulationConfig(
+        ports=ports, record_hz=0, out_dir=tmp_path / "run", world_overrides={"cameras": True}
+    )
+    with Simulation(config) as sim:
+        args = ["--url", f"udpin://0.0.0.0:{ports.sdk_port(0)}"]
+        if grpc is not None:
+            args += ["--grpc-port", str(grpc)]
+        result = _run_with_client(sim, script, args, client_logs, grpc)
+        assert result.ok, result.describe()
+        truth = np.asarray(sim.world.truth.position_enu_m[0], float)
+        lat, lon, _ = frames.enu_to_geodetic(truth, sim.world.origin)
+        spec = sim.world.camera_specs[0]
+        video_uri = sim.video_uris[0]
+    data = result.data
+    cam = data["camera"]
+    assert cam["component_id"] == 100
+    assert cam["resolution"] == [spec.width_px, spec.height_px]
+    hfov = math.degrees(2 * math.atan(cam["sensor_h_mm"] / (2 * cam["focal_length_mm"])))
+    assert hfov == pytest.approx(spec.hfov_deg, abs=0.05)
+    assert data["video"]["uri"] == video_uri
+    capture = data["capture"]
+    assert capture["is_success"] and capture["index"] == 0
+    assert capture["component_id"] == 100
+    path = Path(unquote(urlparse(capture["file_url"]).path))
+    assert path.is_file() and path.stat().st_size > 1000
+    assert path.parent == (tmp_path / "run" / "vehicle1" / "camera").resolve()
+    # The vehicle stood still on the ground: the geotag is its true position (lens offset 0.2 m).
+    north_m = (capture["lat_deg"] - float(lat)) * 111_132.0
+    east_m = (capture["lon_deg"] - float(lon)) * 111_132.0 * math.cos(math.radians(float(lat)))
+    assert math.hypot(north_m, east_m) < 0.5
+    assert capture["rel_alt_m"] == pytest.approx(truth[2], abs=0.5)
+    assert capture["pitch_deg"] == pytest.approx(spec.pitch_deg, abs=1.0)
