@@ -53,11 +53,27 @@ def machine() -> str:
 
 
 def fly_scenario(
-    n: int, sim_seconds: float, port_base: int, breakdown: bool = False
+    n: int,
+    sim_seconds: float,
+    port_base: int,
+    breakdown: bool = False,
+    world_overrides: dict | None = None,
 ) -> tuple[float, dict]:
-    """Run the scenario for n vehicles; return wall seconds and a flight summary."""
-    ports = PortPlan(sdk_base=port_base, listen_base=port_base + 40, gcs_port=0)
-    cfg = SimulationConfig(n_vehicles=n, ports=ports, record_hz=0.0)
+    """Run the scenario for n vehicles; return wall seconds and a flight summary.
+
+    ``world_overrides`` are extra WorldConfig fields (e.g. cameras, rangefinders).
+    """
+    ports = PortPlan(
+        sdk_base=port_base,
+        listen_base=port_base + 40,
+        gcs_port=0,
+        video_base=0,
+        payload_listen_base=0,
+        payload_base=port_base + 80,
+    )
+    cfg = SimulationConfig(
+        n_vehicles=n, ports=ports, record_hz=0.0, world_overrides=world_overrides or {}
+    )
     with Simulation(cfg) as sim:
         vehicles = [sim.fleet.vehicle(i) for i in range(n)]
         start = sim.world.truth.position_enu_m.copy()
