@@ -76,9 +76,10 @@ def test_opencv_in_another_process_reads_the_stream():
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
+    assert out.strip(), f"the reader printed nothing; stderr:\n{err}"
     result = json.loads(out.strip().splitlines()[-1])
     assert result["opened"], err
-    assert len(result["frames"]) == 5
+    assert len(result["frames"]) == 5, (result, err)
     for frame in result["frames"]:
         assert frame["shape"] == [240, 320, 3]
         left_b, _, left_r = frame["left_bgr"]
