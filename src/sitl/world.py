@@ -4,7 +4,8 @@ One ``World`` owns the simulation clock, the PyBullet scene, the rotors, the sen
 system (LiPo packs) and one seeded random generator. Each ``step`` advances the physics by one
 step; ``poll_sensors`` returns the HIL_SENSOR / HIL_GPS messages, ``poll_battery`` the
 BATTERY_STATUS and ``poll_rangefinders`` the DISTANCE_SENSOR messages that are due at the current
-time (call them once after each step).
+time, ``poll_cameras`` the camera frames (with ``WorldConfig.cameras``); call them once after
+each step.
 
 Profile the hot loop with ``python -m sitl.world --profile``.
 """

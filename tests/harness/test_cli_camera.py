@@ -3,11 +3,10 @@
 import pytest
 import typer
 from typer.testing import CliRunner
+from video_ports import free_tcp_base
 
 from harness.cli import app, camera_override
 from sitl.vehicles.multirotor import load_airframe
-
-VIDEO_PORT = 46400  # this module's TCP ports: 46400-46409
 
 
 def test_no_camera_option_keeps_the_airframes_cameras():
@@ -48,10 +47,11 @@ def test_a_bad_mount_is_a_usage_error():
 
 
 def test_up_prints_the_stream_uri(tmp_path):
+    port = free_tcp_base(1)
     args = ["up", "--speed", "50", "--duration", "0.5", "--gcs-port", "0", "--sdk-port", "0"]
     args += ["--listen-port", "0", "--out", str(tmp_path / "run")]
-    args += ["--video-port", str(VIDEO_PORT), "--camera-size", "160x120", "--camera-hz", "5"]
+    args += ["--video-port", str(port), "--camera-size", "160x120", "--camera-hz", "5"]
     result = CliRunner().invoke(app, args, terminal_width=200)
     assert result.exit_code == 0, result.output
-    assert f"http://127.0.0.1:{VIDEO_PORT}/video.mjpg" in result.output
+    assert f"http://127.0.0.1:{port}/video.mjpg" in result.output
     assert "160x120, 5 Hz" in result.output

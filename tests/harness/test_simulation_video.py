@@ -10,12 +10,11 @@ import sys
 import urllib.request
 
 import pytest
+from video_ports import free_tcp_base
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 from sitl.sensors.camera import CameraSpec, with_mount
-
-VIDEO_BASE = 46300  # this module's ports: 46300-46319
 
 READER = """
 import json, sys, cv2
@@ -48,10 +47,11 @@ def test_opencv_reads_each_vehicles_stream_while_the_simulation_runs():
     """Two Typhoons with forward cameras facing a wall: a separate OpenCV process reads
     non-blank 320x240 frames from vehicle 2's URI (video_base + 1) while the simulation steps."""
     camera = with_mount(CameraSpec(hfov_deg=90.0, rate_hz=10.0), "forward")
-    with Simulation(_config(VIDEO_BASE, n=2, camera=camera)) as sim:
+    base = free_tcp_base(2)
+    with Simulation(_config(base, n=2, camera=camera)) as sim:
         assert sim.video_uris == [
-            f"http://127.0.0.1:{VIDEO_BASE}/video.mjpg",
-            f"http://127.0.0.1:{VIDEO_BASE + 1}/video.mjpg",
+            f"http://127.0.0.1:{base}/video.mjpg",
+            f"http://127.0.0.1:{base + 1}/video.mjpg",
         ]
         proc = subprocess.Popen(
             [sys.executable, "-c", READER, sim.video_uris[1], "5"],
@@ -77,8 +77,8 @@ def test_opencv_reads_each_vehicles_stream_while_the_simulation_runs():
 def test_clients_that_vanish_or_never_read_do_not_stall_the_simulation():
     """With a silent, a non-reading and a vanished client attached, the simulation completes
     its steps, and a new client is served afterwards."""
-    port = VIDEO_BASE + 10
-    with Simulation(_config(port, camera=CameraSpec(width_px=640, height_px=480))) as sim:
+    with Simulation(_config(0, camera=CameraSpec(width_px=640, height_px=480))) as sim:
+        port = sim.video_servers[0].port
         silent = socket.create_connection(("127.0.0.1", port))
         stalled = socket.create_connection(("127.0.0.1", port))
         stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
@@ -116,7 +116,7 @@ def test_no_streams_without_cameras_or_for_vehicles_without_one():
 
 def test_a_taken_video_port_is_a_clear_error():
     with socket.socket() as taken:
-        taken.bind(("127.0.0.1", VIDEO_BASE + 15))
+        taken.bind(("127.0.0.1", 0))
         taken.listen()
         with pytest.raises(OSError, match="camera stream of vehicle 1"):
-            Simulation(_config(VIDEO_BASE + 15))
+            Simulation(_config(taken.getsockname()[1]))

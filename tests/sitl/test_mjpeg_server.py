@@ -19,8 +19,6 @@ from sitl.devices import mjpeg_server
 from sitl.devices.mjpeg_server import MjpegServer
 from sitl.sensors.camera import CameraFrame, CameraSpec
 
-PORT = 46020  # this test module's ports: 46020-46039
-
 READER = """
 import json, sys, cv2
 cap = cv2.VideoCapture(sys.argv[1])
@@ -61,8 +59,9 @@ def _publish_until(server: MjpegServer, done: callable, limit: int = 4000) -> in
 
 def test_opencv_in_another_process_reads_the_stream():
     """cv2.VideoCapture(uri) (pip wheel, FFmpeg) reads frames of the right size and colours."""
-    with MjpegServer("127.0.0.1", PORT) as server:
-        assert server.uri == f"http://127.0.0.1:{PORT}/video.mjpg"
+    # Port 0: the OS picks a free port (concurrent test runs never collide).
+    with MjpegServer("127.0.0.1", 0) as server:
+        assert server.uri == f"http://127.0.0.1:{server.port}/video.mjpg"
         proc = subprocess.Popen(
             [sys.executable, "-c", READER, server.uri, "5"],
             stdout=subprocess.PIPE,
@@ -76,9 +75,10 @@ def test_opencv_in_another_process_reads_the_stream():
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
+    assert out.strip(), f"the reader printed nothing; stderr:\n{err}"
     result = json.loads(out.strip().splitlines()[-1])
     assert result["opened"], err
-    assert len(result["frames"]) == 5
+    assert len(result["frames"]) == 5, (result, err)
     for frame in result["frames"]:
         assert frame["shape"] == [240, 320, 3]
         left_b, _, left_r = frame["left_bgr"]
@@ -88,7 +88,7 @@ def test_opencv_in_another_process_reads_the_stream():
 
 
 def test_snapshot_serves_the_latest_frame():
-    with MjpegServer("127.0.0.1", PORT + 1) as server:
+    with MjpegServer("127.0.0.1", 0) as server:
         with pytest.raises(urllib.error.HTTPError) as error:
             urllib.request.urlopen(server.snapshot_uri, timeout=10)
         assert error.value.code == 503
@@ -112,7 +112,7 @@ def test_nothing_is_encoded_without_a_client(monkeypatch):
     monkeypatch.setattr(
         mjpeg_server.cv2, "imencode", lambda *a, **k: calls.append(1) or real(*a, **k)
     )
-    with MjpegServer("127.0.0.1", PORT + 2) as server:
+    with MjpegServer("127.0.0.1", 0) as server:
         for k in range(50):
             server.publish(_frame(k))
         assert server.frames_published == 50
@@ -138,7 +138,7 @@ def _read_parts(uri: str, n: int) -> list[bytes]:
 def test_bad_clients_never_block_publish_and_their_threads_end():
     """A client that sends nothing, one that never reads and one that vanishes: publish goes on
     (all frames published), a new client is served, and the bad clients' threads end."""
-    with MjpegServer("127.0.0.1", PORT + 3, send_timeout_s=1.0) as server:
+    with MjpegServer("127.0.0.1", 0, send_timeout_s=1.0) as server:
         silent = socket.create_connection(("127.0.0.1", server.port))  # never sends a request
         stalled = socket.create_connection(("127.0.0.1", server.port))
         stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
@@ -175,7 +175,7 @@ def test_bad_clients_never_block_publish_and_their_threads_end():
 
 def test_max_clients_and_close_end_every_thread():
     before = set(threading.enumerate())
-    server = MjpegServer("127.0.0.1", PORT + 4, max_clients=1)
+    server = MjpegServer("127.0.0.1", 0, max_clients=1)
     first = urllib.request.urlopen(server.uri, timeout=10)
     deadline = time.monotonic() + 10.0
     while server.clients < 1 and time.monotonic() < deadline:
@@ -188,7 +188,7 @@ def test_max_clients_and_close_end_every_thread():
     assert server.threads == 0
     assert [t for t in threading.enumerate() if t not in before and t.is_alive()] == []
     # The port is free again.
-    MjpegServer("127.0.0.1", PORT + 4).close()
+    MjpegServer("127.0.0.1", server.port).close()
 
 
 def test_port_zero_lets_the_os_pick():
