@@ -320,7 +320,7 @@ def _visual_corners_local(client_id: int, body: int) -> np.ndarray:
     """Corners (K, 3) of boxes bounding each visual shape of a body, in its base frame, m.
 
     Boxes, cylinders, capsules and spheres are bounded exactly; anything else (meshes, planes,
-    bodies with links) gives infinite corners.
+    bodies with links) gives infinite corners; a body without visual shapes none (K = 0).
     """
     if p.getNumJoints(body, physicsClientId=client_id) > 0:
         return np.full((1, 3), np.inf)
@@ -427,6 +427,11 @@ class CameraRig:
             if corners is None:
                 corners = self._visual_corners[body] = _visual_corners_local(cid, body)
             ids.append(body)
+            if len(corners) == 0:  # no visual shape: PyBullet draws the collision shapes
+                low, high = p.getAABB(body, -1, physicsClientId=cid)
+                lows.append(np.asarray(low) - _BOX_MARGIN_M)
+                highs.append(np.asarray(high) + _BOX_MARGIN_M)
+                continue
             if not np.isfinite(corners).all():
                 lows.append(np.full(3, -np.inf))
                 highs.append(np.full(3, np.inf))
