@@ -404,9 +404,16 @@ class World:
             specs.append(spec)
         if all(spec is None for spec in specs):
             return None
-        self._scene.set_ground_texture(ground_texture(scenery_rng, tile_m=GROUND_TILE_M))
-        rig = CameraRig(self._scene.client_id, specs, config.physics_hz)
         scene = self._scene
+        rig = CameraRig(
+            scene.client_id,
+            specs,
+            config.physics_hz,
+            ground_texture(scenery_rng, tile_m=GROUND_TILE_M),
+            GROUND_TILE_M,
+            scene.ground_id,
+            scene.body_ids,
+        )
         checked: set[tuple[str, CameraSpec]] = set()  # same airframe, same camera: same view
         for i, spec in enumerate(specs):
             key = (str(self.airframes[i].urdf_path), spec)

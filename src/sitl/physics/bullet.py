@@ -8,11 +8,9 @@ the WORLD frame (PyBullet's LINK_FRAME torque on a base is unreliable).
 from __future__ import annotations
 
 import contextlib
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pybullet as p
 
@@ -22,27 +20,23 @@ _STATE_WIDTH = 22  # position 3, quaternion 4, velocity 3, angular velocity 3, r
 
 
 GROUND_TILE_M = 20.0
-"""Side of the square of ground one repetition of the ground texture covers, m."""
-GROUND_HALF_SIZE_M = 1000.0
-"""The visible ground is a square of twice this side around the origin, m (the collision plane
-is infinite)."""
+"""Side of the square of ground one repetition of the ground texture covers, m (the cameras
+draw the ground, ``sitl.sensors.camera_ground``; PyBullet holds only its collision plane)."""
 
 
-def _ground_visual(cid: int) -> int:
-    """A visual square at z = 0 for the ground (plain white until ``set_ground_texture``).
+def _hidden_ground_visual(cid: int) -> int:
+    """A visual shape for the ground that no camera ever draws: one tiny triangle far below.
 
-    Without a visual shape PyBullet's renderer draws the collision plane with its own texture
-    coordinates; with this one the texture repeats every ``GROUND_TILE_M`` metres.
+    The cameras draw the ground themselves (``sitl.sensors.camera_ground``: analytically, per
+    pixel ray, much cheaper than TinyRenderer's rasteriser). Without any visual shape PyBullet's
+    renderer would draw the collision plane instead; this triangle, 10 km under the ground and
+    a micrometre wide, covers no pixel of any view.
     """
-    h = GROUND_HALF_SIZE_M
-    r = h / GROUND_TILE_M
+    z = -1.0e4
     return p.createVisualShape(
         p.GEOM_MESH,
-        vertices=[[-h, -h, 0.0], [h, -h, 0.0], [h, h, 0.0], [-h, h, 0.0]],
-        indices=[0, 1, 2, 0, 2, 3],
-        uvs=[[-r, -r], [r, -r], [r, r], [-r, r]],
-        normals=[[0.0, 0.0, 1.0]] * 4,
-        rgbaColor=[1.0, 1.0, 1.0, 1.0],
+        vertices=[[0.0, 0.0, z], [1.0e-6, 0.0, z], [0.0, 1.0e-6, z]],
+        indices=[0, 1, 2],
         physicsClientId=cid,
     )
 
@@ -74,7 +68,9 @@ class BulletScene:
             physicsClientId=cid,
         )
         plane = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid)
-        self.ground_id = p.createMultiBody(0.0, plane, _ground_visual(cid), physicsClientId=cid)
+        self.ground_id = p.createMultiBody(
+            0.0, plane, _hidden_ground_visual(cid), physicsClientId=cid
+        )
         # Zero collision margin: shapes are exactly as the URDF says, so a vehicle spawned at its
         # resting height does not pop up by PyBullet's default 1 mm margin.
         p.changeDynamics(
@@ -176,16 +172,6 @@ class BulletScene:
             apply_torque(body, -1, torque, world, cid)
         p.stepSimulation(cid)
         self.read_state()
-
-    def set_ground_texture(self, texture_rgb: np.ndarray) -> None:
-        """Paint the ground for the cameras: ``texture_rgb`` (H, W, 3) repeats every tile."""
-        cid = self._cid
-        with tempfile.TemporaryDirectory(prefix="swarmsitl-ground-") as folder:
-            path = str(Path(folder) / "ground.png")
-            if not cv2.imwrite(path, np.ascontiguousarray(texture_rgb[:, :, ::-1])):
-                raise RuntimeError(f"could not write the ground texture to {path}")
-            texture = p.loadTexture(path, physicsClientId=cid)  # read into memory here
-        p.changeVisualShape(self.ground_id, -1, textureUniqueId=texture, physicsClientId=cid)
 
     def close(self) -> None:
         """Disconnect the PyBullet client (idempotent)."""
