@@ -461,6 +461,15 @@ class MavlinkEndpoint:
             return
         self._seq = (self._seq + 1) & 0xFF
         self.stats.frames_sent += 1
+        self._transmit(frame)
+
+    def _relay(self, frame: bytes) -> None:
+        """Send a frame another link of the vehicle received, unchanged (forwarding)."""
+        self.stats.frames_relayed += 1
+        self._transmit(frame)
+
+    def _transmit(self, frame: bytes) -> None:
+        """Send an encoded frame to every peer and log it."""
         sock = self._sock
         if sock is not None:
             for peer in self._peers:
@@ -468,20 +477,6 @@ class MavlinkEndpoint:
                     sock.sendto(frame, peer)
                 except OSError:
                     self.stats.send_errors += 1
-        if self._tlog is not None:
-            self._tlog.write(self._now_s, frame)
-
-    def _relay(self, frame: bytes) -> None:
-        """Send a frame another link of the vehicle received, unchanged (forwarding)."""
-        self.stats.frames_relayed += 1
-        sock = self._sock
-        if sock is None:
-            return
-        for peer in self._peers:
-            try:
-                sock.sendto(frame, peer)
-            except OSError:
-                self.stats.send_errors += 1
         if self._tlog is not None:
             self._tlog.write(self._now_s, frame)
 

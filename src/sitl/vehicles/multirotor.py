@@ -316,16 +316,7 @@ def _px4_params(data: Any, rotors: tuple[RotorSpec, ...], path: Path) -> Mapping
     return MappingProxyType(dict(params))
 
 
-def _bounding_radius_m(rotors: tuple[RotorSpec, ...], power: Any) -> float:
-    """Radius of the sphere around the centre of mass that holds the airframe, m.
-
-    The farthest rotor hub plus a propeller radius: the rotor discs are a multirotor's outline.
-    """
-    hubs = max(float(np.linalg.norm(r.position_frd_m)) for r in rotors)
-    return hubs + power.propulsion.rotor_diameter_m / 2.0
-
-
-def _rangefinders(data: Any, bounding_radius_m: float, path: Path) -> tuple[RangefinderSpec, ...]:
+def _rangefinders(data: Any, extent_m: float, path: Path) -> tuple[RangefinderSpec, ...]:
     """The ``rangefinders`` section: section-wide model and numbers, then one row per sensor.
 
     Errors name the file, the sensor (its index in ``sensors``) and the field.
@@ -359,10 +350,10 @@ def _rangefinders(data: Any, bounding_radius_m: float, path: Path) -> tuple[Rang
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{where} (id {sensor_id}): {exc}") from exc
         distance = float(np.linalg.norm(position))
-        if distance > bounding_radius_m:
+        if distance > extent_m:
             raise ValueError(
                 f"{where} (id {sensor_id}): position_frd_m {position} is {distance:.3f} m from the "
-                f"centre of mass, outside the airframe (bounding radius {bounding_radius_m:.3f} m)"
+                f"centre of mass, outside the airframe (extent {extent_m:.3f} m)"
             )
         if any(s.id == spec.id for s in specs):
             raise ValueError(f"{where}: id {spec.id} is used twice (ids must be distinct)")
@@ -433,20 +424,15 @@ def load_airframe(name: str | Path) -> MultirotorSpec:
         baro=_build(BaroParams, data["baro"], "baro", yaml_path),
         gps=_build(GpsParams, data["gps"], "gps", yaml_path),
         px4_params=_px4_params(data["px4"], rotors, yaml_path),
-        rangefinders=_rangefinders(
-            data.get("rangefinders"),
-            _bounding_radius_m(rotors, load_power_spec(yaml_path)),
-            yaml_path,
-        ),
     )
-    if data.get("camera") is None:
-        return spec
-    camera = _camera(data["camera"], yaml_path)
-    try:
-        spec.check_mount(camera)
-    except ValueError as exc:
-        raise ValueError(f"{yaml_path}: {exc}") from exc
-    return dataclasses.replace(spec, camera=camera)
+    rangefinders = _rangefinders(data.get("rangefinders"), spec.extent_m, yaml_path)
+    camera = None if data.get("camera") is None else _camera(data["camera"], yaml_path)
+    if camera is not None:
+        try:
+            spec.check_mount(camera)
+        except ValueError as exc:
+            raise ValueError(f"{yaml_path}: {exc}") from exc
+    return dataclasses.replace(spec, rangefinders=rangefinders, camera=camera)
 
 
 def _camera(data: Any, path: Path) -> CameraSpec:
