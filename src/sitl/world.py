@@ -37,7 +37,8 @@ from sitl.power.loads import PayloadLoads
 from sitl.power.propulsion import load_power_spec
 from sitl.power.system import FleetPower
 from sitl.sensors.baro import Barometer, BaroSample
-from sitl.sensors.camera import CameraFrame, CameraRig, CameraSpec
+from sitl.sensors.camera import CameraFrame, CameraSpec
+from sitl.sensors.camera_render import CameraRig
 from sitl.sensors.gps import Gps, GpsOutages
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer

@@ -16,13 +16,12 @@ from scipy.spatial.transform import Rotation
 from sitl.physics.obstacles import BoxObstacle
 from sitl.sensors.camera import (
     SKY_RGB,
-    CameraRig,
     CameraSpec,
     camera_pose_enu,
     optical_axes_frd,
-    render,
     with_mount,
 )
+from sitl.sensors.camera_render import CameraRig, render
 from sitl.vehicles.multirotor import AIRFRAME_DIR, load_airframe
 from sitl.world import World, WorldConfig
 

@@ -10,7 +10,7 @@ Conventions match what TinyRenderer drew for the former textured ground quad (wh
 ``(x, y) / tile_m``), so the ground looks the same (``tests/sitl/test_camera.py`` compares both):
 
 - Pixel (column u, row v) shows the ray through K's pixel centre (u + 0.5, v + 0.5), as
-  TinyRenderer's samples with ``camera.projection_matrix`` (which shifts its principal point
+  TinyRenderer's samples with ``camera_render.projection_matrix`` (which shifts its principal point
   by half a pixel: it samples at integer coordinates of its y-up screen), so ground and
   objects line up.
 - It samples the texture without filtering at column ``floor(x / tile_m * S) mod S`` and row
