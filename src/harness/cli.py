@@ -355,7 +355,7 @@ def up(
         world_overrides={
             **({"cameras": True, "camera": camera_spec} if camera else {}),
             **({"mocap_hz": mocap} if mocap > 0 else {}),
-            **({} if rangefinders else {"rangefinders": False}),
+            **({"rangefinders": True} if rangefinders else {}),
             **(
                 {"gps_outages": GpsOutages(windows=parse_gps_outages(gps_outage))}
                 if gps_outage

@@ -112,9 +112,9 @@ class WorldConfig:
     """State of charge of every pack at the start, 0..1."""
     obstacles: tuple[BoxObstacle, ...] = ()
     """Static boxes (walls, pillars) the vehicles can hit and the sensors see."""
-    rangefinders: bool = True
-    """Fly the airframes' ultrasonic rangefinders (their ``rangefinders`` section); False: none
-    (``poll_rangefinders`` returns None)."""
+    rangefinders: bool = False
+    """Fly the airframes' ultrasonic rangefinders (their ``rangefinders`` section); off (the
+    default): none, ``poll_rangefinders`` returns None and a flight-only run pays nothing."""
     cameras: bool = False
     """Render the vehicles' cameras (``poll_cameras``); off: no camera costs anything."""
     camera: CameraSpec | tuple[CameraSpec | None, ...] | None = None

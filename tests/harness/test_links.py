@@ -78,7 +78,11 @@ def flight():
     """Take off, goto 15 m north; count both links' messages over WINDOW_S while flying."""
     onboard, ground = Listener(), Listener()
     ports = PortPlan(sdk_base=onboard.port, listen_base=0, gcs_port=ground.port, gcs_listen_base=0)
-    sim = Simulation(SimulationConfig(n_vehicles=1, ports=ports, record_hz=0, seed=4))
+    sim = Simulation(
+        SimulationConfig(
+            n_vehicles=1, ports=ports, record_hz=0, seed=4, world_overrides={"rangefinders": True}
+        )
+    )
     try:
         v = sim.fleet.vehicle(0)
 

@@ -13,6 +13,8 @@ from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 
 PORTS = PortPlan(sdk_base=45140, listen_base=45180, gcs_port=45050, gcs_listen_base=45270)
+ON = {"rangefinders": True}
+"""The rangefinders are off by default in the Python API."""
 
 
 class _Client:
@@ -65,7 +67,7 @@ def _run(sim: Simulation, clients, seconds: float) -> None:
 
 def test_ground_station_and_onboard_links_see_every_rangefinder(clients):
     gcs, onboard = clients
-    with Simulation(SimulationConfig(ports=PORTS, record_hz=0)) as sim:
+    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world_overrides=ON)) as sim:
         _run(sim, clients, 2.0)
         true_height = sim.world.truth.position_enu_m[0, 2]
     mount = sim.world.airframe.rangefinders[6].position_frd_m[2]
@@ -86,7 +88,7 @@ def test_ground_station_and_onboard_links_see_every_rangefinder(clients):
 
 def test_message_interval_and_request_message_for_distance_sensor(clients):
     gcs, onboard = clients
-    with Simulation(SimulationConfig(ports=PORTS, record_hz=0)) as sim:
+    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world_overrides=ON)) as sim:
         _run(sim, clients, 0.5)
         gcs.command(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 132, -1)
         _run(sim, clients, 0.1)
@@ -109,7 +111,7 @@ def test_hagl_over_a_box_and_no_rangefinders(clients):
     """Resting on a 1 m box: ALTITUDE's terrain is the box top, the clearance the height over it."""
     gcs, onboard = clients
     box = BoxObstacle((0.0, 0.0, 0.5), (2.0, 2.0, 1.0))
-    overrides = {"obstacles": (box,), "spawn_altitude_m": 1.3}
+    overrides = {"obstacles": (box,), "spawn_altitude_m": 1.3, **ON}
     with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world_overrides=overrides)) as sim:
         _run(sim, clients, 3.0)
         height_over_box = sim.world.truth.position_enu_m[0, 2] - 1.0

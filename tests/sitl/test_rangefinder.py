@@ -53,7 +53,7 @@ def test_a_wall_two_metres_ahead_reads_two_metres_within_the_noise():
     """Forward sensor, wall 2 m from its mount: mean 2 m, spread as configured, ~1 % dropouts."""
     face_y = _forward_mount_m() + 2.0
     wall = BoxObstacle((0.0, face_y + 0.1, 1.5), (10.0, 0.2, 3.0))
-    with World(WorldConfig(spawn_altitude_m=1.5, obstacles=(wall,))) as world:
+    with World(WorldConfig(spawn_altitude_m=1.5, obstacles=(wall,), rangefinders=True)) as world:
         spec = world.airframe.rangefinders[0]
         readings = _samples(world, 0, 600)
     echo = readings[np.isfinite(readings)]
@@ -70,7 +70,7 @@ def test_a_thin_pole_is_seen_inside_the_cone_and_not_outside(angle_deg, seen):
     mount_y = _forward_mount_m()
     x = 2.0 * math.tan(math.radians(angle_deg))
     pole = BoxObstacle((x, mount_y + 2.0 + 0.05, 1.5), (0.1, 0.1, 3.0))
-    with World(WorldConfig(spawn_altitude_m=1.5, obstacles=(pole,))) as world:
+    with World(WorldConfig(spawn_altitude_m=1.5, obstacles=(pole,), rangefinders=True)) as world:
         readings = _samples(world, 0, 40)
     if seen:
         echo = readings[np.isfinite(readings)]
@@ -82,7 +82,7 @@ def test_a_thin_pole_is_seen_inside_the_cone_and_not_outside(angle_deg, seen):
 
 @pytest.mark.parametrize("height_m", [0.5, 1.0, 2.0, 4.0])
 def test_the_downward_sensor_reads_the_height_above_ground(height_m):
-    with World(WorldConfig(spawn_altitude_m=height_m)) as world:
+    with World(WorldConfig(spawn_altitude_m=height_m, rangefinders=True)) as world:
         spec = world.airframe.rangefinders[6]
         assert spec.orientation == 25
         readings = _samples(world, 6, 100)
@@ -95,7 +95,7 @@ def test_the_downward_sensor_reads_the_height_above_ground(height_m):
 def test_a_tilted_vehicle_reads_the_nearest_slant_range_in_its_cone(roll_deg):
     """Rolled by phi, the nearest ground point in a cone of half-angle a is at h / cos(phi - a)."""
     height = 2.0
-    with World(WorldConfig(spawn_altitude_m=height)) as world:
+    with World(WorldConfig(spawn_altitude_m=height, rangefinders=True)) as world:
         spec = world.airframe.rangefinders[6]
         c, s = math.cos(math.radians(roll_deg)), math.sin(math.radians(roll_deg))
         roll = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])  # about body x (north)
@@ -115,7 +115,7 @@ def test_a_tilted_vehicle_reads_the_nearest_slant_range_in_its_cone(roll_deg):
 
 def test_out_of_range_is_no_echo_and_a_7_m_model_still_reads_it():
     """At 6 m the HC-SR04 (4.5 m) hears nothing, the MB1240-like 7 m variant reads the ground."""
-    with World(WorldConfig(spawn_altitude_m=6.0)) as world:
+    with World(WorldConfig(spawn_altitude_m=6.0, rangefinders=True)) as world:
         assert np.isnan(_samples(world, 6, 20)).all()
         position, rot = _pose(world)
         mounts = [
@@ -131,7 +131,7 @@ def test_out_of_range_is_no_echo_and_a_7_m_model_still_reads_it():
 def test_a_sensor_never_sees_its_own_vehicle():
     """Mounted above the Typhoon's left skid, looking down: the rays that hit the skid are cast
     again past it, and the reading is the ground."""
-    with World(WorldConfig(spawn_altitude_m=2.0)) as world:
+    with World(WorldConfig(spawn_altitude_m=2.0, rangefinders=True)) as world:
         position, rot = _pose(world)
         mount = (0.0, -0.143, 0.05)  # body FRD: the skid tube is at y -0.143 m, z +0.165 m
         spec = rangefinder_from_model("hc_sr04", 0, 25, mount, dropout_probability=0.0)
@@ -149,7 +149,7 @@ def test_a_sensor_never_sees_its_own_vehicle():
 
 
 def test_dropouts_happen_at_their_probability_and_no_echo_is_reported_out_of_range():
-    with World(WorldConfig(spawn_altitude_m=1.0)) as world:
+    with World(WorldConfig(spawn_altitude_m=1.0, rangefinders=True)) as world:
         position, rot = _pose(world)
         spec = rangefinder_from_model("hc_sr04", 3, 25, (0.0, 0.0, 0.0), dropout_probability=0.3)
         array = RangefinderArray(
@@ -176,7 +176,7 @@ def test_dropouts_happen_at_their_probability_and_no_echo_is_reported_out_of_ran
 
 
 def test_world_polls_all_vehicles_at_the_sensor_rate_and_can_switch_them_off():
-    config = WorldConfig(n_vehicles=3, spawn_altitude_m=1.0)
+    config = WorldConfig(n_vehicles=3, spawn_altitude_m=1.0, rangefinders=True)
     with World(config) as world:
         due = []
         for _ in range(100):
@@ -188,10 +188,11 @@ def test_world_polls_all_vehicles_at_the_sensor_rate_and_can_switch_them_off():
                 assert len({m.id for m in msgs[0]}) == 7
                 assert world.poll_rangefinders() is None  # once per instant
     assert due == pytest.approx([0.05, 0.1, 0.15, 0.2])
-    with World(WorldConfig(n_vehicles=3, rangefinders=False)) as world:
-        for _ in range(100):
-            world.step()
-            assert world.poll_rangefinders() is None
+    for off in (WorldConfig(n_vehicles=3, rangefinders=False), WorldConfig(n_vehicles=3)):
+        with World(off) as world:  # off by default
+            for _ in range(100):
+                world.step()
+                assert world.poll_rangefinders() is None
 
 
 def test_rangefinders_do_not_change_other_sensors_draws():
@@ -243,7 +244,7 @@ def test_bad_rangefinder_mounts_name_the_sensor_and_field(tmp_path, edit, words)
 def test_a_rate_that_does_not_divide_physics_fails_naming_the_sensor(tmp_path, rate_hz):
     folder = _airframe_with(tmp_path, lambda rf: rf["sensors"][6].update(rate_hz=rate_hz))
     with pytest.raises(ValueError, match=r"rangefinder id 6 rate_hz"):
-        World(WorldConfig(airframe=str(folder)))
+        World(WorldConfig(airframe=str(folder), rangefinders=True))
 
 
 def test_an_airframe_without_the_section_has_no_rangefinders(tmp_path):
@@ -254,6 +255,6 @@ def test_an_airframe_without_the_section_has_no_rangefinders(tmp_path):
     del data["rangefinders"]
     path.write_text(yaml.safe_dump(data))
     assert load_airframe(folder).rangefinders == ()
-    with World(WorldConfig(airframe=str(folder))) as world:
+    with World(WorldConfig(airframe=str(folder), rangefinders=True)) as world:
         world.step()
         assert world.poll_rangefinders() is None
