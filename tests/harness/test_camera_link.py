@@ -8,33 +8,20 @@ geotagged where the vehicle is. Ports: 47000-47099.
 
 from __future__ import annotations
 
-import json
 import math
 import socket
-import subprocess
-import sys
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common as mavlink2
+from stream_reader import read_while_running
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 
 BASE = 47000
-READER = """
-import json, sys, cv2
-cap = cv2.VideoCapture(sys.argv[1])
-stds = []
-for _ in range(3):
-    ok, img = cap.read()
-    if not ok:
-        break
-    stds.append(float(img.std()))
-print(json.dumps({"opened": cap.isOpened(), "stds": stds}))
-"""
 
 
 def _ports(offset: int) -> PortPlan:
@@ -139,20 +126,7 @@ def test_video_stream_information_answers_with_a_uri_opencv_reads(rig):
     assert [(a.command, a.result) for a in acks] == [(512, mavlink2.MAV_RESULT_ACCEPTED)]
     (info,) = sdk.of("VIDEO_STREAM_INFORMATION")
     assert info.uri == sim.video_uris[0] == f"http://127.0.0.1:{BASE + 4}/video.mjpg"
-    proc = subprocess.Popen(
-        [sys.executable, "-c", READER, info.uri],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
-        sim.run_paced(4.0, lambda: proc.poll() is not None, max_duration_s=120.0)
-        out, err = proc.communicate(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    result = json.loads(out.strip().splitlines()[-1])
+    result, err = read_while_running(sim, info.uri, 3, max_duration_s=120.0, timeout_s=30)
     assert result["opened"], err
     assert len(result["stds"]) == 3 and min(result["stds"]) > 1.0
 

@@ -3,31 +3,16 @@ never hold the simulation up."""
 
 from __future__ import annotations
 
-import json
 import socket
-import subprocess
-import sys
 import urllib.request
 
 import pytest
+from stream_reader import read_while_running
 from video_ports import free_tcp_base
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 from sitl.sensors.camera import CameraSpec, with_mount
-
-READER = """
-import json, sys, cv2
-cap = cv2.VideoCapture(sys.argv[1])
-shapes, stds = [], []
-for _ in range(int(sys.argv[2])):
-    ok, img = cap.read()
-    if not ok:
-        break
-    shapes.append(list(img.shape))
-    stds.append(float(img.std()))
-print(json.dumps({"opened": cap.isOpened(), "shapes": shapes, "stds": stds}))
-"""
 
 WALL = BoxObstacle((0.0, 4.0, 1.5), (6.0, 0.2, 3.0), rgba=(0.8, 0.3, 0.1, 1.0))
 
@@ -53,22 +38,10 @@ def test_opencv_reads_each_vehicles_stream_while_the_simulation_runs():
             f"http://127.0.0.1:{base}/video.mjpg",
             f"http://127.0.0.1:{base + 1}/video.mjpg",
         ]
-        proc = subprocess.Popen(
-            [sys.executable, "-c", READER, sim.video_uris[1], "5"],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
+        result, err = read_while_running(
+            sim, sim.video_uris[1], 5, max_duration_s=240.0, timeout_s=60
         )
-        try:
-            # Paced at 4x so the reader sees a live camera; bounded in simulation time.
-            sim.run_paced(4.0, lambda: proc.poll() is not None, max_duration_s=240.0)
-            out, err = proc.communicate(timeout=60)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
         assert sim.video_servers[1].frames_published >= 5
-    result = json.loads(out.strip().splitlines()[-1])
     assert result["opened"], err
     assert result["shapes"] == [[240, 320, 3]] * 5
     assert min(result["stds"]) > 10.0  # wall, ground and sky: not blank

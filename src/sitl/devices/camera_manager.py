@@ -109,19 +109,7 @@ class StorageInfo:
     available_mib: float
 
 
-class ImageStore:
-    """Where photos are written: an interface (see :class:`JpegStore`)."""
-
-    def save(self, frame: CameraFrame, index: int) -> str:
-        """Write the image of ``frame`` as photo ``index`` (0-based); its URL, or "" on failure."""
-        raise NotImplementedError
-
-    def storage(self) -> StorageInfo | None:
-        """Capacity of the storage; None when unknown."""
-        raise NotImplementedError
-
-
-class JpegStore(ImageStore):
+class JpegStore:
     """Photos as ``IMG_0001.jpg``, ``IMG_0002.jpg``, ... (1-based names) in one directory.
 
     URLs are ``file://`` URIs of the absolute path (what a companion on the same machine opens);
@@ -199,7 +187,7 @@ class CameraProtocol:
         sysid: int,
         origin: frames.GeodeticOrigin,
         epoch_start_s: float,
-        store: ImageStore,
+        store: JpegStore,
         stream_uri: str | None = None,
         compid: int = MAV_COMP_ID_CAMERA,
     ) -> None:
