@@ -76,6 +76,17 @@ class _HttpServer(ThreadingHTTPServer):
     block_on_close = False  # MjpegServer.close joins the client threads itself, with a timeout
     owner: MjpegServer
 
+    def process_request(self, request: socket.socket, client_address: object) -> None:
+        """Start the client's thread, known to the owner before it runs (so ``close`` joins it
+        whatever point it has reached, including the socket shutdown after ``finish``)."""
+        thread = threading.Thread(
+            target=self.process_request_thread, args=(request, client_address), daemon=True
+        )
+        with self.owner._clients_lock:
+            self.owner._threads = {t for t in self.owner._threads if t.is_alive()}
+            self.owner._threads.add(thread)
+        thread.start()
+
 
 class _Handler(BaseHTTPRequestHandler):
     server: _HttpServer
@@ -84,17 +95,7 @@ class _Handler(BaseHTTPRequestHandler):
     def setup(self) -> None:
         owner = self.server.owner
         self.timeout = owner.send_timeout_s  # applies to every recv and send
-        with owner._clients_lock:
-            owner._threads.add(threading.current_thread())
         super().setup()
-
-    def finish(self) -> None:
-        try:
-            super().finish()
-        finally:
-            owner = self.server.owner
-            with owner._clients_lock:
-                owner._threads.discard(threading.current_thread())
 
     def log_message(self, format: str, *args: object) -> None:
         log.debug("mjpeg %s: " + format, self.client_address[0], *args)
