@@ -77,8 +77,11 @@ class _HttpServer(ThreadingHTTPServer):
     owner: MjpegServer
 
     def process_request(self, request: socket.socket, client_address: object) -> None:
-        """Start the client's thread, known to the owner before it runs (so ``close`` joins it
-        whatever point it has reached, including the socket shutdown after ``finish``)."""
+        """Start the client's thread, known to the owner before it runs.
+
+        So ``close`` joins it whatever point it has reached, the socket shutdown after
+        ``finish`` included.
+        """
         thread = threading.Thread(
             target=self.process_request_thread, args=(request, client_address), daemon=True
         )
