@@ -1,0 +1,255 @@
+"""One direction of a link, in simulation time: a transmitter queue, the medium, the receiver.
+
+A datagram submitted at ``now_s`` waits behind the bytes already queued (drop-tail: it is dropped
+when they and it exceed ``queue_bytes``), takes ``wire bytes x bits_per_byte / rate_bps`` on the
+medium, may be lost there (it used its airtime all the same), and arrives ``latency`` after its
+last bit. A link that is down drops what is submitted. Nothing here reads a clock or a socket: the
+router (paced) and the in-process queue (lockstep) ask when a datagram arrives and hold it until
+then, so both give the same deliveries for the same submissions.
+
+Every random draw comes from the channel's own generator (seeded per link by the network), so the
+same seed and the same traffic give the same drops and delays; random outages draw from a child
+generator, so the up/down schedule depends on time only, not on the traffic.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+import numpy as np
+
+from sitl.links.params import Jitter, LinkParams, LossModel
+
+_BLOCK = 256
+"""Random numbers drawn at a time (one numpy call per block instead of per datagram)."""
+
+
+class Drop(StrEnum):
+    """Why a datagram did not arrive."""
+
+    LOSS = "loss"
+    """Lost on the medium (the loss model)."""
+    RANGE = "range"
+    """Lost to distance (beyond the link's range)."""
+    QUEUE = "queue"
+    """The transmitter's queue was full (drop-tail)."""
+    DOWN = "down"
+    """The link was down (an outage window or a random failure)."""
+    COVERAGE = "coverage"
+    """The node was outside the network's coverage."""
+    NO_LINK = "no_link"
+    """No link joins the two nodes."""
+
+
+class DatagramTooLargeError(ValueError):
+    """A datagram exceeds the link's ``max_datagram_bytes`` (it is refused, never truncated)."""
+
+
+@dataclass(slots=True)
+class ChannelStats:
+    """What crossed one direction of one link."""
+
+    submitted: int = 0
+    submitted_bytes: int = 0
+    delivered: int = 0
+    delivered_bytes: int = 0
+    dropped: dict[str, int] = field(default_factory=dict)
+    """Datagrams dropped, by :class:`Drop` value."""
+    airtime_s: float = 0.0
+    """Time the transmitter spent sending (lost datagrams included), s."""
+    latencies_s: list[float] = field(default_factory=list)
+    """Submit-to-arrival time of every delivered datagram, s (queueing + transmission + delay)."""
+
+
+class _Outages:
+    """The up/down schedule: fixed windows plus an alternating renewal process."""
+
+    def __init__(self, params: LinkParams, rng: np.random.Generator) -> None:
+        self._windows = sorted(params.outages.windows_s)
+        self._mtbf_s = params.outages.mtbf_s
+        self._mttr_s = params.outages.mttr_s
+        self._rng = rng
+        self._up = True
+        self._next_toggle_s = float(rng.exponential(self._mtbf_s)) if self._mtbf_s > 0 else math.inf
+
+    def is_up(self, now_s: float) -> bool:
+        """Whether the link is up at ``now_s`` (queries must not go back in time)."""
+        while now_s >= self._next_toggle_s:
+            self._up = not self._up
+            mean = self._mtbf_s if self._up else self._mttr_s
+            self._next_toggle_s += float(self._rng.exponential(mean))
+        if not self._up:
+            return False
+        return not any(start <= now_s < end for start, end in self._windows)
+
+
+class LinkChannel:
+    """One direction of one link with its queue, loss, delay and outages.
+
+    Args:
+        params: the link's parameters.
+        rng: this channel's generator (the network seeds one per directed link).
+    """
+
+    def __init__(self, params: LinkParams, rng: np.random.Generator) -> None:
+        self.params = params
+        self.stats = ChannelStats()
+        self._rng = rng
+        self._outages = _Outages(params, rng.spawn(1)[0])
+        self._bytes_per_s = params.rate_bps / params.bits_per_byte
+        self._busy_until_s = 0.0
+        self._last_arrival_s = 0.0
+        self._last_now_s = -math.inf
+        self._bad = False
+        loss = params.loss
+        self._p_gb, self._p_bg = loss.transition_probabilities()
+        self._uniform = np.empty(0)
+        self._u = 0
+        self._jitter = np.empty(0)
+        self._j = 0
+
+    # -- random numbers, drawn in blocks -----------------------------------------------------
+
+    def _next_uniform(self) -> float:
+        if self._u >= self._uniform.size:
+            self._uniform = self._rng.random(_BLOCK)
+            self._u = 0
+        value = self._uniform[self._u]
+        self._u += 1
+        return float(value)
+
+    def _next_jitter(self) -> float:
+        latency = self.params.latency
+        if latency.jitter is Jitter.NONE or latency.jitter_s == 0.0:
+            return 0.0
+        if self._j >= self._jitter.size:
+            rng = self._rng
+            if latency.jitter is Jitter.EXPONENTIAL:
+                self._jitter = rng.exponential(latency.jitter_s, _BLOCK)
+            elif latency.jitter is Jitter.LOGNORMAL:
+                self._jitter = latency.jitter_s * np.exp(
+                    latency.sigma * rng.standard_normal(_BLOCK)
+                )
+            else:
+                self._jitter = rng.gamma(latency.shape, latency.jitter_s / latency.shape, _BLOCK)
+            self._j = 0
+        value = self._jitter[self._j]
+        self._j += 1
+        return float(value)
+
+    def _lost(self) -> bool:
+        loss = self.params.loss
+        if loss.model is LossModel.BERNOULLI:
+            return loss.mean_loss > 0.0 and self._next_uniform() < loss.mean_loss
+        # Gilbert-Elliott: the state moves once per datagram, then the state's loss applies.
+        if self._bad:
+            if self._next_uniform() < self._p_bg:
+                self._bad = False
+        elif self._next_uniform() < self._p_gb:
+            self._bad = True
+        return self._bad and (loss.loss_bad >= 1.0 or self._next_uniform() < loss.loss_bad)
+
+    # -- the datagram path -------------------------------------------------------------------
+
+    def is_up(self, now_s: float) -> bool:
+        """Whether the link is up at ``now_s``."""
+        return self._outages.is_up(now_s)
+
+    def backlog_bytes(self, now_s: float) -> float:
+        """Bytes waiting in the transmitter at ``now_s`` (the one being sent included)."""
+        return max(0.0, self._busy_until_s - now_s) * self._bytes_per_s
+
+    def submit(
+        self, now_s: float, payload_bytes: int, distance_m: float = 0.0
+    ) -> tuple[float | None, Drop | None]:
+        """Send one datagram at ``now_s``; returns (arrival time or None, why it was dropped).
+
+        Raises:
+            DatagramTooLargeError: ``payload_bytes`` exceeds ``max_datagram_bytes``.
+        """
+        params = self.params
+        if payload_bytes > params.max_datagram_bytes:
+            raise DatagramTooLargeError(
+                f"datagram of {payload_bytes} B exceeds the {params.kind} link's limit of "
+                f"{params.max_datagram_bytes} B"
+            )
+        if now_s < self._last_now_s:  # the simulation restarted: an empty link
+            self._busy_until_s = now_s
+            self._last_arrival_s = now_s
+        self._last_now_s = now_s
+        stats = self.stats
+        stats.submitted += 1
+        stats.submitted_bytes += payload_bytes
+        if not self._outages.is_up(now_s):
+            return self._drop(Drop.DOWN)
+        wire = payload_bytes + params.overhead_bytes
+        start = self._busy_until_s if self._busy_until_s > now_s else now_s
+        if (start - now_s) * self._bytes_per_s + wire > params.queue_bytes:
+            return self._drop(Drop.QUEUE)
+        airtime = wire / self._bytes_per_s
+        end = start + airtime
+        self._busy_until_s = end
+        stats.airtime_s += airtime
+        if self._lost():
+            return self._drop(Drop.LOSS)
+        if params.range_m != math.inf and self._next_uniform() < params.range_loss(distance_m):
+            return self._drop(Drop.RANGE)
+        arrival = end + params.latency.base_s + self._next_jitter()
+        if params.in_order and arrival < self._last_arrival_s:
+            arrival = self._last_arrival_s
+        self._last_arrival_s = arrival
+        stats.delivered += 1
+        stats.delivered_bytes += payload_bytes
+        stats.latencies_s.append(arrival - now_s)
+        return arrival, None
+
+    def refuse(self, reason: Drop) -> None:
+        """Count a datagram dropped before reaching the medium (no coverage, no link)."""
+        self.stats.submitted += 1
+        self._drop(reason)
+
+    def _drop(self, reason: Drop) -> tuple[None, Drop]:
+        dropped = self.stats.dropped
+        dropped[reason.value] = dropped.get(reason.value, 0) + 1
+        return None, reason
+
+
+class DeliveryQueue:
+    """Datagrams in flight, released in order of arrival time (ties: in order of submission).
+
+    The lockstep transport: ``push`` what the channel accepted, ``pop_due(now_s)`` each step.
+    """
+
+    def __init__(self) -> None:
+        self._heap: list[tuple[float, int, object]] = []
+        self._seq = 0
+
+    def __len__(self) -> int:
+        return len(self._heap)
+
+    def push(self, arrival_s: float, item: object) -> None:
+        """Hold ``item`` until simulation time ``arrival_s``."""
+        heapq.heappush(self._heap, (arrival_s, self._seq, item))
+        self._seq += 1
+
+    @property
+    def next_arrival_s(self) -> float:
+        """Arrival time of the earliest item, s (inf when empty)."""
+        return self._heap[0][0] if self._heap else math.inf
+
+    def pop_due(self, now_s: float) -> list[object]:
+        """Every item whose arrival time is <= ``now_s``, earliest first."""
+        heap = self._heap
+        out = []
+        while heap and heap[0][0] <= now_s:
+            out.append(heapq.heappop(heap)[2])
+        return out
+
+    def clear(self) -> list[object]:
+        """Remove and return everything in flight (earliest first)."""
+        out = [item for _, _, item in sorted(self._heap)]
+        self._heap.clear()
+        return out
