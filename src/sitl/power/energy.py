@@ -33,6 +33,7 @@ while it transmits; set an idle draw to count a receiving or listening radio.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -101,7 +102,7 @@ class NodePowerProfile:
             "propulsion_w",
         ):
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0.0):
+            if not (isinstance(value, numbers.Real) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name} must be a finite power >= 0 W, got {value!r}")
 
     def tx_idle_w(self, component: str) -> tuple[float, float]:
@@ -127,7 +128,7 @@ class TaskInterval:
     def __post_init__(self) -> None:
         for name in ("start_s", "end_s"):
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value)):
+            if not (isinstance(value, numbers.Real) and math.isfinite(value)):
                 raise ValueError(f"{name} must be a finite time in s, got {value!r}")
         if self.end_s < self.start_s:
             raise ValueError(
@@ -269,7 +270,7 @@ class EnergyLedger:
         ``propulsion_time_s`` is the time covered by the samples or flown at the fallback power.
         """
         for name, value in (("t0_s", t0_s), ("t1_s", t1_s)):
-            if not (isinstance(value, int | float) and math.isfinite(value)):
+            if not (isinstance(value, numbers.Real) and math.isfinite(value)):
                 raise ValueError(f"{name} must be a finite time in s, got {value!r}")
         if t1_s < t0_s:
             raise ValueError(f"t1_s ({t1_s}) must be >= t0_s ({t0_s})")
