@@ -16,6 +16,8 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import AsyncIterator
+from contextlib import AbstractContextManager
+from pathlib import Path
 from typing import Any
 
 from companion import clock
@@ -81,6 +83,14 @@ class AsyncNode:
     def reply(self, request: Envelope, body: Any, category: str = "control") -> None:
         """Answer a request later (see ``Node.reply``)."""
         self.node.reply(request, body, category)
+
+    def task(self, name: str) -> AbstractContextManager[None]:
+        """Record a task interval (see ``Node.task``)."""
+        return self.node.task(name)
+
+    def write_records(self, path: str | Path) -> None:
+        """Write the node's records as JSON (see ``Node.write_records``)."""
+        self.node.write_records(path)
 
     # --- asynchronous --------------------------------------------------------------------
 
