@@ -131,6 +131,8 @@ class AsyncNode:
             return await future
         finally:
             self._waiters.pop(pending.msg_id, None)
+            if not pending.done:  # the caller was cancelled: stop the retransmissions
+                self.node.cancel(pending)
 
     async def recv(self, timeout_s: float | None = None) -> Envelope:
         """Next message no handler consumed.

@@ -11,6 +11,7 @@ Times are in seconds of the sender's clock (simulated seconds under swarmsitl).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -125,7 +126,7 @@ def decode(data: bytes) -> Envelope:
         raise EnvelopeError(f"not a msgpack datagram: {exc}") from exc
     if not isinstance(items, list) or not items:
         raise EnvelopeError("envelope must be a non-empty msgpack array")
-    if items[0] != FORMAT_VERSION or isinstance(items[0], bool):
+    if type(items[0]) is not int or items[0] != FORMAT_VERSION:
         raise EnvelopeError(f"envelope format version {items[0]!r}, expected {FORMAT_VERSION}")
     if len(items) != len(_FIELDS) + 2:
         raise EnvelopeError(f"envelope has {len(items)} elements, expected {len(_FIELDS) + 2}")
@@ -143,4 +144,27 @@ def decode(data: bytes) -> Envelope:
         )
     if msg_id < 0 or attempt < 1:
         raise EnvelopeError("envelope fields 'msg_id' must be >= 0 and 'attempt' >= 1")
+    if not math.isfinite(sent_s):
+        raise EnvelopeError(f"envelope field 'sent_s' is {sent_s!r}, expected a finite time")
     return Envelope(src, dst, kind, topic, msg_id, reply_to, category, float(sent_s), attempt, body)
+
+
+def route_of(data: bytes) -> tuple[str, str]:
+    """``(src, dst)`` of a datagram without decoding its body (for a datagram router).
+
+    Raises:
+        EnvelopeError: the datagram does not start like an envelope of this version.
+    """
+    unpacker = msgpack.Unpacker(raw=False)
+    unpacker.feed(data)
+    try:
+        if unpacker.read_array_header() != len(_FIELDS) + 2:
+            raise EnvelopeError("not an envelope array")
+        version, src, dst = unpacker.unpack(), unpacker.unpack(), unpacker.unpack()
+    except (ValueError, TypeError, OverflowError, msgpack.UnpackException) as exc:
+        raise EnvelopeError(f"not an envelope: {exc}") from exc
+    if type(version) is not int or version != FORMAT_VERSION:
+        raise EnvelopeError(f"envelope format version {version!r}, expected {FORMAT_VERSION}")
+    if not isinstance(src, str) or not isinstance(dst, str):
+        raise EnvelopeError("envelope fields 'src' and 'dst' must be strings")
+    return src, dst

@@ -142,6 +142,11 @@ class Node:
         self._send_attempt(pending, env, data)
         return pending
 
+    def cancel(self, pending: PendingRequest) -> None:
+        """Stop retransmitting ``pending`` (a late reply is then counted as late)."""
+        if self._pending.get(pending.msg_id) is pending:
+            self._forget(pending)
+
     def reply(self, request: Envelope, body: Any, category: str = "control") -> None:
         """Answer ``request`` (from a handler's caller, possibly later than the handler)."""
         if request.kind != "request":

@@ -61,14 +61,20 @@ class UdpTransport:
         """Datagrams the OS refused to send (counted, never raised)."""
         self.receive_errors = 0
         """Errors while receiving, e.g. ICMP port unreachable reported by Linux."""
+        self._resolved: dict[str, tuple[str, int]] = {}
+        host, port = config.nodes[node_id].address
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             for option in (socket.SO_RCVBUF, socket.SO_SNDBUF):
                 self._sock.setsockopt(socket.SOL_SOCKET, option, SOCKET_BUFFER_BYTES)
-            self._sock.bind(config.nodes[node_id].address)
-        except OSError:
+            self._sock.bind((host, port))
+        except OSError as exc:
             self._sock.close()
-            raise
+            raise OSError(
+                exc.errno,
+                f"node {node_id} cannot bind nodes.{node_id}.address {host}:{port}: "
+                f"{exc.strerror or exc}",
+            ) from exc
         self._sock.setblocking(False)
 
     def send(self, dst: str, data: bytes) -> None:
@@ -76,7 +82,11 @@ class UdpTransport:
         if dst not in self._config.nodes:
             raise ValueError(f"dst: unknown node {dst!r}")
         try:
-            self._sock.sendto(data, self._config.send_address(dst))
+            address = self._resolved.get(dst)
+            if address is None:  # host names are resolved once, at the first send
+                host, port = self._config.send_address(dst)
+                address = self._resolved[dst] = (socket.gethostbyname(host), port)
+            self._sock.sendto(data, address)
         except OSError:
             self.send_errors += 1
 

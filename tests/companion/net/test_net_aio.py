@@ -79,6 +79,18 @@ def test_request_times_out_in_simulated_seconds(monkeypatch):
     assert link.sent["control"].messages == 3 and (link.retries, link.timeouts) == (2, 1)
 
 
+def test_cancelled_request_stops_retrying(monkeypatch):
+    monkeypatch.setenv("SWARMSITL_SPEED", "50")
+
+    async def scenario():
+        async with udp_node("edge1") as edge:
+            with pytest.raises(TimeoutError):
+                await asyncio.wait_for(edge.request("fog1", "q", None, timeout_s=100.0), 0.05)
+            return edge.node.next_deadline_s()
+
+    assert asyncio.run(scenario()) is None
+
+
 def test_recv_timeout_raises_timeout_error(monkeypatch):
     monkeypatch.setenv("SWARMSITL_SPEED", "50")
 

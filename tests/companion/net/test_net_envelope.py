@@ -17,6 +17,7 @@ from companion.net.envelope import (
     MessageTooLargeError,
     decode,
     encode,
+    route_of,
 )
 
 bodies = st.recursive(
@@ -105,6 +106,9 @@ def valid_items() -> list:
     ("index", "value", "message"),
     [
         (0, FORMAT_VERSION + 1, "version"),
+        (0, float(FORMAT_VERSION), "version"),
+        (8, float("nan"), "'sent_s'"),
+        (8, float("inf"), "'sent_s'"),
         (1, 5, "'src'"),
         (3, "push", "'kind'"),
         (5, "7", "'msg_id'"),
@@ -145,3 +149,17 @@ def test_largest_envelope_that_fits_encodes_to_the_limit():
     assert len(encode(sample(body=body))) == MAX_DATAGRAM_BYTES
     with pytest.raises(MessageTooLargeError):
         encode(sample(body=body + b"x"))
+
+
+def test_route_of_reads_src_and_dst_only():
+    assert route_of(encode(sample(body=b"x" * 60000))) == ("edge1", "fog1")
+    items = valid_items()
+    items[0] = FORMAT_VERSION + 1
+    with pytest.raises(EnvelopeError, match="version"):
+        route_of(msgpack.packb(items, use_bin_type=True))
+
+
+@given(st.binary(max_size=100))
+def test_route_of_random_bytes_raise_only_envelope_error(data):
+    with contextlib.suppress(EnvelopeError):
+        route_of(data)

@@ -8,6 +8,7 @@ import pytest
 from netfakes import FakePort, ManualClock, make_nodes
 
 from companion.net import MAX_DATAGRAM_BYTES, MessageTooLargeError, RequestTimeout, decode
+from companion.net import node as node_module
 
 
 def run_until_done(nodes, clock, pending, step_s=0.1, limit_s=30.0):
@@ -208,3 +209,33 @@ def test_task_intervals_and_records_file(tmp_path):
     records = json.loads(path.read_text())
     assert records["tasks"] == [{"name": "survey", "start_s": 0.0, "end_s": 4.0}]
     assert records["node_id"] == "edge1" and records["send_errors"] == 0
+
+
+def test_reply_cache_is_bounded(monkeypatch):
+    """Beyond the cache size the oldest request is forgotten (its retry would run again)."""
+    monkeypatch.setattr(node_module, "REPLY_CACHE_SIZE", 3)
+    clock = ManualClock()
+    port = FakePort()
+    nodes = make_nodes(port, clock, "edge1", "fog1")
+    calls = []
+    nodes["fog1"].on("q", lambda env: calls.append(env.body) or env.body)
+    for i in range(5):
+        nodes["edge1"].request("fog1", "q", i)
+    nodes["fog1"].poll()
+    resend = [d for s, _, d in port.sent if s == "edge1"]
+    port.queues["fog1"] += [resend[0], resend[4]]  # duplicates of the oldest and newest
+    nodes["fog1"].poll()
+    assert calls == [0, 1, 2, 3, 4, 0]
+    assert nodes["fog1"].stats.duplicate_requests == 1
+
+
+def test_cancelled_request_stops_retransmitting():
+    clock = ManualClock()
+    port = FakePort(drop=lambda *_: True)
+    nodes = make_nodes(port, clock, "edge1", "fog1")
+    pending = nodes["edge1"].request("fog1", "q", None, timeout_s=0.5)
+    nodes["edge1"].cancel(pending)
+    clock.t_s = 10.0
+    nodes["edge1"].poll()
+    assert len(port.sent) == 1 and not pending.done
+    assert nodes["edge1"].next_deadline_s() is None

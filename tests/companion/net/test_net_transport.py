@@ -120,3 +120,38 @@ def test_port_transport_passes_node_ids_to_the_port():
     a.send("fog1", b"hi")
     assert port.sent == [("edge1", "fog1", b"hi")]
     assert b.receive() == [b"hi"] and b.receive() == [] and a.receive() == []
+
+
+def test_bind_error_names_the_node_and_field():
+    first = UdpTransport(UDP_CONFIG, "cloud")
+    try:
+        with pytest.raises(OSError, match=r"node cloud cannot bind nodes\.cloud\.address"):
+            UdpTransport(UDP_CONFIG, "cloud")
+    finally:
+        first.close()
+
+
+def test_host_names_are_resolved():
+    config = NetConfig.from_dict(
+        {
+            "nodes": {
+                "edge1": {"role": "edge", "address": "localhost:46026"},
+                "fog1": {"role": "fog", "address": "127.0.0.1:46027"},
+            },
+            "routes": {"fog1": "localhost:46027"},
+        }
+    )
+    edge = UdpTransport(config, "edge1")
+    fog = UdpTransport(config, "fog1")
+    try:
+        edge.send("fog1", b"a")
+        fog.send("edge1", b"b")
+        got = {}
+        for name, transport in (("fog1", fog), ("edge1", edge)):
+            select.select([transport.fileno()], [], [], 5.0)
+            got[name] = transport.receive()
+        assert got == {"fog1": [b"a"], "edge1": [b"b"]}
+        assert edge.send_errors == fog.send_errors == 0
+    finally:
+        edge.close()
+        fog.close()
