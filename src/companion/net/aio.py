@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import math
 from collections.abc import AsyncIterator
 from contextlib import AbstractContextManager
 from pathlib import Path
@@ -203,11 +204,7 @@ class AsyncNode:
         deadline_s = self.node.next_deadline_s()
         if deadline_s is not None:
             delay_s = max(0.0, deadline_s - self.node.clock())
-        if self._fd is None:
-            delay_s = (
-                min(delay_s, self.poll_interval_s)
-                if delay_s is not None
-                else (self.poll_interval_s)
-            )
+        if self._fd is None:  # nothing wakes the loop on arrival: poll periodically
+            delay_s = min(delay_s if delay_s is not None else math.inf, self.poll_interval_s)
         if delay_s is not None:
             self._timer = self._loop.call_later(delay_s / clock.speed_factor(), self._pump)

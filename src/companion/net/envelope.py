@@ -69,7 +69,8 @@ class Envelope:
     attempt: int
     """Transmission number, 1 for the first copy; a reply echoes its request's attempt."""
     body: Any
-    """Payload: anything msgpack encodes (dict, list, str, bytes, numbers, None)."""
+    """Payload: anything msgpack encodes (dict, list, str, bytes, numbers, None); tuples and
+    numpy arrays arrive as lists."""
 
 
 # (name, accepted types, may be None) per field after the version, in order.
@@ -91,7 +92,7 @@ def encode(env: Envelope) -> bytes:
 
     Raises:
         MessageTooLargeError: the datagram would exceed ``MAX_DATAGRAM_BYTES``.
-        TypeError: the body holds something msgpack cannot encode.
+        TypeError: the body holds something msgpack cannot encode (the message names it).
     """
     data = msgpack.packb(
         [
@@ -108,10 +109,21 @@ def encode(env: Envelope) -> bytes:
             env.body,
         ],
         use_bin_type=True,
+        default=_to_msgpack,
     )
     if len(data) > MAX_DATAGRAM_BYTES:
         raise MessageTooLargeError(len(data))
     return data
+
+
+def _to_msgpack(obj: Any) -> Any:
+    """Convert numpy arrays and scalars (anything with ``tolist``) to lists / Python numbers."""
+    if hasattr(obj, "tolist"):
+        return obj.tolist()
+    raise TypeError(
+        f"body: cannot encode a {type(obj).__name__} (use dict, list, str, bytes, numbers, "
+        "None; numpy arrays and scalars are converted with tolist())"
+    )
 
 
 def decode(data: bytes) -> Envelope:

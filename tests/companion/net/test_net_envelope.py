@@ -163,3 +163,16 @@ def test_route_of_reads_src_and_dst_only():
 def test_route_of_random_bytes_raise_only_envelope_error(data):
     with contextlib.suppress(EnvelopeError):
         route_of(data)
+
+
+def test_numpy_values_arrive_as_lists_and_numbers():
+    import numpy as np
+
+    body = {"pos_m": np.array([1.0, 2.0, -3.5]), "count": np.int64(7), "pair": (1, 2)}
+    assert decode(encode(sample(body=body))).body == {
+        "pos_m": [1.0, 2.0, -3.5], "count": 7, "pair": [1, 2]}
+
+
+def test_unencodable_body_names_its_type():
+    with pytest.raises(TypeError, match="cannot encode a set"):
+        encode(sample(body={1, 2}))
