@@ -170,7 +170,10 @@ def test_numpy_values_arrive_as_lists_and_numbers():
 
     body = {"pos_m": np.array([1.0, 2.0, -3.5]), "count": np.int64(7), "pair": (1, 2)}
     assert decode(encode(sample(body=body))).body == {
-        "pos_m": [1.0, 2.0, -3.5], "count": 7, "pair": [1, 2]}
+        "pos_m": [1.0, 2.0, -3.5],
+        "count": 7,
+        "pair": [1, 2],
+    }
 
 
 def test_unencodable_body_names_its_type():
