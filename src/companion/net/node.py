@@ -195,9 +195,10 @@ class Node:
             self.stats.tasks.append(TaskRecord(name, start_s, self.clock()))
 
     def records(self) -> dict[str, Any]:
-        """``stats.to_dict()`` plus the transport's send errors."""
+        """``stats.to_dict()`` plus the transport's send and receive errors."""
         out = self.stats.to_dict()
         out["send_errors"] = getattr(self.transport, "send_errors", 0)
+        out["receive_errors"] = getattr(self.transport, "receive_errors", 0)
         return out
 
     def write_records(self, path: str | Path) -> None:

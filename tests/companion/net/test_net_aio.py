@@ -102,6 +102,18 @@ def test_recv_timeout_raises_timeout_error(monkeypatch):
         asyncio.run(scenario())
 
 
+def test_async_node_survives_a_handler_exception(caplog):
+    async def scenario():
+        async with udp_node("fog1") as fog, udp_node("edge1") as edge:
+            fog.on("div", lambda env: 1 / env.body)
+            with pytest.raises(RequestTimeout):
+                await edge.request("fog1", "div", 0, timeout_s=0.2, retries=0)
+            return await edge.request("fog1", "div", 4, timeout_s=2.0)
+
+    assert asyncio.run(scenario()).body == 0.25
+    assert "message handler of node fog1 failed" in caplog.text
+
+
 def test_port_transport_is_polled_on_a_timer():
     port = FakePort()
 

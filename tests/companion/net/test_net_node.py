@@ -239,3 +239,21 @@ def test_cancelled_request_stops_retransmitting():
     nodes["edge1"].poll()
     assert len(port.sent) == 1 and not pending.done
     assert nodes["edge1"].next_deadline_s() is None
+
+
+def test_handler_exception_propagates_and_later_datagrams_wait():
+    clock = ManualClock()
+    port = FakePort()
+    nodes = make_nodes(port, clock, "edge1", "fog1")
+
+    def handler(env):
+        if env.body == "bad":
+            raise RuntimeError("handler bug")
+
+    nodes["fog1"].on("t", handler)
+    nodes["edge1"].send("fog1", "other", 0)
+    nodes["edge1"].send("fog1", "t", "bad")
+    nodes["edge1"].send("fog1", "other", 1)
+    with pytest.raises(RuntimeError, match="handler bug"):
+        nodes["fog1"].poll()
+    assert [e.body for e in nodes["fog1"].poll()] == [0, 1]
