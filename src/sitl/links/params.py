@@ -215,7 +215,11 @@ class LinkParams:
 
     def __post_init__(self) -> None:
         _check(isinstance(self.kind, str) and self.kind != "", "kind", "must be a name")
-        _check(_finite(self.rate_bps) and self.rate_bps > 0, "rate_bps", "must be > 0")
+        _check(
+            _finite(self.rate_bps) and self.rate_bps > 0,
+            "rate_bps",
+            f"must be a number > 0, got {self.rate_bps!r}",
+        )
         _check(self.bits_per_byte in (8, 9, 10, 11, 12), "bits_per_byte", "must be 8..12")
         _check(
             isinstance(self.overhead_bytes, int) and self.overhead_bytes >= 0,
