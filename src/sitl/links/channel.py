@@ -228,8 +228,10 @@ class LinkChannel:
         stats.airtime_s += airtime
         if self._lost():
             return self._drop(Drop.LOSS)
-        if params.range_m != math.inf and self._next_uniform() < params.range_loss(distance_m):
-            return self._drop(Drop.RANGE)
+        if distance_m > params.range_m - params.range_width_m:
+            p_range = params.range_loss(distance_m)
+            if p_range >= 1.0 or self._next_uniform() < p_range:
+                return self._drop(Drop.RANGE)
         arrival = end + params.latency.base_s + self._next_jitter()
         if params.in_order and arrival < self._last_arrival_s:
             arrival = self._last_arrival_s
