@@ -27,7 +27,10 @@ SEED_000_LOSS_PCT: dict[str, float] = {
 def measured_loss_pct(
     config: LinksConfig, class_name: str, n_datagrams: int, seed: int
 ) -> tuple[float, float]:
-    """(up, down) loss of a link class over ``n_datagrams`` each way, %."""
+    """Loss of a link class over ``n_datagrams`` each way, %: (lower -> higher layer, back).
+
+    Between two nodes of one layer: (a -> b, b -> a), two independent channels.
+    """
     low, high = class_name.split("-")
     network = LinkNetwork(config, seed)
     network.add_node("a", low)
@@ -36,8 +39,11 @@ def measured_loss_pct(
         t = k * 1e-3
         network.submit(t, "a", "b", 200)
         network.submit(t, "b", "a", 200)
-    directions = network.records(n_datagrams * 1e-3)["directions"]
-    return directions[f"{low}->{high}"]["loss_pct"], directions[f"{high}->{low}"]["loss_pct"]
+    out = []
+    for src, dst in (("a", "b"), ("b", "a")):
+        stats = network.channel(src, dst).stats
+        out.append(100.0 * (stats.submitted - stats.delivered) / stats.submitted)
+    return out[0], out[1]
 
 
 def loss_table(n_datagrams: int, seed: int = 0, config: LinksConfig | None = None) -> str:
@@ -46,7 +52,7 @@ def loss_table(n_datagrams: int, seed: int = 0, config: LinksConfig | None = Non
     lines = [
         f"Measured loss, {n_datagrams} datagrams of 200 B each way, seed {seed}:",
         "",
-        "| class | preset | model | measured up % | measured down % | seed 000 % |",
+        "| class | preset | model | measured a->b % | measured b->a % | seed 000 % |",
         "|---|---|---|---|---|---|",
     ]
     for class_name, paper in SEED_000_LOSS_PCT.items():
