@@ -17,6 +17,7 @@ from __future__ import annotations
 import bisect
 import heapq
 import math
+from array import array
 from dataclasses import dataclass, field
 from enum import StrEnum
 
@@ -61,8 +62,9 @@ class ChannelStats:
     """Datagrams dropped, by :class:`Drop` value."""
     airtime_s: float = 0.0
     """Time the transmitter spent sending (lost datagrams included), s."""
-    latencies_s: list[float] = field(default_factory=list)
-    """Submit-to-arrival time of every delivered datagram, s (queueing + transmission + delay)."""
+    latencies_s: array = field(default_factory=lambda: array("d"))
+    """Submit-to-arrival time of every delivered datagram, s (queueing + transmission + delay);
+    a packed array of doubles (8 B per datagram)."""
 
 
 class _Outages:

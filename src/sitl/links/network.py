@@ -98,6 +98,8 @@ class LinkNetwork:
 
     def _route(self, src: str, dst: str) -> _Route:
         src_role, dst_role = self._role(src), self._role(dst)
+        if src == dst:
+            raise ValueError(f"node {src!r} sends to itself: no link carries that")
         class_name = canonical_class(src_role, dst_role)
         preset_name = self.config.classes.get(class_name)
         direction = f"{src_role}->{dst_role}"
@@ -119,7 +121,7 @@ class LinkNetwork:
 
         Raises:
             DatagramTooLargeError: larger than the link's ``max_datagram_bytes``.
-            ValueError: an unknown node.
+            ValueError: an unknown node, or ``src == dst``.
         """
         route = self._routes.get((src, dst))
         if route is None:
@@ -208,7 +210,7 @@ def _metrics(items: list[tuple[ChannelStats, LinkChannel | None]], duration_s: f
     for s, _ in items:
         for reason, n in s.dropped.items():
             drops[reason] = drops.get(reason, 0) + n
-    latencies = np.concatenate([np.asarray(s.latencies_s, dtype=float) for s, _ in items])
+    latencies = np.concatenate([np.frombuffer(s.latencies_s, dtype=float) for s, _ in items])
     if latencies.size:
         p50, p95 = np.percentile(latencies, [50.0, 95.0]) * 1e3
         latency_ms = {

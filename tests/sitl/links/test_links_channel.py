@@ -101,8 +101,8 @@ def test_drop_tail_queue_fills_drops_and_bounds_the_delay():
         mean_delay[load] = lat.mean()
         # no datagram waits longer than a full queue takes to drain (plus its own transmission)
         assert lat.max() <= params.queue_bytes / bytes_per_s + params.transmit_s(100) + 1e-9
-        if load < 1.0:
-            assert s.dropped.get("queue", 0) == 0 or load == 0.9
+        if load < 1.0:  # a 41-datagram buffer overflows rarely below the rate
+            assert s.dropped.get("queue", 0) < 0.002 * s.submitted
         else:
             assert s.dropped["queue"] > 0.4 * s.submitted  # half the offered load is too much
             assert s.delivered + s.dropped["queue"] == s.submitted

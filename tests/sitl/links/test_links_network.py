@@ -191,3 +191,26 @@ def test_mavlink_channels_are_per_vehicle_and_stable():
     assert run(0) != run(1)
     to_v, from_v = mavlink_channels("sik", config, seed=1, vehicle_index=0)
     assert to_v.params.kind == from_v.params.kind == "sik"
+
+
+def test_outages_of_a_class_show_in_uptime_and_drops():
+    """Random failures on the fog-cloud link: uptime_pct is the measured up share, the
+    datagrams sent while down are dropped as down, and loss_pct counts them."""
+    lte = {"loss": {"mean_loss": 0.0}, "outages": {"mtbf_s": 30.0, "mttr_s": 10.0}}
+    config = LinksConfig.from_dict({"presets": {"lte": lte}})
+    network = _pair_network("fog-cloud", seed=12, config=config)
+    duration_s = 2000.0
+    for k in range(int(duration_s / 0.05)):
+        network.submit(k * 0.05, "a", "b", 100)
+    rec = network.records(duration_s)["directions"]["fog->cloud"]
+    down_share = rec["drops"]["down"] / rec["datagrams_submitted"]
+    assert 100 * (1 - down_share) == pytest.approx(rec["uptime_pct"], abs=0.5)
+    assert rec["uptime_pct"] == pytest.approx(75.0, abs=6.0)  # 30 / (30 + 10)
+    assert rec["loss_pct"] == pytest.approx(100 * down_share)
+
+
+def test_a_node_cannot_send_to_itself():
+    """src == dst is a clear error, not a silent loopback."""
+    network = _pair_network("edge-fog", seed=0)
+    with pytest.raises(ValueError, match="sends to itself"):
+        network.submit(0.0, "a", "a", 10)
