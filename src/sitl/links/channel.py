@@ -14,8 +14,10 @@ generator, so the up/down schedule depends on time only, not on the traffic.
 
 from __future__ import annotations
 
+import bisect
 import heapq
 import math
+from array import array
 from dataclasses import dataclass, field
 from enum import StrEnum
 
@@ -60,30 +62,66 @@ class ChannelStats:
     """Datagrams dropped, by :class:`Drop` value."""
     airtime_s: float = 0.0
     """Time the transmitter spent sending (lost datagrams included), s."""
-    latencies_s: list[float] = field(default_factory=list)
-    """Submit-to-arrival time of every delivered datagram, s (queueing + transmission + delay)."""
+    latencies_s: array = field(default_factory=lambda: array("d"))
+    """Submit-to-arrival time of every delivered datagram, s (queueing + transmission + delay);
+    a packed array of doubles (8 B per datagram)."""
 
 
 class _Outages:
-    """The up/down schedule: fixed windows plus an alternating renewal process."""
+    """The up/down schedule: fixed windows plus an alternating renewal process.
+
+    The renewal process's toggle times are drawn in order from the outage generator and kept,
+    so the schedule depends on the seed only (not on when or how often it is asked).
+    """
 
     def __init__(self, params: LinkParams, rng: np.random.Generator) -> None:
         self._windows = sorted(params.outages.windows_s)
         self._mtbf_s = params.outages.mtbf_s
         self._mttr_s = params.outages.mttr_s
         self._rng = rng
-        self._up = True
-        self._next_toggle_s = float(rng.exponential(self._mtbf_s)) if self._mtbf_s > 0 else math.inf
+        self._toggles: list[float] = []
+        """Times the random process flips (up -> down at even indexes), s."""
+        self._drawn_to_s = float(rng.exponential(self._mtbf_s)) if self._mtbf_s > 0 else math.inf
+        if self._mtbf_s > 0:
+            self._toggles.append(self._drawn_to_s)
+
+    def _draw_until(self, t_s: float) -> None:
+        while self._drawn_to_s <= t_s:
+            mean = self._mttr_s if len(self._toggles) % 2 == 1 else self._mtbf_s
+            self._drawn_to_s += float(self._rng.exponential(mean))
+            self._toggles.append(self._drawn_to_s)
 
     def is_up(self, now_s: float) -> bool:
-        """Whether the link is up at ``now_s`` (queries must not go back in time)."""
-        while now_s >= self._next_toggle_s:
-            self._up = not self._up
-            mean = self._mtbf_s if self._up else self._mttr_s
-            self._next_toggle_s += float(self._rng.exponential(mean))
-        if not self._up:
-            return False
+        """Whether the link is up at ``now_s``."""
+        if self._toggles:
+            if now_s >= self._drawn_to_s:
+                self._draw_until(now_s)
+            if bisect.bisect_right(self._toggles, now_s) % 2 == 1:
+                return False
+        if not self._windows:
+            return True
         return not any(start <= now_s < end for start, end in self._windows)
+
+    def uptime_fraction(self, duration_s: float) -> float:
+        """Share of [0, duration_s] the link was up (windows and random failures together)."""
+        if duration_s <= 0.0:
+            return 1.0
+        down_periods = list(self._windows)
+        if self._toggles:
+            self._draw_until(duration_s)
+            t = self._toggles
+            down_periods += [(t[k], t[k + 1]) for k in range(0, len(t) - 1, 2)]
+        intervals = sorted(
+            (max(0.0, a), min(duration_s, b)) for a, b in down_periods if a < duration_s
+        )
+        down = 0.0
+        end = 0.0
+        for a, b in intervals:
+            a = max(a, end)
+            if b > a:
+                down += b - a
+                end = b
+        return 1.0 - down / duration_s
 
 
 class LinkChannel:
@@ -172,10 +210,7 @@ class LinkChannel:
         """
         params = self.params
         if payload_bytes > params.max_datagram_bytes:
-            raise DatagramTooLargeError(
-                f"datagram of {payload_bytes} B exceeds the {params.kind} link's limit of "
-                f"{params.max_datagram_bytes} B"
-            )
+            self._check_size(payload_bytes)
         if now_s < self._last_now_s:  # the simulation restarted: an empty link
             self._busy_until_s = now_s
             self._last_arrival_s = now_s
@@ -195,8 +230,10 @@ class LinkChannel:
         stats.airtime_s += airtime
         if self._lost():
             return self._drop(Drop.LOSS)
-        if params.range_m != math.inf and self._next_uniform() < params.range_loss(distance_m):
-            return self._drop(Drop.RANGE)
+        if distance_m > params.range_m - params.range_width_m:
+            p_range = params.range_loss(distance_m)
+            if p_range >= 1.0 or self._next_uniform() < p_range:
+                return self._drop(Drop.RANGE)
         arrival = end + params.latency.base_s + self._next_jitter()
         if params.in_order and arrival < self._last_arrival_s:
             arrival = self._last_arrival_s
@@ -206,10 +243,27 @@ class LinkChannel:
         stats.latencies_s.append(arrival - now_s)
         return arrival, None
 
-    def refuse(self, reason: Drop) -> None:
-        """Count a datagram dropped before reaching the medium (no coverage, no link)."""
+    def refuse(self, reason: Drop, payload_bytes: int = 0) -> tuple[None, Drop]:
+        """Count a datagram dropped before reaching the medium (no coverage, no link).
+
+        Raises:
+            DatagramTooLargeError: ``payload_bytes`` exceeds ``max_datagram_bytes``.
+        """
+        self._check_size(payload_bytes)
         self.stats.submitted += 1
-        self._drop(reason)
+        self.stats.submitted_bytes += payload_bytes
+        return self._drop(reason)
+
+    def uptime_fraction(self, duration_s: float) -> float:
+        """Share of [0, duration_s] the link was up (outage windows and random failures)."""
+        return self._outages.uptime_fraction(duration_s)
+
+    def _check_size(self, payload_bytes: int) -> None:
+        if payload_bytes > self.params.max_datagram_bytes:
+            raise DatagramTooLargeError(
+                f"datagram of {payload_bytes} B exceeds the {self.params.kind} link's limit of "
+                f"{self.params.max_datagram_bytes} B"
+            )
 
     def _drop(self, reason: Drop) -> tuple[None, Drop]:
         dropped = self.stats.dropped

@@ -211,11 +211,16 @@ class LinkParams:
     range_m: float = math.inf
     """Distance at which half the datagrams are lost to range (WiFi, radios); inf: no limit."""
     range_width_m: float = 1.0
-    """Width of the range edge: loss = 1 / (1 + exp((range_m - d) / range_width_m))."""
+    """Half-width of the range edge: no range loss within ``range_m - range_width_m``, all lost
+    beyond ``range_m + range_width_m``, a raised-cosine ramp between (half lost at range_m)."""
 
     def __post_init__(self) -> None:
         _check(isinstance(self.kind, str) and self.kind != "", "kind", "must be a name")
-        _check(_finite(self.rate_bps) and self.rate_bps > 0, "rate_bps", "must be > 0")
+        _check(
+            _finite(self.rate_bps) and self.rate_bps > 0,
+            "rate_bps",
+            f"must be a number > 0, got {self.rate_bps!r}",
+        )
         _check(self.bits_per_byte in (8, 9, 10, 11, 12), "bits_per_byte", "must be 8..12")
         _check(
             isinstance(self.overhead_bytes, int) and self.overhead_bytes >= 0,
@@ -251,13 +256,16 @@ class LinkParams:
         return self.wire_bytes(payload_bytes) * self.bits_per_byte / self.rate_bps
 
     def range_loss(self, distance_m: float) -> float:
-        """Probability of losing a datagram to distance alone (logistic edge at ``range_m``)."""
-        if self.range_m == math.inf:
+        """Probability of losing a datagram to distance alone (raised-cosine edge at ``range_m``).
+
+        Exactly 0 well inside the range, so the loss model's figures hold there unchanged.
+        """
+        x = (distance_m - self.range_m) / self.range_width_m  # -1 .. 1 across the edge
+        if x <= -1.0:
             return 0.0
-        x = (distance_m - self.range_m) / self.range_width_m
-        if x > 40.0:
+        if x >= 1.0:
             return 1.0
-        return 1.0 / (1.0 + math.exp(-x))
+        return 0.5 * (1.0 + math.sin(0.5 * math.pi * x))
 
 
 _SECTIONS: dict[str, type] = {
