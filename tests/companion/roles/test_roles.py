@@ -1,0 +1,81 @@
+"""The edge, fog and cloud role programs exchange their traffic over real UDP."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from companion.net import NetConfig, NetConfigError
+from companion.roles.cluster import clusters, coordinator_of, nodes_with_role
+
+NET = {
+    "nodes": {
+        "cloud": {"role": "cloud", "address": "127.0.0.1:46610"},
+        "fog1": {"role": "fog", "address": "127.0.0.1:46611", "groups": ["c1"]},
+        "edge1": {"role": "edge", "address": "127.0.0.1:46612", "groups": ["c1"]},
+        "edge2": {"role": "edge", "address": "127.0.0.1:46613", "groups": ["c1"]},
+        "edge3": {"role": "edge", "address": "127.0.0.1:46614"},
+    }
+}
+
+
+def test_clusters_follow_shared_groups():
+    """An edge belongs to the fog it shares a group with; an edge without one has no fog."""
+    config = NetConfig.from_dict(NET)
+    assert clusters(config) == {"fog1": ["edge1", "edge2"]}
+    assert coordinator_of(config, "edge2") == "fog1"
+    assert coordinator_of(config, "edge3") is None
+    assert nodes_with_role(config, "edge") == ["edge1", "edge2", "edge3"]
+
+
+def test_a_fog_with_too_many_edges_is_refused():
+    """Seed 000 caps a cluster at 9 edge agents; a tenth is a configuration error."""
+    nodes = {"fog1": {"role": "fog", "address": "127.0.0.1:46620", "groups": ["c"]}}
+    for k in range(10):
+        nodes[f"e{k}"] = {"role": "edge", "address": f"127.0.0.1:{46621 + k}", "groups": ["c"]}
+    with pytest.raises(ValueError, match=r"nodes\.fog1\.groups"):
+        clusters(NetConfig.from_dict({"nodes": nodes}))
+    with pytest.raises(NetConfigError):
+        NetConfig.from_dict({"nodes": {"x": {"role": "satellite", "address": "1.2.3.4:5"}}})
+
+
+def test_roles_exchange_their_traffic(tmp_path):
+    """Every role runs as its own process: joins, registration, images and summaries arrive."""
+    net = dict(NET)
+    net["nodes"] = {k: v for k, v in NET["nodes"].items() if k != "edge3"}
+    path = tmp_path / "net.yaml"
+    path.write_text(json.dumps(net))  # JSON is YAML
+    env = os.environ | {
+        "SWARMSITL_NET": str(path),
+        "SWARMSITL_SPEED": "10",
+        "SWARMSITL_NET_RECORDS": str(tmp_path / "records"),
+    }
+    procs = {
+        node: subprocess.Popen(
+            [sys.executable, "-m", "companion.roles", "--duration-s", "12"],
+            env=env | {"SWARMSITL_NODE": node},
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        for node in net["nodes"]
+    }
+    out = {}
+    for node, proc in procs.items():
+        stdout, _ = proc.communicate(timeout=60)
+        assert proc.returncode == 0, stdout
+        out[node] = json.loads(stdout.strip().splitlines()[-1])["counts"]
+    assert out["cloud"]["registrations"] == 1
+    assert out["cloud"]["clusters"] == {"fog1": ["edge1", "edge2"]}
+    assert out["fog1"]["registered"] == 1 and out["fog1"]["joins"] == 2
+    assert out["fog1"]["summaries_acked"] >= 2
+    sent_images = out["edge1"]["images"] + out["edge2"]["images"]
+    assert sent_images >= 4 and out["fog1"]["images"] == sent_images  # loopback loses nothing
+    assert out["fog1"]["image_bytes"] == 12_000 * sent_images
+    assert out["edge1"]["pings_answered"] >= 3
+    records = json.loads((tmp_path / "records" / "fog1.json").read_text())
+    assert records["peers"]["cloud"]["link_class"] == "fog-cloud"
+    assert {t["name"] for t in records["tasks"]} >= {"T_conn", "T_report"}
