@@ -33,3 +33,13 @@ def test_now_is_scaled_monotonic_time(monkeypatch):
     monkeypatch.setenv("SWARMSITL_SPEED", "3")
     monkeypatch.setattr(clock.time, "monotonic", lambda: 100.0)
     assert clock.now_s() == pytest.approx(300.0)
+
+
+def test_now_counts_from_the_simulation_origin(monkeypatch):
+    """With SWARMSITL_CLOCK_ORIGIN the clock reads simulated time since the paced start."""
+    monkeypatch.setenv("SWARMSITL_SPEED", "4")
+    monkeypatch.setenv("SWARMSITL_CLOCK_ORIGIN", "90.0")
+    monkeypatch.setattr(clock.time, "monotonic", lambda: 100.0)
+    assert clock.now_s() == pytest.approx(40.0)
+    monkeypatch.setenv("SWARMSITL_CLOCK_ORIGIN", "garbage")
+    assert clock.now_s() == pytest.approx(400.0)
