@@ -18,7 +18,8 @@ Every frame goes to the configured peers and to every address MAVLink has been r
 PX4 does. Frames for or from the vehicle's other components (a camera) are relayed between its
 links (:mod:`autopilot_emu.mavlink.forwarding`). Malformed input is counted in
 :attr:`MavlinkEndpoint.stats` and logged, never raised; errors while sending are counted and
-otherwise ignored.
+otherwise ignored. With a :class:`~autopilot_emu.mavlink.shaping.LinkShaper` in the config, both
+directions are held until the modelled link (a UART, a radio) delivers them.
 """
 
 from __future__ import annotations

@@ -40,6 +40,10 @@ Submit = Callable[[float, str, str, int], tuple[float | None, Drop | None]]
 
 OVERSIZE = "oversize"
 """Drop reason of a datagram above the link's size limit."""
+SELF = "self"
+"""Drop reason of a datagram a node sent to its own proxy port."""
+REFUSED = "refused"
+"""Drop reason of a datagram the network refused (it does not know the node)."""
 MAX_DATAGRAM_BYTES = 65535
 MAX_READS_PER_SOCKET = 256
 """Datagrams read from one proxy socket per poll; the rest wait for the next poll."""
@@ -82,7 +86,8 @@ class PairStats:
     """Sent on to the destination at their arrival time."""
     forwarded_bytes: int = 0
     dropped: dict[str, int] = field(default_factory=dict)
-    """Dropped by reason: the network's (``loss``, ``queue``, ``range``, ...) or ``oversize``."""
+    """Dropped by reason: the network's (``loss``, ``queue``, ``range``, ...), or the router's
+    (``oversize``, ``self``, ``refused``)."""
     send_errors: int = 0
     """Failed ``sendto`` towards the destination (nobody listening there)."""
 
@@ -143,7 +148,7 @@ class LinkRouter:
         self._fd_node: dict[int, str] = {}
         self._readiness = select.poll()
         self._queue = DeliveryQueue()
-        self._oversize_logged: set[tuple[str, str]] = set()
+        self._refusals_logged: set[tuple[str, str, str]] = set()
         try:
             for node in self.nodes:
                 sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -219,19 +224,30 @@ class LinkRouter:
             pair = self.stats.pair(src, dst)
             pair.received += 1
             pair.received_bytes += len(data)
+            if src == dst:
+                self._refuse(pair, src, dst, SELF, "a node sent to its own proxy port")
+                continue
             try:
                 arrival, reason = self._submit(now_s, src, dst, len(data))
             except DatagramTooLargeError as exc:
-                pair.dropped[OVERSIZE] = pair.dropped.get(OVERSIZE, 0) + 1
-                level = logging.DEBUG if (src, dst) in self._oversize_logged else logging.WARNING
-                self._oversize_logged.add((src, dst))
-                log.log(level, "router: %s -> %s dropped: %s", src, dst, exc)
+                self._refuse(pair, src, dst, OVERSIZE, str(exc))
+                continue
+            except ValueError as exc:  # the network does not know a node
+                self._refuse(pair, src, dst, REFUSED, str(exc))
                 continue
             if arrival is None:
                 key = reason.value if reason is not None else "unknown"
                 pair.dropped[key] = pair.dropped.get(key, 0) + 1
                 continue
             self._queue.push(arrival, (src, dst, data))
+
+    def _refuse(self, pair: PairStats, src: str, dst: str, reason: str, why: str) -> None:
+        """Count a datagram dropped before the network; log the first one of each kind."""
+        pair.dropped[reason] = pair.dropped.get(reason, 0) + 1
+        key = (src, dst, reason)
+        level = logging.DEBUG if key in self._refusals_logged else logging.WARNING
+        self._refusals_logged.add(key)
+        log.log(level, "router: %s -> %s dropped (%s): %s", src, dst, reason, why)
 
     def _forward(self, src: str, dst: str, data: bytes) -> None:
         pair = self.stats.pair(src, dst)

@@ -14,7 +14,14 @@ import time
 
 import pytest
 
-from sitl.devices.link_router import OVERSIZE, LinkRouter, RouterNode, RouterThread
+from sitl.devices.link_router import (
+    OVERSIZE,
+    REFUSED,
+    SELF,
+    LinkRouter,
+    RouterNode,
+    RouterThread,
+)
 from sitl.links.channel import DatagramTooLargeError, Drop
 
 DELAY_S = {
@@ -36,6 +43,8 @@ class StandInNetwork:
 
     def submit(self, now_s: float, src: str, dst: str, size: int):
         self.submitted.append((now_s, src, dst, size))
+        if "z" in (src, dst):
+            raise ValueError("unknown node 'z'")
         if size > LIMIT_BYTES:
             raise DatagramTooLargeError(f"{size} B exceeds {LIMIT_BYTES} B")
         if (src, dst) == ("b", "a"):
@@ -189,6 +198,28 @@ def test_unknown_senders_and_oversize_datagrams_are_counted_and_dropped(net):
     assert [len(d) for d, _ in nodes["a"].inbox] == [LIMIT_BYTES]
     assert router.stats.unknown_senders == {"a": 1}
     assert router.stats.pairs[("c", "a")].dropped == {OVERSIZE: 1}
+
+
+def test_what_the_network_refuses_or_a_node_sends_itself_is_counted_not_raised():
+    """A node the network does not know (ValueError) and a self-send are dropped and counted."""
+    nodes = {name: Node(name) for name in "az"}
+    router = LinkRouter(
+        StandInNetwork().submit,
+        [RouterNode(n.node_id, "edge", n.address, 0) for n in nodes.values()],
+    )
+    try:
+        send(nodes, router, "a", "z", b"to a stranger")
+        send(nodes, router, "a", "a", b"to myself")
+        settle(router, 2, 0.0)
+        router.poll(1.0)
+        nodes["z"].receive(0.1)
+    finally:
+        router.close()
+        for n in nodes.values():
+            n.sock.close()
+    assert nodes["z"].inbox == []
+    assert router.stats.pairs[("a", "z")].dropped == {REFUSED: 1}
+    assert router.stats.pairs[("a", "a")].dropped == {SELF: 1}
 
 
 def test_duplicate_nodes_and_taken_ports_are_refused():
