@@ -13,8 +13,10 @@ import socket
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common as mavlink2
+from typer.testing import CliRunner
 
 from autopilot_emu.mavlink.streams import StreamProfile
+from harness.cli import app
 from harness.link_options import (
     LINK_MODELS,
     link_rng,
@@ -207,3 +209,12 @@ def test_the_router_holds_datagrams_for_their_simulated_delay():
     assert (data, source) == (b"hello fog", edge_route)
     assert 0.1 - 0.004 <= got_s - sent_s <= 0.1 + 0.008
     assert positions and positions[0][1] == (1, 3)
+
+
+@pytest.mark.parametrize("option", ["--link", "--gcs-link"])
+def test_an_unknown_link_model_on_the_command_line_is_refused_naming_the_option(option):
+    """``--link pigeon`` exits with a usage error naming the option and the known models."""
+    result = CliRunner().invoke(app, ["up", option, "pigeon", "--duration", "1"])
+    assert result.exit_code == 2
+    assert option in result.output
+    assert "uart" in result.output
