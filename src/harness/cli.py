@@ -20,6 +20,7 @@ from rich.table import Table
 
 from autopilot_emu.mavlink.endpoint import PortInUseError
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
+from harness.link_options import LINK_MODELS, NO_LINK, check_link_model, describe
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from harness.wind_options import (
     GUSTS_HELP,
@@ -159,6 +160,29 @@ def parse_frames(spec: str, n_vehicles: int) -> tuple[str, ...]:
     return names
 
 
+def parse_link_model(name: str, option: str) -> str:
+    """A ``--link`` / ``--gcs-link`` value, checked against the link models."""
+    try:
+        return check_link_model(name.strip().lower(), option)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc), param_hint=option) from exc
+
+
+def print_link_loads(sim: Simulation) -> None:
+    """One line per modelled MAVLink link: frames, drops by reason, load."""
+    elapsed = max(sim.time_s, 1e-9)
+    for (i, path), shaper in sorted(sim.shapers.items()):
+        stats = shaper.stats
+        parts = []
+        for label, d in (("to vehicle", stats.to_vehicle), ("from vehicle", stats.from_vehicle)):
+            drops = ", ".join(f"{k} {v}" for k, v in sorted(d.dropped.items())) or "none"
+            parts.append(
+                f"{label}: {d.frames} frames, {d.bytes / elapsed:.0f} B/s, "
+                f"load {100 * d.airtime_s / elapsed:.0f} %, dropped {drops}"
+            )
+        console.print(f"{path} link of vehicle {i + 1} ({stats.kind}): " + "; ".join(parts))
+
+
 def parse_gps_outages(specs: list[str]) -> tuple[GpsOutageWindow, ...]:
     """``START:END[:SYSID]`` options (simulated seconds, MAVLink system id) -> outage windows."""
     windows = []
@@ -287,6 +311,23 @@ def up(
             "14280); 0: the OS picks"
         ),
     ] = 14280,
+    link: Annotated[
+        str,
+        typer.Option(
+            metavar="|".join(LINK_MODELS),
+            help="link model of the companion <-> autopilot (onboard) path: frames are delayed, "
+            "throttled and dropped as over it (e.g. --link uart: 921600 baud, 92160 B/s); "
+            "none: plain UDP (docs/links.md)",
+        ),
+    ] = NO_LINK,
+    gcs_link: Annotated[
+        str,
+        typer.Option(
+            metavar="|".join(LINK_MODELS),
+            help="link model of the ground-station path (e.g. --gcs-link sik: a 57600-baud "
+            "telemetry radio); none: plain UDP",
+        ),
+    ] = NO_LINK,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -314,8 +355,12 @@ def up(
     Example:  swarmsitl up --vehicles 10 --no-rangefinders   (no DISTANCE_SENSOR, no ray casts)
     Example:  swarmsitl up --camera-mount forward --camera-size 640x480 --camera-hz 5
     (OpenCV reads vehicle 1's camera: cv2.VideoCapture("http://127.0.0.1:5600/video.mjpg"))
+
+    Example:  swarmsitl up --link uart --gcs-link sik   (MAVLink as over TELEM2 and a radio)
     """
     frames = parse_frames(frame, vehicles)
+    link = parse_link_model(link, "--link")
+    gcs_link = parse_link_model(gcs_link, "--gcs-link")
     physics_hz = SimulationConfig().physics_hz
     if camera_mount is not None and camera_mount not in MOUNT_PITCH_DEG:
         raise typer.BadParameter(
@@ -363,6 +408,8 @@ def up(
             ),
         },
         mocap_port=mocap_port,
+        onboard_link=link,
+        gcs_link=gcs_link,
     )
     sim = _open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
@@ -372,6 +419,7 @@ def up(
         "onboard link",
         "MAVSDK connects with",
         "GCS link",
+        "link models (onboard / GCS)",
         "home lat, lon, alt",
     )
     for col in columns:
@@ -389,6 +437,7 @@ def up(
             f"{bind}:{ports.listen_port(i)} -> {ports.peer_addr}:{ports.sdk_port(i)}",
             f"udpin://0.0.0.0:{ports.sdk_port(i)}",
             gcs,
+            f"{describe(link)} / {describe(gcs_link) if ports.gcs_port else '-'}",
             f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
         )
     console.print(table)
@@ -451,6 +500,7 @@ def up(
         for s, h in old.items():
             signal.signal(s, h)
     wall = max(time.monotonic() - t_start, 1e-9)
+    print_link_loads(sim)
     console.print(
         f"stopped at t = {sim.time_s:.1f} s simulated ({sim.time_s / wall:.2f}x real time "
         f"achieved, {speed:g}x asked); tlogs in {run_dir}"

@@ -19,16 +19,21 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from autopilot_emu.fleet import AutopilotFleet, FleetConfig
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from autopilot_emu.params import ParamStore
 from autopilot_emu.rangefinder import ROTATION_DOWNWARD
+from harness.link_options import GCS, NO_LINK, ONBOARD, check_link_model, mavlink_shaper
 from harness.mocap_publisher import MocapPublisher
 from harness.recorder import FlightRecorder
 from sitl.devices.camera_manager import CameraManager, CameraProtocol, JpegStore
+from sitl.devices.link_router import LinkRouter
 from sitl.devices.mjpeg_server import MjpegServer
+from sitl.links.shaper import MavlinkLinkShaper
 from sitl.physics.wind import WindConfig
 from sitl.sensors.camera import CameraFrame, CameraSpec
 from sitl.vehicles.multirotor import MultirotorSpec
@@ -37,6 +42,8 @@ from sitl.world import World, WorldConfig
 log = logging.getLogger(__name__)
 
 _PAYLOAD = "-payload"
+POSITION_HOOK_HZ = 10.0
+"""Rate of the ``Simulation.on_positions`` hooks, Hz of simulation time."""
 PAYLOAD_STREAM_RATES_HZ: dict[str, float] = {
     **dict.fromkeys(STREAMABLE, 0.0),
     "HEARTBEAT": 1.0,
@@ -160,8 +167,18 @@ class SimulationConfig:
     """Overrides of the stream profiles' default rates per link kind, e.g.
     {StreamProfile.ONBOARD: {"ATTITUDE": 20.0}}; 0 Hz switches a stream off. Fewer messages
     make large swarms faster (PX4: ``mavlink stream -r``)."""
+    onboard_link: str = NO_LINK
+    """Link model of every companion <-> autopilot (onboard) link: a name of
+    ``harness.link_options.LINK_MODELS`` (``uart``: 921600 baud); ``none``: plain UDP."""
+    gcs_link: str = NO_LINK
+    """Link model of every ground-station link (``sik``: a 57600-baud telemetry radio)."""
+    router: LinkRouter | Callable[[], LinkRouter] | None = None
+    """The paced UDP router of node messaging, or a factory of it, polled with the MAVLink
+    links on the simulation clock (the simulation closes it); None: no router."""
 
     def __post_init__(self) -> None:
+        check_link_model(self.onboard_link, "onboard_link")
+        check_link_model(self.gcs_link, "gcs_link")
         if self.n_vehicles < 1:
             raise ValueError(f"n_vehicles must be >= 1, got {self.n_vehicles}")
         if isinstance(self.frames, str) or len(self.frames) not in (1, self.n_vehicles):
@@ -240,6 +257,11 @@ class Simulation:
             p.set("MAV_SYS_ID", i + 1)
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
+        self.shapers: dict[tuple[int, str], MavlinkLinkShaper] = {}
+        """The modelled MAVLink links by (vehicle index, ``onboard`` or ``gcs``)."""
+        self.router: LinkRouter | None = None
+        self._position_hooks: list[Callable[[float, np.ndarray], None]] = []
+        self._next_positions_s = 0.0
         self._payload_links: list[MavlinkEndpoint | None] = [None] * n
         """Every MAVLink link: vehicle 0's onboard link, its GCS link (if any), vehicle 1's ..."""
         self.ftp_roots: list[Path] = []
@@ -277,6 +299,12 @@ class Simulation:
         except BaseException:
             self.close()
             raise
+        try:
+            router = config.router
+            self.router = router if router is None or isinstance(router, LinkRouter) else router()
+        except BaseException:
+            self.close()
+            raise
         self._readiness = select.poll()
         self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
         self._camera_fds = [(c, c.fileno()) for c in self.camera_managers if c is not None]
@@ -298,6 +326,7 @@ class Simulation:
         hub = LinkHub(vehicle)
         ftp_root = self._ftp_root(i)
         plan = [(StreamProfile.ONBOARD, ports.listen_port(i), ports.onboard_peers(i), "")]
+        models = {"": (ONBOARD, self.config.onboard_link), "-gcs": (GCS, self.config.gcs_link)}
         if ports.gcs_port:
             plan.append((StreamProfile.NORMAL, ports.gcs_listen_port(i), ports.gcs_peers(), "-gcs"))
         if ports.payload_base and self.world.camera_specs[i] is not None:
@@ -306,6 +335,12 @@ class Simulation:
         try:
             for profile, listen_port, peers, suffix in plan:
                 payload = suffix == _PAYLOAD
+                path, model = models.get(suffix, (None, NO_LINK))
+                shaper = (
+                    mavlink_shaper(model, self.config.seed, i, path) if path is not None else None
+                )
+                if shaper is not None:
+                    self.shapers[(i, "onboard" if path == ONBOARD else "gcs")] = shaper
                 config = EndpointConfig(
                     sysid=i + 1,
                     compid=1,
@@ -327,6 +362,7 @@ class Simulation:
                         if payload
                         else self.config.stream_rates_hz.get(profile, {})
                     ),
+                    shaper=shaper,
                 )
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
                 if payload:
@@ -446,7 +482,7 @@ class Simulation:
         if ranges is not None:
             self.fleet.handle_distance_sensors(ranges)
         self._step_count += 1
-        if self.endpoints and self._step_count % self._poll_every == 0:
+        if (self.endpoints or self.router) and self._step_count % self._poll_every == 0:
             self._poll_links(self.world.time_s)
         if self.recorder is not None:
             self.recorder.maybe_record()
@@ -458,6 +494,21 @@ class Simulation:
             ep.poll(now_s, fd in ready)
         for camera, fd in self._camera_fds:
             camera.poll(now_s, fd in ready)
+        if self.router is not None:
+            if self._position_hooks and now_s >= self._next_positions_s:
+                self._next_positions_s = now_s + 1.0 / POSITION_HOOK_HZ
+                positions = self.world.truth.position_enu_m
+                for hook in self._position_hooks:
+                    hook(now_s, positions)
+            self.router.poll(now_s)
+
+    def on_positions(self, hook: Callable[[float, np.ndarray], None]) -> None:
+        """Call ``hook(now_s, position_enu_m)`` before router polls, at POSITION_HOOK_HZ.
+
+        Where a link network learns the vehicles' positions ((N, 3) ENU, m) for range and
+        coverage; called only while a router runs.
+        """
+        self._position_hooks.append(hook)
 
     def _step_timed(self) -> None:
         """``step`` with the wall time of each phase added to ``phase_seconds``."""
@@ -486,7 +537,7 @@ class Simulation:
             self.fleet.handle_distance_sensors(ranges)
         t3 = clock()
         self._step_count += 1
-        if self.endpoints and self._step_count % self._poll_every == 0:
+        if (self.endpoints or self.router) and self._step_count % self._poll_every == 0:
             self._poll_links(self.world.time_s)
         t4 = clock()
         if self.recorder is not None:
@@ -554,6 +605,8 @@ class Simulation:
                 ep.close()
             except OSError as exc:
                 log.warning("closing endpoint failed: %s", exc)
+        if getattr(self, "router", None) is not None:
+            self.router.close()
         if getattr(self, "mocap", None) is not None:
             self.mocap.close()
         for server in getattr(self, "video_servers", []):

@@ -18,7 +18,8 @@ Every frame goes to the configured peers and to every address MAVLink has been r
 PX4 does. Frames for or from the vehicle's other components (a camera) are relayed between its
 links (:mod:`autopilot_emu.mavlink.forwarding`). Malformed input is counted in
 :attr:`MavlinkEndpoint.stats` and logged, never raised; errors while sending are counted and
-otherwise ignored.
+otherwise ignored. With a :class:`~autopilot_emu.mavlink.shaping.LinkShaper` in the config, both
+directions are held until the modelled link (a UART, a radio) delivers them.
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ from autopilot_emu.mavlink.setpoints import (
     decode_global,
     decode_local,
 )
+from autopilot_emu.mavlink.shaping import LinkShaper
 from autopilot_emu.mavlink.streams import StreamProfile, StreamScheduler, profile_streams
 from autopilot_emu.mavlink.tlog import TlogWriter
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
@@ -136,6 +138,10 @@ class EndpointConfig:
     forwarding: bool = True
     """Relay frames for and from the vehicle's other components to and from its other links
     with forwarding on (PX4's ``mavlink start -f``, on for every PX4 SITL link)."""
+    shaper: LinkShaper | None = None
+    """The modelled link (UART, radio) this endpoint's traffic crosses: every frame sent and
+    every datagram received is held until the shaper says it arrived (see
+    :mod:`autopilot_emu.mavlink.shaping`); None: sent and handled at once."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255 or not 1 <= self.compid <= 255:
@@ -343,6 +349,11 @@ class MavlinkEndpoint:
         return (host, port)
 
     @property
+    def shaper(self) -> LinkShaper | None:
+        """The modelled link this endpoint's traffic crosses (None: none)."""
+        return self._config.shaper
+
+    @property
     def peers(self) -> tuple[tuple[str, int], ...]:
         """Addresses frames are sent to: configured peers, then learned ones."""
         return tuple(self._peers)
@@ -399,12 +410,22 @@ class MavlinkEndpoint:
                 self.stats.recv_errors += 1
                 logger.debug("recvfrom failed: %s", exc)
                 break
-            self._on_datagram(data, address)
+            if self._config.shaper is None:
+                self._on_datagram(data, address)
+            else:
+                self._config.shaper.inbound(now_s, data, address)
+        shaper = self._config.shaper
+        if shaper is not None and shaper.next_due_s <= now_s:
+            for data, address in shaper.due_inbound(now_s):
+                self._on_datagram(data, address)
         if self._ftp is not None and self._ftp.busy:
             self._ftp.tick()
         if now_s >= self._next_work_s or now_s < self._last_poll_s:
             self._work(now_s)
         self._last_poll_s = now_s
+        if shaper is not None and shaper.next_due_s <= now_s:
+            for frame in shaper.due_outbound(now_s):
+                self._sendto_peers(frame)
 
     def _work(self, now_s: float) -> None:
         """Periodic part of poll: streams, status texts, parameter list, tlog flush."""
@@ -469,7 +490,15 @@ class MavlinkEndpoint:
         self._transmit(frame)
 
     def _transmit(self, frame: bytes) -> None:
-        """Send an encoded frame to every peer and log it."""
+        """Send an encoded frame to every peer (through the shaper, if any) and log it."""
+        if self._config.shaper is None:
+            self._sendto_peers(frame)
+        else:
+            self._config.shaper.outbound(self._now_s, frame)
+        if self._tlog is not None:
+            self._tlog.write(self._now_s, frame)
+
+    def _sendto_peers(self, frame: bytes) -> None:
         sock = self._sock
         if sock is not None:
             for peer in self._peers:
@@ -477,8 +506,6 @@ class MavlinkEndpoint:
                     sock.sendto(frame, peer)
                 except OSError:
                     self.stats.send_errors += 1
-        if self._tlog is not None:
-            self._tlog.write(self._now_s, frame)
 
     def _send_component_command(self, command: ComponentCommand) -> None:
         """Send a COMMAND_LONG from the autopilot to another component of its system.

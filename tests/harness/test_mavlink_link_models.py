@@ -1,0 +1,220 @@
+"""MAVLink behind a link model and the node router inside the simulation (lockstep, real UDP).
+
+``onboard_link="uart"`` puts the companion path behind the 921600-baud UART model: a command's
+ACK comes back no sooner than its bytes took to cross twice, the vehicle's telemetry never
+exceeds the UART's 92160 B/s, and the world's random draws are untouched. The node router runs
+on the simulation clock: a datagram is held for its modelled delay in simulated seconds.
+"""
+
+from __future__ import annotations
+
+import socket
+
+import numpy as np
+import pytest
+from pymavlink.dialects.v20 import common as mavlink2
+from typer.testing import CliRunner
+
+from autopilot_emu.mavlink.streams import StreamProfile
+from harness.cli import app
+from harness.link_options import (
+    LINK_MODELS,
+    link_rng,
+    mavlink_channels,
+    mavlink_shaper,
+    uart_params,
+)
+from harness.simulation import PortPlan, Simulation, SimulationConfig
+from sitl.devices.link_router import LinkRouter, RouterNode
+
+UART_BYTES_PER_S = 921_600 / 10
+
+
+class Peer:
+    """A raw MAVLink client socket standing where MAVSDK listens (14540+i)."""
+
+    def __init__(self) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.setblocking(False)
+        self.port = self.sock.getsockname()[1]
+        self.mav = mavlink2.MAVLink(None, 245, 190)
+        self.mav.robust_parsing = True
+        self.bytes = 0
+
+    def drain(self) -> list:
+        out = []
+        while True:
+            try:
+                data = self.sock.recv(65535)
+            except BlockingIOError:
+                return out
+            self.bytes += len(data)
+            out += [m for m in self.mav.parse_buffer(data) or [] if m.get_type() != "BAD_DATA"]
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+def config(peer_port: int, **changes) -> SimulationConfig:
+    ports = PortPlan(sdk_base=peer_port, listen_base=0, gcs_port=0, payload_base=0, video_base=0)
+    return SimulationConfig(ports=ports, record_hz=0, mocap_port=0, **changes)
+
+
+def test_unknown_link_models_are_refused_naming_the_field():
+    """onboard_link / gcs_link must be one of LINK_MODELS; the error names the field."""
+    with pytest.raises(ValueError, match="onboard_link"):
+        SimulationConfig(onboard_link="carrier-pigeon")
+    with pytest.raises(ValueError, match="gcs_link"):
+        SimulationConfig(gcs_link="UART ")
+    for name in LINK_MODELS:
+        SimulationConfig(onboard_link=name, gcs_link=name)
+    assert mavlink_shaper("none", 0, 0, 0) is None
+
+
+def test_each_vehicle_and_direction_draws_from_its_own_generator():
+    """Same (seed, path, vehicle, direction): same stream; any change: another stream."""
+    first = link_rng(3, 0, 1, 0).random(4)
+    assert np.array_equal(first, link_rng(3, 0, 1, 0).random(4))
+    for other in (link_rng(4, 0, 1, 0), link_rng(3, 1, 1, 0), link_rng(3, 0, 2, 0),
+                  link_rng(3, 0, 1, 1), np.random.default_rng(3)):  # fmt: skip
+        assert not np.array_equal(first, other.random(4))
+    to_vehicle, from_vehicle = mavlink_channels("uart", 3, 0, 0)
+    assert to_vehicle.params == from_vehicle.params == uart_params()
+
+
+def test_a_command_over_the_uart_is_acked_after_two_crossings_within_the_budget():
+    """COMMAND_LONG -> ACK through the UART model, no sooner than two crossings take."""
+    peer = Peer()
+    try:
+        with Simulation(config(peer.port, onboard_link="uart")) as sim:
+            sim.run_lockstep(1.0)
+            peer.drain()
+            endpoint = sim.endpoints[0]
+            shaper = sim.shapers[(0, "onboard")]
+            assert endpoint.shaper is shaper
+            request = mavlink2.MAVLink_command_long_message(
+                1, 1, mavlink2.MAV_CMD_REQUEST_MESSAGE, 0,
+                mavlink2.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0,
+            )  # fmt: skip
+            frame = bytes(request.pack(peer.mav))
+            peer.sock.sendto(frame, endpoint.local_address)
+            sent_s = sim.time_s
+            ack_s = None
+            while ack_s is None and sim.time_s < sent_s + 1.0:
+                sim.run_lockstep(0.002)
+                for m in peer.drain():
+                    if m.get_type() == "COMMAND_ACK" and ack_s is None:
+                        ack_s = sim.time_s
+            stats = shaper.stats
+    finally:
+        peer.close()
+    assert ack_s is not None, "no COMMAND_ACK through the UART model"
+    ack_bytes = 10 + 3 + 12  # MAVLink 2 header + COMMAND_ACK payload (trimmed) + CRC, at least
+    assert ack_s - sent_s >= (len(frame) + ack_bytes) * 10 / 921_600
+    assert stats.to_vehicle.delivered >= 1
+    assert stats.from_vehicle.frames > 100
+    assert stats.from_vehicle.dropped == {}
+
+
+FAST = {
+    name: 250.0
+    for name in ("ATTITUDE", "ATTITUDE_QUATERNION", "HIGHRES_IMU", "LOCAL_POSITION_NED",
+                 "GLOBAL_POSITION_INT", "ODOMETRY", "VFR_HUD")
+}  # fmt: skip
+"""Streams at the poll rate: about 1.4 times what a 921600-baud UART carries."""
+
+
+def test_telemetry_beyond_the_uart_budget_is_throttled_to_it_and_dropped():
+    """Offered > 1.2 x 92160 B/s, the peer receives 92160 B/s (+-3 %); the excess is dropped."""
+    peer = Peer()
+    try:
+        cfg = config(peer.port, onboard_link="uart", stream_rates_hz={StreamProfile.ONBOARD: FAST})
+        with Simulation(cfg) as sim:
+            sim.run_lockstep(0.5)
+            peer.drain()
+            before, t0 = peer.bytes, sim.time_s
+            while sim.time_s < t0 + 2.0:
+                sim.run_lockstep(0.02)
+                peer.drain()
+            rate = (peer.bytes - before) / (sim.time_s - t0)
+            stats = sim.shapers[(0, "onboard")].stats.from_vehicle
+    finally:
+        peer.close()
+    offered = stats.bytes / sim.time_s
+    assert offered > 1.2 * UART_BYTES_PER_S, offered
+    assert rate == pytest.approx(UART_BYTES_PER_S, rel=0.03)
+    assert stats.dropped.get("queue", 0) > 0
+
+
+def test_the_link_model_leaves_the_world_untouched():
+    """With or without the UART model, the flight's ground truth is bit-identical."""
+    truths = []
+    for link in ("none", "uart"):
+        peer = Peer()
+        try:
+            with Simulation(config(peer.port, onboard_link=link, seed=5)) as sim:
+                sim.run_lockstep(0.5)
+                truths.append(sim.world.truth.position_enu_m.copy())
+        finally:
+            peer.close()
+    assert np.array_equal(truths[0], truths[1])
+
+
+class FixedDelay:
+    """A link network stand-in: every datagram arrives 0.1 simulated seconds later."""
+
+    def submit(self, now_s: float, src: str, dst: str, size: int):
+        return now_s + 0.1, None
+
+
+def test_the_router_holds_datagrams_for_their_simulated_delay():
+    """A datagram sent at t is delivered at the first link poll at or after t + 0.1 s."""
+    socks = {}
+    for name in ("edge1", "fog1"):
+        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        s.bind(("127.0.0.1", 0))
+        s.setblocking(False)
+        socks[name] = s
+    nodes = [RouterNode(n, n[:-1], s.getsockname(), 0) for n, s in socks.items()]
+    positions = []
+    try:
+        cfg = SimulationConfig(
+            mavlink=False,
+            record_hz=0,
+            mocap_port=0,
+            router=lambda: LinkRouter(FixedDelay().submit, nodes),
+        )
+        with Simulation(cfg) as sim:
+            sim.on_positions(lambda now_s, p: positions.append((now_s, p.shape)))
+            router = sim.router
+            edge_route = router.proxy_address("edge1")
+            sim.run_lockstep(0.2)
+            socks["edge1"].sendto(b"hello fog", router.proxy_address("fog1"))
+            sim.run_lockstep(0.004)
+            sent_s = sim.time_s
+            assert router.in_flight == 1
+            got_s = None
+            while got_s is None and sim.time_s < sent_s + 1.0:
+                sim.run_lockstep(0.004)
+                try:
+                    data, source = socks["fog1"].recvfrom(100)
+                except BlockingIOError:
+                    continue
+                got_s = sim.time_s
+    finally:
+        for s in socks.values():
+            s.close()
+    assert (data, source) == (b"hello fog", edge_route)
+    assert 0.1 - 0.004 <= got_s - sent_s <= 0.1 + 0.008
+    assert positions and positions[0][1] == (1, 3)
+
+
+@pytest.mark.parametrize("option", ["--link", "--gcs-link"])
+def test_an_unknown_link_model_on_the_command_line_is_refused_naming_the_option(option):
+    """``--link pigeon`` exits with a usage error naming the option and the known models."""
+    result = CliRunner().invoke(app, ["up", option, "pigeon", "--duration", "1"])
+    assert result.exit_code == 2
+    assert option in result.output
+    assert "uart" in result.output
