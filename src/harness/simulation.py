@@ -27,7 +27,15 @@ from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from autopilot_emu.params import ParamStore
 from autopilot_emu.rangefinder import ROTATION_DOWNWARD
-from harness.link_options import GCS, NO_LINK, ONBOARD, check_link_model, mavlink_shaper
+from harness.link_options import (
+    GCS,
+    NO_LINK,
+    ONBOARD,
+    check_link_model,
+    datarate_bytes_s,
+    links_config,
+    mavlink_shaper,
+)
 from harness.mocap_publisher import MocapPublisher
 from harness.recorder import FlightRecorder
 from sitl.devices.camera_manager import CameraManager, CameraProtocol, JpegStore
@@ -168,17 +176,21 @@ class SimulationConfig:
     {StreamProfile.ONBOARD: {"ATTITUDE": 20.0}}; 0 Hz switches a stream off. Fewer messages
     make large swarms faster (PX4: ``mavlink stream -r``)."""
     onboard_link: str = NO_LINK
-    """Link model of every companion <-> autopilot (onboard) link: a name of
-    ``harness.link_options.LINK_MODELS`` (``uart``: 921600 baud); ``none``: plain UDP."""
+    """Link model of every companion <-> autopilot (onboard) link: a preset of the link file
+    (``uart``: 921600 baud, see ``harness.link_options``); ``none``: plain UDP."""
     gcs_link: str = NO_LINK
     """Link model of every ground-station link (``sik``: a 57600-baud telemetry radio)."""
+    links_file: Path | None = None
+    """The user's link file (presets and classes merged over ``sitl/links/presets.yaml``);
+    None: the shipped presets."""
     router: LinkRouter | Callable[[], LinkRouter] | None = None
     """The paced UDP router of node messaging, or a factory of it, polled with the MAVLink
     links on the simulation clock (the simulation closes it); None: no router."""
 
     def __post_init__(self) -> None:
-        check_link_model(self.onboard_link, "onboard_link")
-        check_link_model(self.gcs_link, "gcs_link")
+        links = links_config(self.links_file)
+        check_link_model(self.onboard_link, "onboard_link", links)
+        check_link_model(self.gcs_link, "gcs_link", links)
         if self.n_vehicles < 1:
             raise ValueError(f"n_vehicles must be >= 1, got {self.n_vehicles}")
         if isinstance(self.frames, str) or len(self.frames) not in (1, self.n_vehicles):
@@ -336,8 +348,11 @@ class Simulation:
             for profile, listen_port, peers, suffix in plan:
                 payload = suffix == _PAYLOAD
                 path, model = models.get(suffix, (None, NO_LINK))
+                links_file = links_config(self.config.links_file)
                 shaper = (
-                    mavlink_shaper(model, self.config.seed, i, path) if path is not None else None
+                    mavlink_shaper(model, self.config.seed, i, path, links_file)
+                    if path is not None
+                    else None
                 )
                 if shaper is not None:
                     self.shapers[(i, "onboard" if path == ONBOARD else "gcs")] = shaper
@@ -363,6 +378,7 @@ class Simulation:
                         else self.config.stream_rates_hz.get(profile, {})
                     ),
                     shaper=shaper,
+                    datarate_bytes_s=datarate_bytes_s(model, links_file),
                 )
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
                 if payload:

@@ -498,6 +498,13 @@ class World:
                 return group.power
         raise IndexError(f"vehicle index {i} out of range 0..{self.n_vehicles - 1}")
 
+    def rotor_power_w(self) -> np.ndarray:
+        """Electrical power of each vehicle's rotors now, W, (N,) in vehicle order (a copy).
+
+        What an energy ledger integrates as propulsion (the payload loads are separate).
+        """
+        return self._power_column(lambda group: group.power.rotor_power_w)
+
     def _power_column(self, get: Callable[[_AirframeGroup], np.ndarray]) -> np.ndarray:
         """One (N,) array in vehicle order from every airframe group (a copy)."""
         if self._single is not None:

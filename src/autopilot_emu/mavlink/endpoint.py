@@ -57,7 +57,12 @@ from autopilot_emu.mavlink.setpoints import (
     decode_local,
 )
 from autopilot_emu.mavlink.shaping import LinkShaper
-from autopilot_emu.mavlink.streams import StreamProfile, StreamScheduler, profile_streams
+from autopilot_emu.mavlink.streams import (
+    STREAMABLE,
+    StreamProfile,
+    StreamScheduler,
+    profile_streams,
+)
 from autopilot_emu.mavlink.tlog import TlogWriter
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
 from autopilot_emu.mavlink.vision import (
@@ -78,6 +83,22 @@ MAX_LEARNED_PEERS = 16
 """Remote addresses remembered from received traffic, beyond the configured peers; when more
 talk to the vehicle, the one heard from least recently is forgotten (it is re-learned as soon as
 it sends again, so every sender always gets its replies)."""
+RATE_MULT_UPDATE_US = 1_000_000
+"""How often a link with a data-rate limit re-fits its streams' rates, simulation us."""
+
+MAVLINK2_NON_PAYLOAD_BYTES = 12
+"""Header (10) and checksum (2) of an unsigned MAVLink 2 frame."""
+
+_STREAM_IDS: tuple[int, ...] = tuple(
+    getattr(mavlink2, f"MAVLINK_MSG_ID_{name}") for name in STREAMABLE
+)
+
+
+def _max_frame_bytes(msg_id: int) -> float:
+    """Bytes of message ``msg_id``'s frame with its full payload (PX4's size before averages)."""
+    return float(mavlink2.mavlink_map[msg_id].unpacker.size + MAVLINK2_NON_PAYLOAD_BYTES)
+
+
 STATUSTEXT_POLL_INTERVAL_US = 20_000
 """How often the vehicle's status-text queue is read, simulation microseconds."""
 TLOG_FLUSH_INTERVAL_US = 1_000_000
@@ -138,6 +159,10 @@ class EndpointConfig:
     forwarding: bool = True
     """Relay frames for and from the vehicle's other components to and from its other links
     with forwarding on (PX4's ``mavlink start -f``, on for every PX4 SITL link)."""
+    datarate_bytes_s: float = 0.0
+    """Data-rate limit of the link, B/s (PX4's ``mavlink start -r``, MAV_x_RATE): the streams'
+    rates are scaled down together so their load fits, as PX4 does on a serial link; 0: no
+    limit (PX4 SITL's UDP links run with a rate far above what the streams need)."""
     shaper: LinkShaper | None = None
     """The modelled link (UART, radio) this endpoint's traffic crosses: every frame sent and
     every datagram received is held until the shaper says it arrived (see
@@ -150,6 +175,8 @@ class EndpointConfig:
             raise ValueError(f"listen_port must be 0..65535, got {self.listen_port}")
         if not self.gps_rate_hz > 0:
             raise ValueError(f"gps_rate_hz must be positive, got {self.gps_rate_hz}")
+        if not self.datarate_bytes_s >= 0:
+            raise ValueError(f"datarate_bytes_s must be >= 0, got {self.datarate_bytes_s}")
         if not self.distance_sensor_rate_hz >= 0:
             raise ValueError(
                 f"distance_sensor_rate_hz must be >= 0, got {self.distance_sensor_rate_hz}"
@@ -306,6 +333,11 @@ class MavlinkEndpoint:
         self._next_statustext_us = 0
         self._next_flush_us = TLOG_FLUSH_INTERVAL_US
         self._replies: list[mavlink2.MAVLink_message] = []
+        self._bytes_out = 0
+        """Bytes of every frame this link sent."""
+        self._emission_bytes: dict[int, float] = {}
+        """Running average of the bytes one emission of each stream took."""
+        self._next_rate_update_us = 0
         self._statustext_id = 0
         self._check_sysid_param()
         self._sock: socket.socket | None = self._bind(config.bind_addr, config.listen_port)
@@ -435,6 +467,9 @@ class MavlinkEndpoint:
             self._streams.restart(now_us)
             self._next_statustext_us = now_us
             self._next_flush_us = now_us
+        if self._config.datarate_bytes_s > 0 and now_us >= self._next_rate_update_us:
+            self._next_rate_update_us = now_us + RATE_MULT_UPDATE_US
+            self._update_rate_mult(now_us)
         for spec in self._streams.pop_due(now_us):
             self._emit(spec.msg_id)
         if now_us >= self._next_statustext_us:
@@ -482,6 +517,7 @@ class MavlinkEndpoint:
             return
         self._seq = (self._seq + 1) & 0xFF
         self.stats.frames_sent += 1
+        self._bytes_out += len(frame)
         self._transmit(frame)
 
     def _relay(self, frame: bytes) -> None:
@@ -545,13 +581,36 @@ class MavlinkEndpoint:
             return None
 
     def _emit(self, msg_id: int) -> None:
+        before = self._bytes_out
         if msg_id == mavlink2.MAVLINK_MSG_ID_DISTANCE_SENSOR:
             for reading in self._distance_sensors.new_messages(self._telemetry().distance_sensors):
                 self._send(reading)
-            return
-        message = self._build(msg_id)
-        if message is not None:
-            self._send(message)
+        else:
+            message = self._build(msg_id)
+            if message is not None:
+                self._send(message)
+        sent = self._bytes_out - before
+        if sent > 0 and self._config.datarate_bytes_s > 0:
+            average = self._emission_bytes.get(msg_id)
+            self._emission_bytes[msg_id] = sent if average is None else 0.9 * average + 0.1 * sent
+
+    def _update_rate_mult(self, now_us: int) -> None:
+        """Fit the streams into ``datarate_bytes_s`` (PX4's ``Mavlink::update_rate_mult``).
+
+        A stream's load is its bytes per emission (a running average of what was sent; before
+        its first emission the largest frame of its message) times its configured rate.
+        """
+        sizes = {msg_id: _max_frame_bytes(msg_id) for msg_id in _STREAM_IDS}
+        sizes.update(self._emission_bytes)
+        const, scaled = self._streams.bytes_per_s(sizes)
+        if scaled > 0:
+            mult = (self._config.datarate_bytes_s - const) / scaled
+            self._streams.set_rate_mult(mult, now_us)
+
+    @property
+    def rate_mult(self) -> float:
+        """The streams' rate multiplier (1 unless a data-rate limit scales them down)."""
+        return self._streams.rate_mult
 
     def announce(self, severity: int, text: str) -> None:
         """Send ``text`` as STATUSTEXT (chunked when longer than 50 bytes)."""

@@ -167,12 +167,25 @@ def rate_to_interval_us(rate_hz: float) -> int:
     return max(1, round(1e6 / rate_hz))
 
 
+CONST_RATE_STREAMS: frozenset[str] = frozenset({"HEARTBEAT"})
+"""Streams a link's rate multiplier never scales (PX4: ``MavlinkStream::const_rate()``)."""
+
+MIN_RATE_MULT = 0.0005
+"""Smallest rate multiplier: even a saturated link sends every stream now and then."""
+
+
 @dataclass
 class _Stream:
     spec: StreamSpec
     default_interval_us: int
     interval_us: int
+    """The configured interval (what MESSAGE_INTERVAL reports)."""
     next_due_us: int
+    sent_interval_us: int = 0
+    """The interval actually used: ``interval_us`` / the link's rate multiplier."""
+
+    def __post_init__(self) -> None:
+        self.sent_interval_us = self.interval_us
 
 
 class StreamScheduler:
@@ -198,6 +211,8 @@ class StreamScheduler:
             raise ValueError(f"unknown streams {unknown}; known: {sorted(names)}")
         self._streams: list[_Stream] = []
         self._by_id: dict[int, _Stream] = {}
+        self.rate_mult = 1.0
+        """Multiplier of every non-constant stream's rate (PX4's ``_rate_mult``), 0..1."""
         for spec in specs:
             interval = rate_to_interval_us(rates_hz.get(spec.name, spec.default_rate_hz))
             stream = _Stream(spec, interval, interval, 0 if interval > 0 else _NEVER_US)
@@ -232,9 +247,48 @@ class StreamScheduler:
         elif interval_us > 0:
             interval_us = max(interval_us, MIN_INTERVAL_US)
         stream.interval_us = interval_us
-        stream.next_due_us = now_us + interval_us if interval_us > 0 else _NEVER_US
+        stream.sent_interval_us = self._scaled(stream)
+        stream.next_due_us = now_us + stream.sent_interval_us if interval_us > 0 else _NEVER_US
         self.next_due_us = self._earliest()
         return True
+
+    def _scaled(self, stream: _Stream) -> int:
+        if stream.interval_us <= 0 or stream.spec.name in CONST_RATE_STREAMS:
+            return stream.interval_us
+        return max(1, round(stream.interval_us / self.rate_mult))
+
+    def bytes_per_s(self, frame_bytes: Mapping[int, float]) -> tuple[float, float]:
+        """Load of the configured streams, B/s: (constant-rate streams, the others).
+
+        ``frame_bytes`` gives the bytes one emission of each stream takes (an average of what
+        was sent, or an estimate); streams it does not name count as 0.
+        """
+        const = scaled = 0.0
+        for stream in self._streams:
+            if stream.interval_us > 0:
+                load = frame_bytes.get(stream.spec.msg_id, 0.0) * 1e6 / stream.interval_us
+                if stream.spec.name in CONST_RATE_STREAMS:
+                    const += load
+                else:
+                    scaled += load
+        return const, scaled
+
+    def set_rate_mult(self, rate_mult: float, now_us: int) -> None:
+        """Scale every non-constant stream's rate by ``rate_mult`` (clamped to MIN_RATE_MULT..1).
+
+        PX4 (``Mavlink::update_rate_mult``) does this on a link with a data-rate limit so its
+        streams fit: ``min(1, (datarate - constant streams' load) / other streams' load)``.
+        """
+        rate_mult = min(1.0, max(MIN_RATE_MULT, float(rate_mult)))
+        if rate_mult == self.rate_mult:
+            return
+        self.rate_mult = rate_mult
+        for stream in self._streams:
+            new = self._scaled(stream)
+            if new != stream.sent_interval_us and stream.interval_us > 0:
+                stream.next_due_us = min(stream.next_due_us, now_us + new)
+            stream.sent_interval_us = new
+        self.next_due_us = self._earliest()
 
     def pop_due(self, now_us: int) -> list[StreamSpec]:
         """Streams due at ``now_us``, rescheduled one interval later (no catch-up bursts)."""
@@ -244,9 +298,9 @@ class StreamScheduler:
         for stream in self._streams:
             if stream.next_due_us <= now_us:
                 due.append(stream.spec)
-                stream.next_due_us += stream.interval_us
+                stream.next_due_us += stream.sent_interval_us
                 if stream.next_due_us <= now_us:
-                    stream.next_due_us = now_us + stream.interval_us
+                    stream.next_due_us = now_us + stream.sent_interval_us
         self.next_due_us = self._earliest()
         return due
 

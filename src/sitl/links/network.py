@@ -252,14 +252,19 @@ def _channel_pair(preset: LinkPreset, seed: int, name: str) -> tuple[LinkChannel
 
 
 def mavlink_channels(
-    preset_name: str, config: LinksConfig | None, seed: int, vehicle_index: int
+    preset_name: str,
+    config: LinksConfig | None,
+    seed: int,
+    vehicle_index: int,
+    path: str = "onboard",
 ) -> tuple[LinkChannel, LinkChannel]:
     """The two directions of a vehicle's MAVLink link behind a preset (``uart``, ``sik``).
 
     ``to_vehicle`` carries the companion's or ground station's traffic to the autopilot with the
     preset's ``down`` parameters (the vehicle is the lower layer), ``from_vehicle`` the
-    autopilot's with ``up``. Seeded from (seed, preset, vehicle_index) by crc32: each vehicle's
-    link draws its own numbers. ``config`` None: the shipped presets.
+    autopilot's with ``up``. Seeded from (seed, preset, vehicle_index, path) by crc32: each
+    vehicle's path (``onboard``, ``gcs``) draws its own numbers, even two paths behind one
+    preset. ``config`` None: the shipped presets.
 
     Raises:
         LinkConfigError: unknown preset.
@@ -267,6 +272,6 @@ def mavlink_channels(
     config = LinksConfig.load() if config is None else config
     preset = config.preset(preset_name)
     from_vehicle, to_vehicle = _channel_pair(
-        preset, seed, f"mavlink/{preset_name}/{int(vehicle_index)}"
+        preset, seed, f"mavlink/{preset_name}/{int(vehicle_index)}/{path}"
     )
     return to_vehicle, from_vehicle

@@ -43,16 +43,18 @@ COMPONENTS: tuple[str, ...] = ("embedded_computer", "radio", "mobile_comm", "clo
 """Component names of the ledger, in report order."""
 
 ROLE_COMPONENTS: dict[str, frozenset[str]] = {
-    "edge": frozenset({"embedded_computer", "radio", "propulsion"}),
+    "edge": frozenset({"embedded_computer", "radio", "mobile_comm", "propulsion"}),
     "fog": frozenset({"embedded_computer", "radio", "mobile_comm", "propulsion"}),
     "cloud": frozenset({"cloud"}),
     "ground": frozenset({"embedded_computer", "radio"}),
 }
-"""The components each role carries: edge UAV (companion computer, WiFi radio, rotors), fog UAV
-(+ the LTE module and antenna), cloud (the server only), ground station (computer + radio)."""
+"""The components each role carries: edge UAV (companion computer, WiFi radio, the 4G module
+every UAV carries (seed 000, Table II: "4G telemetry"), rotors), fog UAV (the same; the 4G module
+is its uplink to the cloud), cloud (the server only), ground station (computer + radio). The 4G
+module of an edge costs nothing unless the edge transmits on LTE (airtime-scaled, 0 W idle)."""
 
 ROLE_RADIOS: dict[str, tuple[str, ...]] = {
-    "edge": ("wifi",),
+    "edge": ("wifi", "lte"),
     "fog": ("wifi", "lte"),
     "cloud": (),
     "ground": ("sik",),

@@ -42,10 +42,11 @@ def test_roles_carry_their_components():
     ledger.add_node("e", "edge")
     ledger.add_node("c", "cloud")
     ledger.add_node("g", "ground")
-    ledger.set_airtimes({"e": {"wifi": 1.5}, "c": {"wired": 3.0}, "g": {"sik": 4.0}})
+    ledger.set_airtimes({"e": {"wifi": 1.5, "lte": 0.5}, "c": {"wired": 3.0}, "g": {"sik": 4.0}})
     report = ledger.report(0.0, 20.0)
     nodes = report["nodes"]
-    assert nodes["e"]["total_j"] == pytest.approx(27 * 20 + 1 * 1.5 + 120 * 20)
+    # An edge's 4G module (seed 000 Table II) costs 100 W only while it transmits.
+    assert nodes["e"]["total_j"] == pytest.approx(27 * 20 + 1 * 1.5 + 100 * 0.5 + 120 * 20)
     assert nodes["c"]["total_j"] == pytest.approx(65 * 20)
     assert nodes["c"]["propulsion_source"] == "none"
     assert nodes["g"]["total_j"] == pytest.approx(27 * 20 + 1 * 4.0)
@@ -219,7 +220,7 @@ def test_rotor_power_of_a_hovering_world_integrates_to_power_times_time():
         (lambda: _ledger().add_node("e", "edge"), "node_id"),
         (lambda: _ledger().set_airtime("e", {"lora": 1.0}), "airtime_s['lora']"),
         (lambda: _ledger().set_airtime("e", {"wifi": -1.0}), "airtime_s['wifi']"),
-        (lambda: _ledger().set_airtime("e", {"lte": 1.0}), "airtime_s['lte']"),
+        (lambda: _ledger().set_airtime("c", {"lte": 1.0}), "airtime_s['lte']"),
         (lambda: _ledger(airtime={"wifi": 11.0}).report(0.0, 10.0), "airtime_s['wifi']"),
         (
             lambda: _ledger().record_propulsion_fleet(["e"], 0.0, np.zeros(2)),
