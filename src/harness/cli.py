@@ -20,7 +20,10 @@ from rich.table import Table
 
 from autopilot_emu.mavlink.endpoint import PortInUseError
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
-from harness.link_options import LINK_MODELS, NO_LINK, check_link_model, describe
+from harness.link_options import NO_LINK, check_link_model, describe, links_config
+from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
+from harness.net_cli import write_report as write_net_report
+from harness.net_plan import NetPlan, NetRun, parse_roles
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from harness.wind_options import (
     GUSTS_HELP,
@@ -58,7 +61,8 @@ class _StopFlag:
         self.stop = True
 
 
-def _open_simulation(cfg: SimulationConfig) -> Simulation:
+def open_simulation(cfg: SimulationConfig) -> Simulation:
+    """The simulation of ``cfg``, or a clear error and exit 2 (taken port, bad parameter)."""
     try:
         return Simulation(cfg)
     except PortInUseError as exc:
@@ -160,10 +164,10 @@ def parse_frames(spec: str, n_vehicles: int) -> tuple[str, ...]:
     return names
 
 
-def parse_link_model(name: str, option: str) -> str:
-    """A ``--link`` / ``--gcs-link`` value, checked against the link models."""
+def parse_link_model(name: str, option: str, links_file: Path | None = None) -> str:
+    """A ``--link`` / ``--gcs-link`` value: ``none`` or a preset of the link file."""
     try:
-        return check_link_model(name.strip().lower(), option)
+        return check_link_model(name.strip(), option, links_config(links_file))
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint=option) from exc
 
@@ -314,7 +318,7 @@ def up(
     link: Annotated[
         str,
         typer.Option(
-            metavar="|".join(LINK_MODELS),
+            metavar="none|uart|sik|wifi|wired|lte|PRESET",
             help="link model of the companion <-> autopilot (onboard) path: frames are delayed, "
             "throttled and dropped as over it (e.g. --link uart: 921600 baud, 92160 B/s); "
             "none: plain UDP (docs/links.md)",
@@ -323,11 +327,39 @@ def up(
     gcs_link: Annotated[
         str,
         typer.Option(
-            metavar="|".join(LINK_MODELS),
+            metavar="none|sik|uart|wifi|wired|lte|PRESET",
             help="link model of the ground-station path (e.g. --gcs-link sik: a 57600-baud "
             "telemetry radio); none: plain UDP",
         ),
     ] = NO_LINK,
+    links: Annotated[
+        Path | None,
+        typer.Option(
+            exists=True,
+            dir_okay=False,
+            help="your link file (presets and link classes merged over the shipped ones; "
+            "docs/links.md)",
+        ),
+    ] = None,
+    net: Annotated[
+        str | None,
+        typer.Option(
+            metavar="ROLES",
+            help="node messaging: each vehicle's companion is a node of this role (edge,fog,... "
+            "one per vehicle, or one for all); datagrams between nodes cross the link models "
+            "(docs/messaging.md); writes net.yaml for your companion programs",
+        ),
+    ] = None,
+    cloud_node: Annotated[
+        bool,
+        typer.Option("--cloud/--no-cloud", help="with --net: start the cloud node (a process)"),
+    ] = True,
+    net_port: Annotated[
+        int, typer.Option(help="with --net: UDP port of the first node (the cloud; +k)")
+    ] = 47000,
+    net_proxy_port: Annotated[
+        int, typer.Option(help="with --net: the router's port standing for the first node (+k)")
+    ] = 47500,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -357,10 +389,19 @@ def up(
     (OpenCV reads vehicle 1's camera: cv2.VideoCapture("http://127.0.0.1:5600/video.mjpg"))
 
     Example:  swarmsitl up --link uart --gcs-link sik   (MAVLink as over TELEM2 and a radio)
+
+    Example:  swarmsitl up -n 3 --net edge,edge,fog   (then, per companion:
+    SWARMSITL_NET=<run>/net.yaml SWARMSITL_NODE=edge1 python my_companion.py)
     """
     frames = parse_frames(frame, vehicles)
-    link = parse_link_model(link, "--link")
-    gcs_link = parse_link_model(gcs_link, "--gcs-link")
+    link = parse_link_model(link, "--link", links)
+    gcs_link = parse_link_model(gcs_link, "--gcs-link", links)
+    roles = None
+    if net is not None:
+        try:
+            roles = parse_roles(net, vehicles)
+        except ValueError as exc:
+            raise typer.BadParameter(str(exc), param_hint="--net") from exc
     physics_hz = SimulationConfig().physics_hz
     if camera_mount is not None and camera_mount not in MOUNT_PITCH_DEG:
         raise typer.BadParameter(
@@ -378,6 +419,17 @@ def up(
             f"--mocap {mocap:g}: must be 0 or divide the {physics_hz:g} Hz physics rate"
         )
     run_dir = out or default_run_dir()
+    net_run = None
+    if roles is not None:
+        try:
+            plan = NetPlan(
+                roles, cloud=cloud_node, node_base=net_port, proxy_base=net_proxy_port,
+                links_file=links,
+            )  # fmt: skip
+            net_run = NetRun(plan, seed, run_dir)
+        except (OSError, ValueError) as exc:
+            console.print(f"[red]error:[/red] {exc}")
+            raise typer.Exit(2) from exc
     ports = PortPlan(
         bind_addr=bind,
         sdk_base=sdk_port,
@@ -410,8 +462,10 @@ def up(
         mocap_port=mocap_port,
         onboard_link=link,
         gcs_link=gcs_link,
+        links_file=links,
+        router=net_run.router if net_run is not None else None,
     )
-    sim = _open_simulation(cfg)
+    sim = open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
     columns = (
         "sysid",
@@ -437,7 +491,8 @@ def up(
             f"{bind}:{ports.listen_port(i)} -> {ports.peer_addr}:{ports.sdk_port(i)}",
             f"udpin://0.0.0.0:{ports.sdk_port(i)}",
             gcs,
-            f"{describe(link)} / {describe(gcs_link) if ports.gcs_port else '-'}",
+            f"{describe(link, links_config(links))} / "
+            f"{describe(gcs_link, links_config(links)) if ports.gcs_port else '-'}",
             f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
         )
     console.print(table)
@@ -472,10 +527,31 @@ def up(
             f"seconds per wall second at --speed {speed:g}; lighten it with --camera-hz, "
             "--camera-size, or --no-camera"
         )
+    t_start = time.monotonic()
+    procs: dict[str, subprocess.Popen] = {}
+    if net_run is not None:
+        attach(net_run, sim)
+        console.print(node_table(net_run, speed))
+        env = f"SWARMSITL_SPEED={speed:g} SWARMSITL_CLOCK_ORIGIN={t_start!r}"
+        (run_dir / "net.env").write_text(
+            "".join(
+                f"# {n.node_id}\n"
+                + "".join(f"export {k}={v}\n" for k, v in net_run.env(n.node_id).items())
+                for n in net_run.nodes
+            )
+        )
+        console.print(
+            f"companion programs: {env} SWARMSITL_NET={net_run.net_path} SWARMSITL_NODE=<node> "
+            f"python your_program.py   (records: SWARMSITL_NET_RECORDS={net_run.records_dir})"
+        )
+        if cloud_node:
+            procs["cloud"] = role_process(
+                net_run, "cloud", 1e9, speed, t_start, run_dir / "cloud.log"
+            )
+            console.print(f"cloud node: process {procs['cloud'].pid}, log {run_dir / 'cloud.log'}")
     console.print("Press Ctrl-C to stop.")
     flag = _StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
-    t_start = time.monotonic()
     shown = [t_start]
 
     def should_stop() -> bool:
@@ -492,15 +568,25 @@ def up(
 
     try:
         with console.status("starting ...") as status:
-            sim.run_paced(speed, should_stop, duration if duration > 0 else float("inf"))
+            sim.run_paced(
+                speed,
+                should_stop,
+                duration if duration > 0 else float("inf"),
+                wall_origin_s=t_start,
+            )
     finally:
         # Close (tlogs, truth.csv) while Ctrl-C still only sets the flag: a second Ctrl-C or
         # a SIGTERM from a wrapper during shutdown must not cut the recordings short.
+        stop_processes(procs)
         sim.close()
         for s, h in old.items():
             signal.signal(s, h)
     wall = max(time.monotonic() - t_start, 1e-9)
     print_link_loads(sim)
+    if net_run is not None:
+        write_net_report(
+            net_run, sim.time_s, run_dir / "net_report.json", {"seed": seed, "speed": speed}
+        )
     console.print(
         f"stopped at t = {sim.time_s:.1f} s simulated ({sim.time_s / wall:.2f}x real time "
         f"achieved, {speed:g}x asked); tlogs in {run_dir}"
@@ -531,7 +617,7 @@ def demo(
     run_dir = out or default_run_dir()
     ports = PortPlan(sdk_base=sdk_port, listen_base=listen_port, gcs_port=0)
     cfg = SimulationConfig(n_vehicles=1, seed=seed, ports=ports, out_dir=run_dir)
-    sim = _open_simulation(cfg)
+    sim = open_simulation(cfg)
     events_path = run_dir / "client_events.json"
     cmd = [
         sys.executable,
@@ -607,6 +693,10 @@ def demo(
     if not metrics.get("completed"):
         console.print(f"[red]the flight did not complete; see {run_dir / 'client.log'}[/red]")
         raise typer.Exit(1)
+
+
+app.command("cloud")(cloud)
+app.command("net-demo")(net_demo)
 
 
 def main() -> None:

@@ -60,9 +60,7 @@ def mavlink_shaper(
     config = links_config() if config is None else config
     if check_link_model(name, "link", config) == NO_LINK:
         return None
-    to_vehicle, from_vehicle = mavlink_channels(
-        name, config, seed, vehicle_index, PATH_NAMES[path]
-    )
+    to_vehicle, from_vehicle = mavlink_channels(name, config, seed, vehicle_index, PATH_NAMES[path])
     return MavlinkLinkShaper(to_vehicle, from_vehicle)
 
 

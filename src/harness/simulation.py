@@ -594,12 +594,20 @@ class Simulation:
         speed: float,
         should_stop: Callable[[], bool],
         max_duration_s: float = float("inf"),
+        wall_origin_s: float | None = None,
     ) -> None:
-        """Run with simulation time = wall time x speed until should_stop() or max duration."""
+        """Run with simulation time = wall time x speed until should_stop() or max duration.
+
+        ``wall_origin_s``: the ``time.monotonic()`` instant the current simulation time stands
+        for (default: now), so that processes told that instant (``SWARMSITL_CLOCK_ORIGIN``)
+        read the same time as the simulation.
+        """
         if not speed > 0:
             raise ValueError(f"speed must be > 0, got {speed}")
         t0_sim = self.world.time_s
         t0_wall = time.perf_counter()
+        if wall_origin_s is not None:
+            t0_wall -= time.monotonic() - wall_origin_s
         end = t0_sim + max_duration_s
         steps_per_check = max(1, round(self.config.physics_hz / 100))
         while self.world.time_s < end:

@@ -18,11 +18,10 @@ from typer.testing import CliRunner
 from autopilot_emu.mavlink.streams import StreamProfile
 from harness.cli import app
 from harness.link_options import (
-    LINK_MODELS,
-    link_rng,
-    mavlink_channels,
+    datarate_bytes_s,
+    link_models,
+    links_config,
     mavlink_shaper,
-    uart_params,
 )
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.devices.link_router import LinkRouter, RouterNode
@@ -62,26 +61,46 @@ def config(peer_port: int, **changes) -> SimulationConfig:
     return SimulationConfig(ports=ports, record_hz=0, mocap_port=0, **changes)
 
 
-def test_unknown_link_models_are_refused_naming_the_field():
-    """onboard_link / gcs_link must be one of LINK_MODELS; the error names the field."""
+def test_unknown_link_models_are_refused_naming_the_field(tmp_path):
+    """onboard_link / gcs_link must be ``none`` or a preset of the link file; errors name it."""
     with pytest.raises(ValueError, match="onboard_link"):
         SimulationConfig(onboard_link="carrier-pigeon")
     with pytest.raises(ValueError, match="gcs_link"):
         SimulationConfig(gcs_link="UART ")
-    for name in LINK_MODELS:
+    assert {"none", "uart", "sik", "wifi", "wired", "lte"} <= set(link_models())
+    for name in link_models():
         SimulationConfig(onboard_link=name, gcs_link=name)
     assert mavlink_shaper("none", 0, 0, 0) is None
+    # A user's link file adds presets the options then accept.
+    links = tmp_path / "links.yaml"
+    links.write_text("presets:\n  slow-uart:\n    kind: uart\n    rate_bps: 115200\n"
+                     "    bits_per_byte: 10\n    overhead_bytes: 0\n    in_order: true\n"
+                     "    queue_bytes: 4096\n    max_datagram_bytes: 2048\n")  # fmt: skip
+    SimulationConfig(onboard_link="slow-uart", links_file=links)
+    with pytest.raises(ValueError, match="onboard_link"):
+        SimulationConfig(onboard_link="slow-uart")
+    assert datarate_bytes_s("slow-uart", links_config(links)) == pytest.approx(115200 / 20)
 
 
-def test_each_vehicle_and_direction_draws_from_its_own_generator():
-    """Same (seed, path, vehicle, direction): same stream; any change: another stream."""
-    first = link_rng(3, 0, 1, 0).random(4)
-    assert np.array_equal(first, link_rng(3, 0, 1, 0).random(4))
-    for other in (link_rng(4, 0, 1, 0), link_rng(3, 1, 1, 0), link_rng(3, 0, 2, 0),
-                  link_rng(3, 0, 1, 1), np.random.default_rng(3)):  # fmt: skip
-        assert not np.array_equal(first, other.random(4))
-    to_vehicle, from_vehicle = mavlink_channels("uart", 3, 0, 0)
-    assert to_vehicle.params == from_vehicle.params == uart_params()
+def test_each_vehicle_path_and_direction_draws_from_its_own_generator():
+    """Same (seed, vehicle, path): the same drops; another vehicle, path or seed: others."""
+
+    def draws(seed: int, vehicle: int, path: int) -> tuple[list, list]:
+        """Which of 2000 datagrams each direction delivers."""
+        shaper = mavlink_shaper("sik", seed, vehicle, path)
+        for k in range(2000):
+            shaper.inbound(k * 0.01, k.to_bytes(4, "big"), ("127.0.0.1", 1))
+            shaper.outbound(k * 0.01, k.to_bytes(4, "big"))
+        inbound = [int.from_bytes(d, "big") for d, _ in shaper.due_inbound(1e9)]
+        outbound = [int.from_bytes(d, "big") for d in shaper.due_outbound(1e9)]
+        return inbound, outbound
+
+    first = draws(3, 1, 0)
+    assert len(first[0]) < 2000  # the SiK preset loses some
+    assert first == draws(3, 1, 0)
+    for other in (draws(4, 1, 0), draws(3, 2, 0), draws(3, 1, 1)):
+        assert other[0] != first[0] and other[1] != first[1]
+    assert first[0] != first[1]  # the two directions differ too
 
 
 def test_a_command_over_the_uart_is_acked_after_two_crossings_within_the_budget():

@@ -6,7 +6,10 @@ Example (three terminals, or three Raspberry Pis with their own ids)::
     SWARMSITL_NET=net.yaml SWARMSITL_NODE=fog1  python -m companion.roles --duration-s 60
     SWARMSITL_NET=net.yaml SWARMSITL_NODE=edge1 python -m companion.roles --duration-s 60
 
-Each node runs for ``--duration-s`` simulated seconds (SIGTERM or Ctrl-C ends it early), then
+With ``--mavlink udpin:0.0.0.0:14540`` the node also flies its vehicle (take off to
+``--altitude-m``, hover while the role runs, land).
+
+Each node runs for ``--duration-s`` simulated seconds (SIGTERM or Ctrl-C ends it earlier), then
 writes its message records (``companion.net`` stats: messages, bytes, latency, RTTs, tasks) as
 JSON to ``--records`` (default: ``$SWARMSITL_NET_RECORDS/<node>.json`` when that directory is
 set) and prints its counters as one JSON line.
@@ -29,6 +32,7 @@ import numpy as np
 from companion.net import AsyncNode
 from companion.roles.cloud import run_cloud
 from companion.roles.edge import EdgeParams, run_edge
+from companion.roles.flight import FlightParams, fly_during
 from companion.roles.fog import FogParams, run_fog
 
 
@@ -40,33 +44,48 @@ async def main_async(args: argparse.Namespace) -> int:
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
+    counts: dict = {}
     async with node:
         if role == "cloud":
-            job = run_cloud(node, args.duration_s, stop)
+            job = run_cloud(node, args.duration_s, stop, counts)
         elif role == "fog":
-            job = run_fog(node, args.duration_s, FogParams())
+            job = run_fog(node, args.duration_s, FogParams(), counts)
         elif role == "edge":
             rng = np.random.default_rng([args.seed, zlib.crc32(node.node_id.encode())])
-            job = run_edge(node, args.duration_s, EdgeParams(), rng)
+            job = run_edge(node, args.duration_s, EdgeParams(), rng, counts)
         else:
             print(f"role {role!r} has no program here (edge, fog, cloud)", file=sys.stderr)
             return 2
         task = asyncio.ensure_future(job)
+        flight = None
+        if args.mavlink and role != "cloud":
+            flight = asyncio.ensure_future(
+                fly_during(FlightParams(args.mavlink, args.altitude_m), task)
+            )
         stopper = asyncio.ensure_future(stop.wait())
         await asyncio.wait({task, stopper}, return_when=asyncio.FIRST_COMPLETED)
-        counts: object = {"stopped": True}
-        if task.done():
-            counts = task.result()
-        else:
+        stopped = not task.done()
+        if stopped:
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
+        else:
+            task.result()  # a role that failed raises here
         stopper.cancel()
         records = args.records or _default_records(node.node_id)
         if records is not None:
             records.parent.mkdir(parents=True, exist_ok=True)
             node.write_records(records)
-    print(json.dumps({"node": node.node_id, "role": role, "counts": counts}), flush=True)
+    flown = None
+    if flight is not None:
+        try:
+            flown = await asyncio.wait_for(flight, timeout=180.0)
+        except TimeoutError:
+            flown = "landing not confirmed within 180 s"
+    out = {"node": node.node_id, "role": role, "counts": counts, "stopped": stopped}
+    if flown is not None:
+        out["flight"] = flown
+    print(json.dumps(out), flush=True)
     return 0
 
 
@@ -81,6 +100,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration-s", type=float, default=60.0, help="simulated seconds to run")
     parser.add_argument("--records", type=Path, default=None, help="JSON file for the records")
     parser.add_argument("--seed", type=int, default=0, help="seed of the payload generator")
+    parser.add_argument(
+        "--mavlink",
+        default=None,
+        help="fly this node's vehicle while the role runs: pymavlink URL of its autopilot, "
+        "e.g. udpin:0.0.0.0:14540 (take off, hover, land)",
+    )
+    parser.add_argument("--altitude-m", type=float, default=10.0, help="take-off height, m")
     args = parser.parse_args(argv)
     if not args.duration_s > 0:
         parser.error("--duration-s must be > 0")

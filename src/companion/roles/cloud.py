@@ -16,11 +16,15 @@ from companion.net import AsyncNode, Envelope
 
 
 async def run_cloud(
-    node: AsyncNode, duration_s: float, stop: asyncio.Event | None = None
+    node: AsyncNode,
+    duration_s: float,
+    stop: asyncio.Event | None = None,
+    counts: dict[str, object] | None = None,
 ) -> dict[str, object]:
     """Serve for ``duration_s`` simulated seconds (or until ``stop`` is set); return counters."""
     registered: dict[str, list[str]] = {}
-    counts: dict[str, object] = {"registrations": 0, "summaries": 0, "clusters": registered}
+    counts = {} if counts is None else counts
+    counts.update(registrations=0, summaries=0, clusters=registered)
 
     def on_register(env: Envelope) -> dict[str, object]:
         body = env.body if isinstance(env.body, dict) else {}

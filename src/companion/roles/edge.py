@@ -34,13 +34,21 @@ class EdgeParams:
 
 
 async def run_edge(
-    node: AsyncNode, duration_s: float, params: EdgeParams, rng: np.random.Generator
+    node: AsyncNode,
+    duration_s: float,
+    params: EdgeParams,
+    rng: np.random.Generator,
+    counts: dict[str, int] | None = None,
 ) -> dict[str, int]:
-    """Run the edge role for ``duration_s`` simulated seconds; return its counters."""
+    """Run the edge role for ``duration_s`` simulated seconds; return its counters.
+
+    ``counts`` (filled in place) lets a caller that cancels the role still read them.
+    """
     config = node.node.config
     fog = coordinator_of(config, node.node_id)
     peers = [e for e in nodes_with_role(config, "edge") if e != node.node_id]
-    counts = {"joined": 0, "status": 0, "images": 0, "pings_answered": 0, "timeouts": 0}
+    counts = {} if counts is None else counts
+    counts.update(joined=0, status=0, images=0, pings_answered=0, timeouts=0)
     node.on("ping", lambda env: {"from": node.node_id})
     end_s = clock.now_s() + duration_s
 

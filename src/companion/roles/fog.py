@@ -26,21 +26,30 @@ class FogParams:
     retries: int = 3
 
 
-async def run_fog(node: AsyncNode, duration_s: float, params: FogParams) -> dict[str, object]:
-    """Run the fog role for ``duration_s`` simulated seconds; return its counters."""
+async def run_fog(
+    node: AsyncNode,
+    duration_s: float,
+    params: FogParams,
+    counts: dict[str, object] | None = None,
+) -> dict[str, object]:
+    """Run the fog role for ``duration_s`` simulated seconds; return its counters.
+
+    ``counts`` (filled in place) lets a caller that cancels the role still read them.
+    """
     config = node.node.config
     members = clusters(config).get(node.node_id, [])
     clouds = nodes_with_role(config, "cloud")
     cloud = clouds[0] if clouds else None
-    counts: dict[str, object] = {
-        "registered": 0,
-        "joins": 0,
-        "status": 0,
-        "images": 0,
-        "image_bytes": 0,
-        "summaries_acked": 0,
-        "timeouts": 0,
-    }
+    counts = {} if counts is None else counts
+    counts.update(
+        registered=0,
+        joins=0,
+        status=0,
+        images=0,
+        image_bytes=0,
+        summaries_acked=0,
+        timeouts=0,
+    )
     last_status: dict[str, float] = {}
 
     def on_status(env: Envelope) -> None:
@@ -62,9 +71,11 @@ async def run_fog(node: AsyncNode, duration_s: float, params: FogParams) -> dict
     node.on("ping", lambda env: {"from": node.node_id})
     end_s = clock.now_s() + duration_s
 
-    async def request(topic: str, body: dict) -> bool:
+    async def request(topic: str, body: dict, category: str = "control") -> bool:
         try:
-            await node.request(cloud, topic, body, params.request_timeout_s, params.retries)
+            await node.request(
+                cloud, topic, body, params.request_timeout_s, params.retries, category=category
+            )
         except RequestTimeout:
             counts["timeouts"] = int(counts["timeouts"]) + 1
             return False
@@ -77,9 +88,8 @@ async def run_fog(node: AsyncNode, duration_s: float, params: FogParams) -> dict
                 "images": counts["images"],
                 "image_bytes": counts["image_bytes"],
             }
-            counts["summaries_acked"] = int(counts["summaries_acked"]) + await request(
-                "summary", body
-            )
+            acked = await request("summary", body, category="data")
+            counts["summaries_acked"] = int(counts["summaries_acked"]) + acked
 
     if cloud is not None:
         with node.task("T_conn"):

@@ -220,8 +220,6 @@ def test_rotor_power_of_a_hovering_world_integrates_to_power_times_time():
         (lambda: _ledger().add_node("e", "edge"), "node_id"),
         (lambda: _ledger().set_airtime("e", {"lora": 1.0}), "airtime_s['lora']"),
         (lambda: _ledger().set_airtime("e", {"wifi": -1.0}), "airtime_s['wifi']"),
-        (lambda: _ledger().set_airtime("c", {"lte": 1.0}), "airtime_s['lte']"),
-        (lambda: _ledger(airtime={"wifi": 11.0}).report(0.0, 10.0), "airtime_s['wifi']"),
         (
             lambda: _ledger().record_propulsion_fleet(["e"], 0.0, np.zeros(2)),
             "power_w",
@@ -248,3 +246,19 @@ def _ledger(airtime: dict[str, float] | None = None) -> EnergyLedger:
     if airtime:
         ledger.set_airtime("e", airtime)
     return ledger
+
+
+def test_airtime_on_a_component_the_node_lacks_costs_nothing():
+    """The cloud's LTE downlink is sent by the operator's base station: 65 W only."""
+    ledger = _ledger()
+    ledger.set_airtime("c", {"lte": 4.0})
+    report = ledger.report(0.0, 10.0)
+    assert report["nodes"]["c"]["total_j"] == pytest.approx(650.0)
+    assert report["nodes"]["c"]["airtime_s"] == {"lte": 4.0}
+
+
+def test_a_radio_busy_longer_than_the_window_counts_as_always_on():
+    """Airtime summed over peers beyond the window: the radio transmits the whole window."""
+    ledger = _ledger(airtime={"wifi": 11.0})
+    node = ledger.report(0.0, 10.0)["nodes"]["e"]
+    assert node["components_j"]["radio"] == pytest.approx(1.0 * 10.0)

@@ -1,0 +1,266 @@
+"""The messaging network on the command line: ``swarmsitl cloud`` and ``swarmsitl net-demo``.
+
+Also the node table, role processes and report that ``swarmsitl up --net`` shares with them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from harness.net_plan import NetPlan, NetRun
+from harness.net_report import energy_table, link_table
+from harness.simulation import Simulation
+
+console = Console(width=max(Console().width, 140))
+
+LANDING_S = 60.0
+"""Simulated seconds the demo keeps running after the roles stop, for the vehicles to land."""
+
+
+def _json_safe(value: Any) -> Any:
+    """NaN and infinities as None (JSON has neither)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def attach(net: NetRun, sim: Simulation) -> None:
+    """Feed the vehicles' positions and rotor power to the network at the router's polls."""
+
+    def feed(now_s: float, positions_enu_m: object) -> None:
+        net.update(now_s, positions_enu_m, sim.world.rotor_power_w())
+
+    sim.on_positions(feed)
+
+
+def node_table(net: NetRun, speed: float) -> Table:
+    """Who is who: node, role, vehicle, where it listens, where others reach it."""
+    table = Table(title=f"messaging network ({net.net_path})")
+    for column in ("node", "role", "vehicle", "binds", "reached at (router)", "groups"):
+        table.add_column(column, no_wrap=True)
+    for node in net.nodes:
+        table.add_row(
+            node.node_id,
+            node.role,
+            "-" if node.vehicle is None else str(node.vehicle + 1),
+            f"{node.address[0]}:{node.address[1]}",
+            f"{net.plan.bind_addr}:{node.proxy_port}",
+            ", ".join(node.groups) or "-",
+        )
+    return table
+
+
+def role_process(
+    net: NetRun,
+    node_id: str,
+    duration_s: float,
+    speed: float,
+    wall_origin_s: float,
+    log_path: Path,
+    extra: list[str] | None = None,
+) -> subprocess.Popen:
+    """Start ``python -m companion.roles`` as ``node_id`` (a real process, real UDP)."""
+    env = os.environ | net.env(node_id)
+    env |= {"SWARMSITL_SPEED": f"{speed:g}", "SWARMSITL_CLOCK_ORIGIN": repr(wall_origin_s)}
+    cmd = [sys.executable, "-m", "companion.roles", "--duration-s", f"{duration_s:g}"]
+    with log_path.open("w") as log:
+        return subprocess.Popen(
+            cmd + (extra or []), env=env, stdout=log, stderr=subprocess.STDOUT, text=True
+        )
+
+
+def stop_processes(procs: dict[str, subprocess.Popen], grace_s: float = 10.0) -> None:
+    """SIGTERM what still runs (each writes its records), then kill after ``grace_s``."""
+    for proc in procs.values():
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+    deadline = time.monotonic() + grace_s
+    for proc in procs.values():
+        try:
+            proc.wait(max(0.1, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def write_report(net: NetRun, t1_s: float, path: Path, extra: dict[str, Any]) -> dict[str, Any]:
+    """Compute the run's network report over [0, t1_s], write it as JSON and print its tables."""
+    report = net.report(0.0, t1_s)
+    report.update(extra)
+    path.write_text(json.dumps(_json_safe(report), indent=1))
+    console.print(link_table(report))
+    console.print(energy_table(report))
+    missing = report.get("nodes_without_records") or []
+    if missing:
+        console.print(
+            f"[yellow]no message records from {', '.join(missing)}[/yellow] (a node writes "
+            "them with AsyncNode.write_records / python -m companion.roles; link metrics above "
+            "come from the link models and are complete)"
+        )
+    console.print(f"network report: {path}")
+    return report
+
+
+def cloud(
+    net: Annotated[
+        Path | None,
+        typer.Option(help="network file (companion.net YAML) [default: $SWARMSITL_NET]"),
+    ] = None,
+    node: Annotated[str, typer.Option(help="this node's id in the network file")] = "cloud",
+    duration: Annotated[
+        float, typer.Option(help="simulated seconds to serve (Ctrl-C ends it earlier)")
+    ] = 3600.0,
+    records: Annotated[Path | None, typer.Option(help="JSON file for the node's records")] = None,
+) -> None:
+    """Run the cloud node of seed 000's edge-fog-cloud system in this process.
+
+    It answers the fog nodes' registrations and summaries and everyone's pings over UDP
+    (companion.net), on the host, as the paper's ground server. Under `swarmsitl up --net` the
+    cloud starts by itself; run this for a cloud of your own or on another machine.
+
+    Example:  swarmsitl cloud --net runs/x/net.yaml --duration 600
+    """
+    from companion.roles.__main__ import main as roles_main
+
+    if net is not None:
+        os.environ["SWARMSITL_NET"] = str(net)
+    if "SWARMSITL_NET" not in os.environ:
+        raise typer.BadParameter("give --net FILE or set SWARMSITL_NET", param_hint="--net")
+    os.environ["SWARMSITL_NODE"] = node
+    argv = ["--duration-s", f"{duration:g}"] + (["--records", str(records)] if records else [])
+    try:
+        code = roles_main(argv)
+    except (ValueError, OSError) as exc:  # a bad network file, a taken port
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from exc
+    raise typer.Exit(code)
+
+
+def net_demo(
+    out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
+    speed: Annotated[float, typer.Option(help="simulation seconds per wall second")] = 2.0,
+    duration: Annotated[float, typer.Option(help="simulated seconds of messaging")] = 60.0,
+    seed: Annotated[int, typer.Option(help="seed of every random draw")] = 0,
+    links: Annotated[
+        Path | None,
+        typer.Option(help="your link file, merged over the shipped presets (docs/links.md)"),
+    ] = None,
+    fly: Annotated[bool, typer.Option(help="the companions fly their vehicles at 10 m")] = True,
+    sdk_port: Annotated[int, typer.Option(help="MAVLink port of vehicle 1's companion (+i)")] = (
+        14540
+    ),
+    listen_port: Annotated[int, typer.Option(help="vehicle 1's MAVLink listen port (+i)")] = 14580,
+    net_port: Annotated[int, typer.Option(help="UDP port of the first node (+k)")] = 47000,
+    proxy_port: Annotated[int, typer.Option(help="router port of the first node (+k)")] = 47500,
+    timeout: Annotated[float, typer.Option(help="give up after this many wall seconds")] = 600.0,
+) -> None:
+    """Seed 000's edge-fog-cloud system: two edge UAVs, a fog UAV and the cloud, messaging.
+
+    Three vehicles fly (their companions take off to 10 m over MAVLink); each companion is a
+    process running its role (python -m companion.roles: edges send status and camera-sized
+    images to the fog and ping each other over WiFi, the fog reports to the cloud over LTE),
+    and the cloud is a process on the host. Every datagram crosses the link models in
+    simulation time. The run directory gets net_report.json (per link class: latency, loss,
+    availability, uptime, throughput, overhead; energy per node, component and task), net.yaml,
+    the nodes' records (net/) and logs, and the vehicles' tlogs.
+
+    Example:  swarmsitl net-demo --duration 60 --out runs/net
+    """
+    from harness.cli import default_run_dir, open_simulation
+    from harness.simulation import PortPlan, SimulationConfig
+
+    if not duration > 0 or not speed > 0:
+        raise typer.BadParameter("--duration and --speed must be > 0")
+    run_dir = out or default_run_dir()
+    plan = NetPlan(
+        roles=("edge", "edge", "fog"),
+        node_base=net_port,
+        proxy_base=proxy_port,
+        links_file=links,
+    )
+    try:
+        net = NetRun(plan, seed, run_dir)
+    except (OSError, ValueError) as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from exc
+    cfg = SimulationConfig(
+        n_vehicles=len(plan.roles),
+        seed=seed,
+        ports=PortPlan(sdk_base=sdk_port, listen_base=listen_port, gcs_port=0, payload_base=0),
+        out_dir=run_dir,
+        router=net.router,
+        links_file=links,
+    )
+    sim = open_simulation(cfg)
+    attach(net, sim)
+    console.print(node_table(net, speed))
+    origin = time.monotonic()
+    procs: dict[str, subprocess.Popen] = {}
+    for node in net.nodes:
+        extra = ["--seed", str(seed)]
+        if fly and node.vehicle is not None:
+            extra += ["--mavlink", f"udpin:127.0.0.1:{sdk_port + node.vehicle}"]
+        # The roles run until told to stop: the window is measured in simulation time here.
+        procs[node.node_id] = role_process(
+            net, node.node_id, 1e9, speed, origin, run_dir / f"{node.node_id}.log", extra
+        )
+    t0 = time.monotonic()
+
+    def gave_up() -> bool:
+        return time.monotonic() - t0 > timeout or any(p.poll() is not None for p in procs.values())
+
+    def all_ended() -> bool:
+        return time.monotonic() - t0 > timeout or all(p.poll() is not None for p in procs.values())
+
+    messaging_s = 0.0
+    try:
+        with console.status(f"messaging for {duration:g} simulated s at {speed:g}x ..."):
+            sim.run_paced(speed, gave_up, max_duration_s=duration, wall_origin_s=origin)
+            messaging_s = sim.time_s
+            for proc in procs.values():  # each writes its records, then lands its vehicle
+                if proc.poll() is None:
+                    proc.send_signal(signal.SIGTERM)
+            sim.run_paced(speed, all_ended, max_duration_s=LANDING_S, wall_origin_s=origin)
+    finally:
+        stop_processes(procs)
+        sim.close()
+    outputs = {}
+    for node_id, proc in procs.items():
+        lines = (run_dir / f"{node_id}.log").read_text().strip().splitlines()
+        try:
+            outputs[node_id] = json.loads(lines[-1]) if lines else {}
+        except ValueError:
+            outputs[node_id] = {"error": lines[-1], "exit_code": proc.returncode}
+    write_report(
+        net,
+        sim.time_s,
+        run_dir / "net_report.json",
+        {
+            "seed": seed,
+            "speed": speed,
+            "messaging_s": messaging_s,
+            "sim_time_s": sim.time_s,
+            "achieved_speed": sim.time_s / max(time.monotonic() - t0, 1e-9),
+            "roles": outputs,
+        },
+    )
+    failed = [n for n, p in procs.items() if p.returncode not in (0, -signal.SIGTERM)]
+    if failed:
+        console.print(f"[red]roles that failed: {', '.join(failed)}; see their logs[/red]")
+        raise typer.Exit(1)
