@@ -180,6 +180,10 @@ class SimulationConfig:
     (``uart``: 921600 baud, see ``harness.link_options``); ``none``: plain UDP."""
     gcs_link: str = NO_LINK
     """Link model of every ground-station link (``sik``: a 57600-baud telemetry radio)."""
+    link_datarate_bytes_s: float | None = None
+    """Data-rate limit of the MAVLink instances on serial link models, B/s (PX4's MAV_x_RATE):
+    their streams are scaled down together to fit. None: PX4's default for MAV_x_RATE = 0,
+    baud / 20 (half the line); 0: no limit (what exceeds the line queues and drops)."""
     links_file: Path | None = None
     """The user's link file (presets and classes merged over ``sitl/links/presets.yaml``);
     None: the shipped presets."""
@@ -378,7 +382,13 @@ class Simulation:
                         else self.config.stream_rates_hz.get(profile, {})
                     ),
                     shaper=shaper,
-                    datarate_bytes_s=datarate_bytes_s(model, links_file),
+                    datarate_bytes_s=(
+                        datarate_bytes_s(model, links_file)
+                        if self.config.link_datarate_bytes_s is None
+                        else self.config.link_datarate_bytes_s
+                    )
+                    if model != NO_LINK
+                    else 0.0,
                 )
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
                 if payload:

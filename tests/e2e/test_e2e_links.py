@@ -32,9 +32,9 @@ PORTS = Ports(sdk=46200, listen=46205, gcs_listen=46210, grpc=46390)
 def swarm(tmp_path_factory):
     require_free_udp([PORTS.sdk, PORTS.listen, PORTS.gcs, PORTS.gcs_listen])
     out = tmp_path_factory.mktemp("links") / "run"
-    # PX4 scales a serial link's streams to its data rate; the emulator does not (yet), so the
-    # ground-station link sheds its 140 DISTANCE_SENSOR/s to fit the radio's 5760 B/s.
-    extra = ("--link", "uart", "--gcs-link", "sik", "--stream-rate", "gcs:DISTANCE_SENSOR=0")
+    # As PX4, the ground-station link scales its streams to the radio's data rate (baud/20 =
+    # 2880 B/s): its 140 DISTANCE_SENSOR/s and the rest fit without shedding a stream by hand.
+    extra = ("--link", "uart", "--gcs-link", "sik")
     s = start_swarm(1, PORTS, out, extra, gcs_port=PORTS.gcs)
     try:
         yield s

@@ -6,7 +6,10 @@ from typer.testing import CliRunner
 from harness.cli import app
 
 
-@pytest.mark.parametrize("args", [["--help"], ["up", "--help"], ["demo", "--help"]])
+@pytest.mark.parametrize(
+    "args",
+    [["--help"], ["up", "--help"], ["demo", "--help"], ["cloud", "--help"], ["net-demo", "--help"]],
+)
 def test_help_has_example(args):
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0

@@ -146,10 +146,18 @@ FAST = {
 
 
 def test_telemetry_beyond_the_uart_budget_is_throttled_to_it_and_dropped():
-    """Offered > 1.2 x 92160 B/s, the peer receives 92160 B/s (+-3 %); the excess is dropped."""
+    """Offered > 1.2 x 92160 B/s, the peer receives 92160 B/s (+-3 %); the excess is dropped.
+
+    (Without PX4's data-rate limit: ``link_datarate_bytes_s=0`` lets the streams overflow.)
+    """
     peer = Peer()
     try:
-        cfg = config(peer.port, onboard_link="uart", stream_rates_hz={StreamProfile.ONBOARD: FAST})
+        cfg = config(
+            peer.port,
+            onboard_link="uart",
+            link_datarate_bytes_s=0.0,
+            stream_rates_hz={StreamProfile.ONBOARD: FAST},
+        )
         with Simulation(cfg) as sim:
             sim.run_lockstep(0.5)
             peer.drain()
@@ -165,6 +173,30 @@ def test_telemetry_beyond_the_uart_budget_is_throttled_to_it_and_dropped():
     assert offered > 1.2 * UART_BYTES_PER_S, offered
     assert rate == pytest.approx(UART_BYTES_PER_S, rel=0.03)
     assert stats.dropped.get("queue", 0) > 0
+
+
+def test_streams_are_scaled_to_the_data_rate_as_px4_does():
+    """Behind a serial preset the streams fit PX4's default data rate (baud / 20): the same
+    fast streams that overflow the UART above arrive at <= 46080 B/s, with no queue drops."""
+    peer = Peer()
+    try:
+        cfg = config(peer.port, onboard_link="uart", stream_rates_hz={StreamProfile.ONBOARD: FAST})
+        with Simulation(cfg) as sim:
+            sim.run_lockstep(2.0)  # the rate multiplier settles on the measured frame sizes
+            peer.drain()
+            before, t0 = peer.bytes, sim.time_s
+            while sim.time_s < t0 + 3.0:
+                sim.run_lockstep(0.02)
+                peer.drain()
+            rate = (peer.bytes - before) / (sim.time_s - t0)
+            endpoint = sim.endpoints[0]
+            stats = sim.shapers[(0, "onboard")].stats.from_vehicle
+    finally:
+        peer.close()
+    limit = UART_BYTES_PER_S / 2
+    assert endpoint.rate_mult < 0.5
+    assert 0.7 * limit < rate <= 1.05 * limit
+    assert stats.dropped.get("queue", 0) == 0
 
 
 def test_the_link_model_leaves_the_world_untouched():

@@ -122,3 +122,28 @@ def test_max_stream_rate_is_within_the_default_poll_rate():
     assert SimulationConfig().mavlink_poll_hz >= MAX_STREAM_RATE_HZ
     for profile in StreamProfile:
         assert max(PROFILES[profile].values()) <= MAX_STREAM_RATE_HZ
+
+
+def test_rate_mult_scales_every_stream_but_heartbeat():
+    """PX4's rate multiplier: 0.5 halves every rate but HEARTBEAT's; intervals report as set."""
+    specs = (StreamSpec("HEARTBEAT", 0, 1.0), StreamSpec("ATTITUDE", 30, 10.0))
+    scheduler = StreamScheduler(specs)
+    scheduler.pop_due(0)
+    scheduler.set_rate_mult(0.5, 0)
+    due = []
+    for t_us in range(0, 10_000_001, 10_000):
+        due += _names(scheduler.pop_due(t_us))
+    assert due.count("HEARTBEAT") == 10  # 1 Hz, unscaled
+    assert due.count("ATTITUDE") == 50  # 10 Hz x 0.5
+    assert scheduler.interval_us(30) == 100_000  # MESSAGE_INTERVAL reports the set interval
+    assert scheduler.rate_mult == 0.5
+    scheduler.set_rate_mult(7.0, 0)
+    assert scheduler.rate_mult == 1.0  # never above 1
+    scheduler.set_rate_mult(0.0, 0)
+    assert scheduler.rate_mult > 0.0  # never stops a stream
+
+
+def test_bytes_per_s_splits_constant_and_scaled_streams():
+    specs = (StreamSpec("HEARTBEAT", 0, 1.0), StreamSpec("ATTITUDE", 30, 10.0))
+    scheduler = StreamScheduler(specs)
+    assert scheduler.bytes_per_s({0: 21.0, 30: 40.0}) == pytest.approx((21.0, 400.0))
