@@ -15,8 +15,6 @@ The last line is ``RESULT datagrams_per_s=... us_per_datagram=...``.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -25,27 +23,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from realtime_factor import machine
 from sitl.links.config import LinksConfig
 from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork
 from sitl.links.report import loss_table
 
 STEP_S = 1e-3
-
-
-def machine() -> str:
-    """One line describing this machine and the library versions."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return (
-        f"{cpu}; {os.cpu_count()} cores; Python {platform.python_version()}; numpy {np.__version__}"
-    )
 
 
 def build(n_nodes: int, seed: int) -> tuple[LinkNetwork, list[str], dict[str, list[str]]]:

@@ -9,11 +9,11 @@ carry what the vehicle is flying to, and what the vehicle announces must reach b
 from __future__ import annotations
 
 import math
-import socket
 from collections import Counter
 
 import pymap3d
 import pytest
+from mavlink_listener import MavlinkListener
 from pymavlink.dialects.v20 import common as mavlink2
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
@@ -48,35 +48,10 @@ WINDOW_S = 10.0
 """Simulated seconds over which messages are counted."""
 
 
-class Listener:
-    """A plain UDP socket where a client would listen; decodes everything that arrives."""
-
-    def __init__(self) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
-        self.sock.bind(("127.0.0.1", 0))
-        self.sock.setblocking(False)
-        self.port = self.sock.getsockname()[1]
-        self.mav = mavlink2.MAVLink(None, 245, 190)
-        self.mav.robust_parsing = True
-        self.inbox: list = []
-
-    def drain(self) -> None:
-        while True:
-            try:
-                data = self.sock.recv(65535)
-            except BlockingIOError:
-                return
-            self.inbox.extend(self.mav.parse_buffer(data) or [])
-
-    def close(self) -> None:
-        self.sock.close()
-
-
 @pytest.fixture(scope="module")
 def flight():
     """Take off, goto 15 m north; count both links' messages over WINDOW_S while flying."""
-    onboard, ground = Listener(), Listener()
+    onboard, ground = MavlinkListener(), MavlinkListener()
     ports = PortPlan(sdk_base=onboard.port, listen_base=0, gcs_port=ground.port, gcs_listen_base=0)
     sim = Simulation(
         SimulationConfig(
@@ -171,7 +146,7 @@ def test_both_links_carry_the_same_estimate(flight):
 
 def test_status_texts_reach_both_links():
     """What the commander announces (arming, takeoff) goes out on the onboard and GCS link."""
-    onboard, ground = Listener(), Listener()
+    onboard, ground = MavlinkListener(), MavlinkListener()
     ports = PortPlan(sdk_base=onboard.port, listen_base=0, gcs_port=ground.port, gcs_listen_base=0)
     with Simulation(SimulationConfig(n_vehicles=1, ports=ports, record_hz=0, seed=5)) as sim:
         sim.run_lockstep(3.0)

@@ -12,6 +12,7 @@ import socket
 
 import numpy as np
 import pytest
+from mavlink_listener import MavlinkListener
 from pymavlink.dialects.v20 import common as mavlink2
 from typer.testing import CliRunner
 
@@ -27,33 +28,6 @@ from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.devices.link_router import LinkRouter, RouterNode
 
 UART_BYTES_PER_S = 921_600 / 10
-
-
-class Peer:
-    """A raw MAVLink client socket standing where MAVSDK listens (14540+i)."""
-
-    def __init__(self) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
-        self.sock.bind(("127.0.0.1", 0))
-        self.sock.setblocking(False)
-        self.port = self.sock.getsockname()[1]
-        self.mav = mavlink2.MAVLink(None, 245, 190)
-        self.mav.robust_parsing = True
-        self.bytes = 0
-
-    def drain(self) -> list:
-        out = []
-        while True:
-            try:
-                data = self.sock.recv(65535)
-            except BlockingIOError:
-                return out
-            self.bytes += len(data)
-            out += [m for m in self.mav.parse_buffer(data) or [] if m.get_type() != "BAD_DATA"]
-
-    def close(self) -> None:
-        self.sock.close()
 
 
 def config(peer_port: int, **changes) -> SimulationConfig:
@@ -105,7 +79,7 @@ def test_each_vehicle_path_and_direction_draws_from_its_own_generator():
 
 def test_a_command_over_the_uart_is_acked_after_two_crossings_within_the_budget():
     """COMMAND_LONG -> ACK through the UART model, no sooner than two crossings take."""
-    peer = Peer()
+    peer = MavlinkListener()
     try:
         with Simulation(config(peer.port, onboard_link="uart")) as sim:
             sim.run_lockstep(1.0)
@@ -150,7 +124,7 @@ def test_telemetry_beyond_the_uart_budget_is_throttled_to_it_and_dropped():
 
     (Without PX4's data-rate limit: ``link_datarate_bytes_s=0`` lets the streams overflow.)
     """
-    peer = Peer()
+    peer = MavlinkListener()
     try:
         cfg = config(
             peer.port,
@@ -178,7 +152,7 @@ def test_telemetry_beyond_the_uart_budget_is_throttled_to_it_and_dropped():
 def test_streams_are_scaled_to_the_data_rate_as_px4_does():
     """Behind a serial preset the streams fit PX4's default data rate (baud / 20): the same
     fast streams that overflow the UART above arrive at <= 46080 B/s, with no queue drops."""
-    peer = Peer()
+    peer = MavlinkListener()
     try:
         cfg = config(peer.port, onboard_link="uart", stream_rates_hz={StreamProfile.ONBOARD: FAST})
         with Simulation(cfg) as sim:
@@ -203,7 +177,7 @@ def test_the_link_model_leaves_the_world_untouched():
     """With or without the UART model, the flight's ground truth is bit-identical."""
     truths = []
     for link in ("none", "uart"):
-        peer = Peer()
+        peer = MavlinkListener()
         try:
             with Simulation(config(peer.port, onboard_link=link, seed=5)) as sim:
                 sim.run_lockstep(0.5)
