@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import datetime as dt
 import math
 import os
 import signal
@@ -15,11 +14,10 @@ from types import FrameType
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
-from autopilot_emu.mavlink.endpoint import PortInUseError
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
+from harness.launch import console, default_run_dir, open_simulation
 from harness.link_options import NO_LINK, check_link_model, describe, links_config
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
@@ -43,12 +41,6 @@ app = typer.Typer(
     no_args_is_help=True,
     help="swarmsitl: PyBullet UAV swarm SITL with PX4-flavoured MAVLink autopilots.",
 )
-console = Console(width=max(Console().width, 140))
-
-
-def default_run_dir() -> Path:
-    """runs/<timestamp> under the current directory."""
-    return Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
 
 
 class _StopFlag:
@@ -59,22 +51,6 @@ class _StopFlag:
 
     def __call__(self, signum: int, frame: FrameType | None) -> None:
         self.stop = True
-
-
-def open_simulation(cfg: SimulationConfig) -> Simulation:
-    """The simulation of ``cfg``, or a clear error and exit 2 (taken port, bad parameter)."""
-    try:
-        return Simulation(cfg)
-    except PortInUseError as exc:
-        console.print(f"[red]error:[/red] {exc}")
-        console.print(
-            "Another swarmsitl (or PX4 SITL) is probably running; stop it or choose other "
-            "ports with --listen-port / --gcs-listen-port / --payload-listen-port."
-        )
-        raise typer.Exit(2) from exc
-    except (OSError, ValueError) as exc:  # a taken video port, a camera that sees its vehicle
-        console.print(f"[red]error:[/red] {exc}")
-        raise typer.Exit(2) from exc
 
 
 def camera_override(
@@ -467,13 +443,14 @@ def up(
     )
     sim = open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
+    modelled = link != NO_LINK or (gcs_link != NO_LINK and ports.gcs_port)
     columns = (
         "sysid",
         "airframe",
         "onboard link",
         "MAVSDK connects with",
         "GCS link",
-        "link models (onboard / GCS)",
+        *(("link models (onboard / GCS)",) if modelled else ()),
         "home lat, lon, alt",
     )
     for col in columns:
@@ -485,14 +462,17 @@ def up(
             if ports.gcs_port
             else "off"
         )
+        models = (
+            f"{describe(link, links_config(links))} / "
+            f"{describe(gcs_link, links_config(links)) if ports.gcs_port else '-'}"
+        )
         table.add_row(
             str(i + 1),
             sim.world.airframes[i].name,
             f"{bind}:{ports.listen_port(i)} -> {ports.peer_addr}:{ports.sdk_port(i)}",
             f"udpin://0.0.0.0:{ports.sdk_port(i)}",
             gcs,
-            f"{describe(link, links_config(links))} / "
-            f"{describe(gcs_link, links_config(links)) if ports.gcs_port else '-'}",
+            *((models,) if modelled else ()),
             f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
         )
     console.print(table)

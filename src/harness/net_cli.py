@@ -16,14 +16,12 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
+from harness.launch import console, default_run_dir, open_simulation
 from harness.net_plan import NetPlan, NetRun
 from harness.net_report import energy_table, link_table
 from harness.simulation import Simulation
-
-console = Console(width=max(Console().width, 140))
 
 LANDING_S = 60.0
 """Simulated seconds the demo keeps running after the roles stop, for the vehicles to land."""
@@ -182,7 +180,6 @@ def net_demo(
 
     Example:  swarmsitl net-demo --duration 60 --out runs/net
     """
-    from harness.cli import default_run_dir, open_simulation
     from harness.simulation import PortPlan, SimulationConfig
 
     if not duration > 0 or not speed > 0:

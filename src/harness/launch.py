@@ -1,0 +1,36 @@
+"""Starting a run from the command line: its console, its run directory, its simulation."""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from autopilot_emu.mavlink.endpoint import PortInUseError
+from harness.simulation import Simulation, SimulationConfig
+
+console = Console(width=max(Console().width, 140))
+"""The terminal every command prints to (wide: the endpoint tables hold whole addresses)."""
+
+
+def default_run_dir() -> Path:
+    """runs/<timestamp> under the current directory."""
+    return Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+
+
+def open_simulation(cfg: SimulationConfig) -> Simulation:
+    """The simulation of ``cfg``, or a clear error and exit 2 (taken port, bad parameter)."""
+    try:
+        return Simulation(cfg)
+    except PortInUseError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        console.print(
+            "Another swarmsitl (or PX4 SITL) is probably running; stop it or choose other "
+            "ports with --listen-port / --gcs-listen-port / --payload-listen-port."
+        )
+        raise typer.Exit(2) from exc
+    except (OSError, ValueError) as exc:  # a taken video port, a camera that sees its vehicle
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from exc
