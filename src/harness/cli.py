@@ -514,11 +514,11 @@ def up(
         console.print(node_table(net_run, speed))
         env = f"SWARMSITL_SPEED={speed:g} SWARMSITL_CLOCK_ORIGIN={t_start!r}"
         (run_dir / "net.env").write_text(
-            "".join(
-                f"# {n.node_id}\n"
-                + "".join(f"export {k}={v}\n" for k, v in net_run.env(n.node_id).items())
-                for n in net_run.nodes
-            )
+            f"# source this, then set SWARMSITL_NODE (one of: "
+            f"{', '.join(n.node_id for n in net_run.nodes)})\n"
+            f"export SWARMSITL_SPEED={speed:g}\nexport SWARMSITL_CLOCK_ORIGIN={t_start!r}\n"
+            f"export SWARMSITL_NET={net_run.net_path}\n"
+            f"export SWARMSITL_NET_RECORDS={net_run.records_dir}\n"
         )
         console.print(
             f"companion programs: {env} SWARMSITL_NET={net_run.net_path} SWARMSITL_NODE=<node> "
