@@ -100,6 +100,13 @@ def _fmt(value: float, digits: int = 2) -> str:
     )
 
 
+def _fmt_j(value: float) -> str:
+    """Energies span 1e-4 J (a radio's airtime) to 1e5 J (propulsion): 3 significant digits."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
+
+
 def link_table(report: Mapping[str, Any]) -> Table:
     """Seed 000's link metrics per link class, as a terminal table."""
     table = Table(title="links (simulation time)")
@@ -141,12 +148,12 @@ def energy_table(report: Mapping[str, Any]) -> Table:
     for name in (*components, "total", "mean W"):
         table.add_column(name, justify="right")
     for node_id, node in energy.get("nodes", {}).items():
-        cells = [_fmt(node["components_j"].get(c, 0.0), 1) for c in components]
+        cells = [_fmt_j(node["components_j"].get(c, 0.0)) for c in components]
         table.add_row(
             node_id,
             node["role"],
             *cells,
-            _fmt(node["total_j"], 1),
+            _fmt_j(node["total_j"]),
             _fmt(node["mean_power_w"], 1),
         )
     return table
