@@ -105,6 +105,14 @@ def test_bridge_forwards_poses_of_its_vehicle_as_vision_position_estimate():
             received += [m for m in msgs if m.get_type() == "VISION_POSITION_ESTIMATE"]
             if len(received) >= 3 or not bridge.is_alive():
                 break
+        bridge.join(timeout=30)
+        while len(received) < 3:  # what the bridge sent just before it stopped is still queued
+            try:
+                data = autopilot.recv(4096)
+            except TimeoutError:
+                break
+            msgs = parser.parse_buffer(data) or []
+            received += [m for m in msgs if m.get_type() == "VISION_POSITION_ESTIMATE"]
     finally:
         bridge.join(timeout=30)
         publisher.close()

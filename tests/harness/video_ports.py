@@ -2,10 +2,20 @@
 
 from __future__ import annotations
 
+import os
 import socket
 
 RANGE = (46300, 46500)
 """Where the camera-stream tests look for ports (this suite's block)."""
+
+
+def _worker_range() -> tuple[int, int]:
+    """This pytest-xdist worker's share of RANGE (all of it without ``-n``): the modules of two
+    workers probe at the same moment, and must not both find the same ports free."""
+    workers = max(int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")), 1)
+    index = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw") or 0) % workers
+    width = (RANGE[1] - RANGE[0]) // workers
+    return RANGE[0] + index * width, RANGE[0] + (index + 1) * width
 
 
 def free_tcp_base(count: int) -> int:
@@ -14,7 +24,8 @@ def free_tcp_base(count: int) -> int:
     Looked up at run time, so two test runs at once (or another program) do not collide on a
     fixed port.
     """
-    for base in range(RANGE[0], RANGE[1] - count + 1):
+    low, high = _worker_range()
+    for base in range(low, high - count + 1):
         probes = []
         try:
             for port in range(base, base + count):
@@ -27,4 +38,4 @@ def free_tcp_base(count: int) -> int:
             for sock in probes:
                 sock.close()
         return base
-    raise RuntimeError(f"no {count} consecutive free TCP ports in {RANGE}")
+    raise RuntimeError(f"no {count} consecutive free TCP ports in {low}..{high - 1}")
