@@ -4,7 +4,8 @@ Traffic (seed 000, Sec. 3: edge UAVs send camera images to their fog node and sh
 their neighbours over WiFi): a ``status`` message to the coordinator every ``status_period_s``,
 an ``image`` of ``image_bytes`` every ``image_period_s`` (the size of a compressed camera frame;
 the autoencoder of issue 11 will produce real ones), a ``ping`` request to each neighbouring edge
-every ``ping_period_s``. It first asks the coordinator to ``join`` (request/reply, retried).
+every ``ping_period_s``. It first asks the coordinator to ``join`` (request/reply, retried, and
+asked again until it answers: the coordinator may start later).
 """
 
 from __future__ import annotations
@@ -77,7 +78,9 @@ async def run_edge(
     jobs = []
     if fog is not None:
         with node.task("T_conn"):
-            counts["joined"] = int(await request(fog, "join", {"role": "edge"}))
+            # Keep asking until the coordinator answers: it may boot later than this node.
+            while not counts["joined"] and clock.now_s() < end_s:
+                counts["joined"] = int(await request(fog, "join", {"role": "edge"}))
         jobs += [every(params.status_period_s, end_s, status)]
         jobs += [every(params.image_period_s, end_s, image)]
     if peers:

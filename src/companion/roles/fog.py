@@ -93,7 +93,9 @@ async def run_fog(
 
     if cloud is not None:
         with node.task("T_conn"):
-            counts["registered"] = int(await request("register", {"cluster": members}))
+            # Keep asking until the cloud answers: it may be reachable later than this node boots.
+            while not counts["registered"] and clock.now_s() < end_s:
+                counts["registered"] = int(await request("register", {"cluster": members}))
         await every(params.summary_period_s, end_s, summary)
     await clock.sleep(max(0.0, end_s - clock.now_s()))
     return counts

