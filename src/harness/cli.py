@@ -10,14 +10,13 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from types import FrameType
 from typing import Annotated
 
 import typer
 from rich.table import Table
 
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
-from harness.launch import console, default_run_dir, open_simulation
+from harness.launch import StopFlag, console, default_run_dir, open_simulation
 from harness.link_options import NO_LINK, check_link_model, describe, links_config
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
@@ -41,16 +40,6 @@ app = typer.Typer(
     no_args_is_help=True,
     help="swarmsitl: PyBullet UAV swarm SITL with PX4-flavoured MAVLink autopilots.",
 )
-
-
-class _StopFlag:
-    """Set by SIGINT/SIGTERM; the loop polls it and shuts down cleanly."""
-
-    def __init__(self) -> None:
-        self.stop = False
-
-    def __call__(self, signum: int, frame: FrameType | None) -> None:
-        self.stop = True
 
 
 def camera_override(
@@ -530,7 +519,7 @@ def up(
             )
             console.print(f"cloud node: process {procs['cloud'].pid}, log {run_dir / 'cloud.log'}")
     console.print("Press Ctrl-C to stop.")
-    flag = _StopFlag()
+    flag = StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
     shown = [t_start]
 
@@ -615,7 +604,7 @@ def demo(
     log = (run_dir / "client.log").open("w")
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
     t0 = time.monotonic()
-    flag = _StopFlag()
+    flag = StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         with console.status("flying: takeoff, hover, goto 50 m north, RTL, land ..."):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 from pathlib import Path
+from types import FrameType
 
 import typer
 from rich.console import Console
@@ -34,3 +35,14 @@ def open_simulation(cfg: SimulationConfig) -> Simulation:
     except (OSError, ValueError) as exc:  # a taken video port, a camera that sees its vehicle
         console.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(2) from exc
+
+
+class StopFlag:
+    """Set by SIGINT/SIGTERM; the loop polls it and shuts down cleanly."""
+
+    def __init__(self) -> None:
+        self.stop = False
+
+    def __call__(self, signum: int, frame: FrameType | None) -> None:
+        """The signal handler: note the request to stop."""
+        self.stop = True

@@ -18,7 +18,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from harness.launch import console, default_run_dir, open_simulation
+from harness.launch import StopFlag, console, default_run_dir, open_simulation
 from harness.net_plan import NetPlan, NetRun
 from harness.net_report import energy_table, link_table
 from harness.simulation import Simulation
@@ -97,9 +97,18 @@ def stop_processes(procs: dict[str, subprocess.Popen], grace_s: float = 10.0) ->
             proc.wait()
 
 
-def write_report(net: NetRun, t1_s: float, path: Path, extra: dict[str, Any]) -> dict[str, Any]:
-    """Compute the run's network report over [0, t1_s], write it as JSON and print its tables."""
-    report = net.report(0.0, t1_s)
+def write_report(
+    net: NetRun,
+    t1_s: float,
+    path: Path,
+    extra: dict[str, Any],
+    traffic_s: float | None = None,
+) -> dict[str, Any]:
+    """Compute the run's network report over [0, t1_s], write it as JSON and print its tables.
+
+    ``traffic_s``: the window the link metrics are averaged over (default: the whole run).
+    """
+    report = net.report(0.0, t1_s, traffic_s)
     report.update(extra)
     path.write_text(json.dumps(_json_safe(report), indent=1))
     console.print(link_table(report))
@@ -207,36 +216,55 @@ def net_demo(
     sim = open_simulation(cfg)
     attach(net, sim)
     console.print(node_table(net, speed))
-    origin = time.monotonic()
+    flag = StopFlag()
+    old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
     procs: dict[str, subprocess.Popen] = {}
-    for node in net.nodes:
-        extra = ["--seed", str(seed)]
-        if fly and node.vehicle is not None:
-            extra += ["--mavlink", f"udpin:127.0.0.1:{sdk_port + node.vehicle}"]
-        # The roles run until told to stop: the window is measured in simulation time here.
-        procs[node.node_id] = role_process(
-            net, node.node_id, 1e9, speed, origin, run_dir / f"{node.node_id}.log", extra
-        )
-    t0 = time.monotonic()
-
-    def gave_up() -> bool:
-        return time.monotonic() - t0 > timeout or any(p.poll() is not None for p in procs.values())
-
-    def all_ended() -> bool:
-        return time.monotonic() - t0 > timeout or all(p.poll() is not None for p in procs.values())
-
     messaging_s = 0.0
+    t0 = time.monotonic()
     try:
+        origin = time.monotonic()
+        for node in net.nodes:
+            extra = ["--seed", str(seed)]
+            if fly and node.vehicle is not None:
+                extra += ["--mavlink", f"udpin:127.0.0.1:{sdk_port + node.vehicle}"]
+            # The roles run until told to stop: the window is measured in simulation time here.
+            procs[node.node_id] = role_process(
+                net, node.node_id, 1e9, speed, origin, run_dir / f"{node.node_id}.log", extra
+            )
+
+        def gave_up() -> bool:
+            return (
+                flag.stop
+                or time.monotonic() - t0 > timeout
+                or any(p.poll() is not None for p in procs.values())
+            )
+
+        def all_ended() -> bool:
+            return (
+                flag.stop
+                or time.monotonic() - t0 > timeout
+                or all(p.poll() is not None for p in procs.values())
+            )
+
         with console.status(f"messaging for {duration:g} simulated s at {speed:g}x ..."):
             sim.run_paced(speed, gave_up, max_duration_s=duration, wall_origin_s=origin)
             messaging_s = sim.time_s
             for proc in procs.values():  # each writes its records, then lands its vehicle
                 if proc.poll() is None:
                     proc.send_signal(signal.SIGTERM)
-            sim.run_paced(speed, all_ended, max_duration_s=LANDING_S, wall_origin_s=origin)
+            if not flag.stop:
+                sim.run_paced(
+                    speed,
+                    all_ended,
+                    max_duration_s=LANDING_S,
+                    wall_origin_s=origin + messaging_s / speed,
+                )
     finally:
+        # Stop and close while signals only set the flag: the records and tlogs stay whole.
         stop_processes(procs)
         sim.close()
+        for s, h in old.items():
+            signal.signal(s, h)
     outputs = {}
     for node_id, proc in procs.items():
         lines = (run_dir / f"{node_id}.log").read_text().strip().splitlines()
@@ -255,7 +283,9 @@ def net_demo(
             "sim_time_s": sim.time_s,
             "achieved_speed": sim.time_s / max(time.monotonic() - t0, 1e-9),
             "roles": outputs,
+            "interrupted": flag.stop,
         },
+        traffic_s=messaging_s if messaging_s > 0 else None,
     )
     failed = [n for n, p in procs.items() if p.returncode not in (0, -signal.SIGTERM)]
     if failed:

@@ -192,7 +192,9 @@ class NetRun:
     def update(self, now_s: float, positions_enu_m: np.ndarray, rotor_power_w: np.ndarray) -> None:
         """Tell the network where the vehicles are and the ledger what their rotors draw."""
         for node in self._vehicle_nodes:
-            self.network.set_position(node.node_id, positions_enu_m[node.vehicle])
+            position = positions_enu_m[node.vehicle]
+            if np.all(np.isfinite(position)):  # a diverged vehicle keeps its last position
+                self.network.set_position(node.node_id, position)
         if self._vehicle_nodes:
             self.ledger.record_propulsion_fleet(
                 [n.node_id for n in self._vehicle_nodes],
@@ -219,9 +221,14 @@ class NetRun:
                 continue
         return out
 
-    def report(self, t0_s: float, t1_s: float) -> dict[str, Any]:
-        """Link metrics per class, the nodes' message records and energy over ``[t0_s, t1_s]``."""
-        duration = max(t1_s - t0_s, 1e-9)
+    def report(self, t0_s: float, t1_s: float, traffic_s: float | None = None) -> dict[str, Any]:
+        """Link metrics per class, the nodes' message records and energy over ``[t0_s, t1_s]``.
+
+        ``traffic_s``: the window the link metrics (throughput) are averaged over, when the
+        traffic ran for less than the whole run (``net-demo``: the messaging phase, not the
+        landing after it); default ``t1_s - t0_s``.
+        """
+        duration = max(traffic_s if traffic_s is not None else t1_s - t0_s, 1e-9)
         records = self.node_records()
         self.ledger.set_airtimes(self.network.airtime_s_by_node())
         energy = self.ledger.report(t0_s, t1_s, tasks=task_intervals(records, t0_s, t1_s))

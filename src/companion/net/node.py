@@ -214,6 +214,8 @@ class Node:
     def _envelope(self, dst: str, kind: str, topic: str, body: Any, category: str) -> Envelope:
         if dst not in self.config.nodes:
             raise ValueError(f"dst: unknown node {dst!r}")
+        if dst == self.node_id:
+            raise ValueError(f"dst: node {dst!r} does not send to itself")
         if category not in CATEGORIES:
             raise ValueError(f"category: {category!r}, expected one of {CATEGORIES}")
         self._next_id += 1
@@ -229,11 +231,11 @@ class Node:
         return len(envs)
 
     def _transmit(self, env: Envelope, data: bytes) -> None:
+        self.transport.send(env.dst, data)  # may raise (a datagram above a link's limit)
         record = self.stats.peer(env.dst, self._link(env.dst))
         traffic = record.sent[env.category]
         traffic.messages += 1
         traffic.bytes += len(data)
-        self.transport.send(env.dst, data)
 
     def _send_attempt(self, pending: PendingRequest, env: Envelope, data: bytes) -> None:
         pending.attempts = env.attempt

@@ -84,9 +84,6 @@ def canonical_class(role_a: str, role_b: str) -> str:
     for role in (role_a, role_b):
         if role not in ROLE_RANK:
             raise LinkConfigError(f"unknown role {role!r} (known: {', '.join(ROLE_RANK)})")
-    if role_a == "ground" or role_b == "ground":  # ground classes are named ground-X
-        other = role_b if role_a == "ground" else role_a
-        return f"ground-{other}"
     lo, hi = sorted((role_a, role_b), key=ROLE_RANK.__getitem__)
     return f"{lo}-{hi}"
 
@@ -109,6 +106,8 @@ def _resolve_base(name: str, raw: Mapping[str, Any], seen: tuple[str, ...] = ())
     base = data.get("base")
     if base is None:
         return dict(data)
+    if not isinstance(base, str):
+        raise LinkConfigError(f"presets.{name}.base: must be a preset name, got {base!r}")
     if base not in raw:
         raise LinkConfigError(f"presets.{name}.base: unknown preset {base!r}")
     if base in seen or base == name:
@@ -130,6 +129,12 @@ def _build_preset(name: str, data: Mapping[str, Any]) -> LinkPreset:
         for side in ("up", "down"):
             if not isinstance(data[side], Mapping):
                 raise LinkConfigError(f"{path}.{side}: must be a mapping")
+        for key in shared:
+            if key != "sources" and key in data["up"] and key in data["down"]:
+                raise LinkConfigError(
+                    f"{path}.{key}: {name} sets {key} per direction; set {path}.up.{key} and "
+                    f"{path}.down.{key} instead"
+                )
         up = link_params_from_dict(_merge(shared, data["up"]), f"{path}.up")
         down = link_params_from_dict(_merge(shared, data["down"]), f"{path}.down")
     else:
@@ -212,6 +217,10 @@ class LinksConfig:
                 if preset is None:  # a user removes a class: no link between those roles
                     classes.pop(key, None)
                     continue
+                if not isinstance(preset, str):
+                    raise LinkConfigError(
+                        f"{path}: must be a preset name (or null: no link), got {preset!r}"
+                    )
                 if preset not in presets:
                     raise LinkConfigError(f"{path}: unknown preset {preset!r}")
                 classes[key] = preset

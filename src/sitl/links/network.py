@@ -86,6 +86,8 @@ class LinkNetwork:
         """Place a node (east, north, up in m) for range and coverage."""
         self._role(node_id)
         east, north, up = (float(v) for v in enu_m)
+        if not all(math.isfinite(v) for v in (east, north, up)):
+            raise ValueError(f"position of {node_id!r} must be finite, got {tuple(enu_m)!r}")
         self._positions[node_id] = (east, north, up)
 
     def _role(self, node_id: str) -> str:

@@ -88,7 +88,8 @@ class LatencyParams:
         from scipy import stats
 
         if self.jitter is Jitter.NONE or self.jitter_s == 0.0:
-            return stats.uniform(loc=self.base_s, scale=0.0)
+            # A point mass at base_s (a zero-width uniform has NaN cdf and mean).
+            return stats.rv_discrete(values=([0], [1.0]), seed=None)(loc=self.base_s)
         if self.jitter is Jitter.EXPONENTIAL:
             return stats.expon(loc=self.base_s, scale=self.jitter_s)
         if self.jitter is Jitter.LOGNORMAL:

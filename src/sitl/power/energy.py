@@ -223,11 +223,8 @@ class EnergyLedger:
         node = self._node(node_id)
         checked: dict[str, float] = {}
         for kind, seconds in airtime_s.items():
-            if kind not in LINK_KIND_COMPONENT:
-                raise ValueError(
-                    f"airtime_s[{kind!r}] of node {node_id!r}: unknown link kind; "
-                    f"available: {', '.join(sorted(LINK_KIND_COMPONENT))}"
-                )
+            # A kind the ledger does not know (a custom preset's ``kind``) is kept and costs
+            # nothing: name it wifi, sik or lte in the link file to have it counted.
             if not (math.isfinite(seconds) and seconds >= 0.0):
                 raise ValueError(
                     f"airtime_s[{kind!r}] of node {node_id!r} must be finite and >= 0, "
@@ -374,7 +371,7 @@ class EnergyLedger:
         power = {"radio": 0.0, "mobile_comm": 0.0}
         kinds = dict.fromkeys(ROLE_RADIOS[node.role], 0.0) | node.airtime_s
         for kind, airtime in kinds.items():
-            component = LINK_KIND_COMPONENT[kind]
+            component = LINK_KIND_COMPONENT.get(kind)
             if component is None or component not in ROLE_COMPONENTS[node.role]:
                 continue
             # The link models give each peer its own transmit queue, so a node's airtime summed

@@ -64,7 +64,7 @@ def test_full_queue_drops_and_counts_never_blocks():
     for _ in range(50):
         port.send("g", "e1", b"x" * 200)
     assert port.last_drop is Drop.QUEUE
-    rec = network.records(10.0)["classes"]["ground-edge"]
+    rec = network.records(10.0)["classes"]["edge-ground"]
     assert rec["drops"]["queue"] >= 40
     clock.now_s = 10.0
     assert len(port.receive("e1")) == rec["datagrams_delivered"] > 0

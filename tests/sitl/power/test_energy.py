@@ -218,7 +218,6 @@ def test_rotor_power_of_a_hovering_world_integrates_to_power_times_time():
         (lambda: _ledger().record_propulsion("e", 0.0, -5.0), "power_w"),
         (lambda: _ledger().record_propulsion("c", 0.0, 5.0), "node_id"),
         (lambda: _ledger().add_node("e", "edge"), "node_id"),
-        (lambda: _ledger().set_airtime("e", {"lora": 1.0}), "airtime_s['lora']"),
         (lambda: _ledger().set_airtime("e", {"wifi": -1.0}), "airtime_s['wifi']"),
         (
             lambda: _ledger().record_propulsion_fleet(["e"], 0.0, np.zeros(2)),
@@ -262,3 +261,11 @@ def test_a_radio_busy_longer_than_the_window_counts_as_always_on():
     ledger = _ledger(airtime={"wifi": 11.0})
     node = ledger.report(0.0, 10.0)["nodes"]["e"]
     assert node["components_j"]["radio"] == pytest.approx(1.0 * 10.0)
+
+
+def test_a_link_kind_the_ledger_does_not_know_costs_nothing():
+    """A custom preset's kind (``wifi6``) is listed with its airtime but draws no power."""
+    ledger = _ledger(airtime={"wifi6": 2.0, "wifi": 1.0})
+    node = ledger.report(0.0, 10.0)["nodes"]["e"]
+    assert node["airtime_s"]["wifi6"] == 2.0
+    assert node["components_j"]["radio"] == pytest.approx(1.0)
