@@ -124,6 +124,22 @@ def write_report(
     return report
 
 
+def _role_output(log_path: Path, proc: subprocess.Popen) -> dict[str, Any]:
+    """The JSON line a role prints at its end (the last one that parses), else what went wrong."""
+    try:
+        lines = log_path.read_text().strip().splitlines()
+    except OSError:
+        lines = []
+    for line in reversed(lines):
+        try:
+            value = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(value, dict):
+            return value
+    return {"error": lines[-1] if lines else "no output", "exit_code": proc.returncode}
+
+
 def cloud(
     net: Annotated[
         Path | None,
@@ -265,13 +281,7 @@ def net_demo(
         sim.close()
         for s, h in old.items():
             signal.signal(s, h)
-    outputs = {}
-    for node_id, proc in procs.items():
-        lines = (run_dir / f"{node_id}.log").read_text().strip().splitlines()
-        try:
-            outputs[node_id] = json.loads(lines[-1]) if lines else {}
-        except ValueError:
-            outputs[node_id] = {"error": lines[-1], "exit_code": proc.returncode}
+    outputs = {n: _role_output(run_dir / f"{n}.log", proc) for n, proc in procs.items()}
     write_report(
         net,
         sim.time_s,
@@ -287,6 +297,9 @@ def net_demo(
         },
         traffic_s=messaging_s if messaging_s > 0 else None,
     )
+    if flag.stop:
+        console.print("[yellow]interrupted: the report covers the run so far[/yellow]")
+        raise typer.Exit(130)
     failed = [n for n, p in procs.items() if p.returncode not in (0, -signal.SIGTERM)]
     if failed:
         console.print(f"[red]roles that failed: {', '.join(failed)}; see their logs[/red]")

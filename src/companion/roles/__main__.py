@@ -82,6 +82,9 @@ async def main_async(args: argparse.Namespace) -> int:
             flown = await asyncio.wait_for(flight, timeout=180.0)
         except TimeoutError:
             flown = "landing not confirmed within 180 s"
+    for sig in (signal.SIGINT, signal.SIGTERM):  # done: a late signal must not print noise
+        loop.remove_signal_handler(sig)
+        signal.signal(sig, signal.SIG_IGN)
     out = {"node": node.node_id, "role": role, "counts": counts, "stopped": stopped}
     if flown is not None:
         out["flight"] = flown
