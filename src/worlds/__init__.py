@@ -1,9 +1,9 @@
 """Procedural, seeded worlds: YAML schema, pure world descriptions and planner-map exports.
 
-``load_world(path)`` validates a world YAML (errors name file, line and field),
-``build(spec)`` turns it into a frozen :class:`World` from one seeded generator, and
-:mod:`worlds.maps` exports occupancy grids, shapely polygons and networkx graphs. A leaf package: ``sitl`` builds worlds into PyBullet,
-companion code may import the map data.
+``load_world(path)`` validates a world YAML (errors name file, line and field), ``build(spec)``
+turns it into a frozen :class:`World` from one seeded generator, and :mod:`worlds.maps` exports
+occupancy grids, shapely polygons and networkx graphs. A leaf package: ``sitl`` builds worlds into
+PyBullet, companion code may import the map data.
 """
 
 from worlds.generate import build
