@@ -98,7 +98,9 @@ def build_offshore(spec: OffshoreSpec, rng: np.random.Generator) -> World:
     min_area = spec.spill_count * math.pi * (0.65 * spec.spill_radius_m[0]) ** 2
     while len(spills) < spec.spill_count:
         attempts += 1
-        if attempts > 100 * max(spec.spill_count, 1) or min_area > 0.5 * (area.area - keep_out.area):
+        if attempts > 100 * max(spec.spill_count, 1) or min_area > 0.5 * (
+            area.area - keep_out.area
+        ):
             raise ValueError(
                 f"spill_count: cannot place {spec.spill_count} spills of spill_radius_m "
                 f"{spec.spill_radius_m} on a {sx} x {sy} m sea; placed {len(spills)}"

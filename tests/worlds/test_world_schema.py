@@ -74,7 +74,9 @@ def test_invalid_yaml_and_non_mapping_and_missing_file(tmp_path):
 
 
 def test_a_spec_that_cannot_fit_fails_naming_the_field():
-    spec = parse_world("kind: offshore\nseed: 0\nsize_m: [300, 300]\nspill_count: 60\nspill_radius_m: [20, 30]\n")
+    spec = parse_world(
+        "kind: offshore\nseed: 0\nsize_m: [300, 300]\nspill_count: 60\nspill_radius_m: [20, 30]\n"
+    )
     with pytest.raises(ValueError, match="spill_count"):
         build(spec)
     spec = parse_world("kind: city\nseed: 0\nsize_m: [100, 100]\nblocks: [8, 8]\n")
