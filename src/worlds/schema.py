@@ -203,6 +203,22 @@ def _node_at(root: yaml.Node, loc: tuple[Any, ...]) -> tuple[yaml.Node, bool]:
     return node, True
 
 
+def _duplicate_keys(node: yaml.Node) -> list[yaml.Node]:
+    """Key nodes repeating an earlier key of their mapping (YAML would silently keep the last)."""
+    out: list[yaml.Node] = []
+    if isinstance(node, yaml.MappingNode):
+        seen = set()
+        for key, value in node.value:
+            if key.value in seen:
+                out.append(key)
+            seen.add(key.value)
+            out += _duplicate_keys(value)
+    elif isinstance(node, yaml.SequenceNode):
+        for item in node.value:
+            out += _duplicate_keys(item)
+    return out
+
+
 def parse_world(text: str, source: str = "<string>") -> WorldSpec:
     """Validate world YAML ``text`` (``source`` names it in errors): :class:`WorldSpecError`."""
     try:
@@ -215,6 +231,13 @@ def parse_world(text: str, source: str = "<string>") -> WorldSpec:
     if not isinstance(data, dict) or root is None:
         raise WorldSpecError(
             f"{source}:1: a world file is a mapping with at least 'kind' and 'seed'"
+        )
+    duplicates = list(_duplicate_keys(root))
+    if duplicates:
+        raise WorldSpecError(
+            "\n".join(
+                f"{source}:{k.start_mark.line + 1}: {k.value}: duplicate key" for k in duplicates
+            )
         )
     kind = data.get("kind")
     if kind not in SPEC_BY_KIND:

@@ -49,6 +49,11 @@ def test_missing_or_unknown_kind(tmp_path):
     assert msg.startswith(f"{path}:2: kind: unknown kind 'moon'")
 
 
+def test_duplicate_key_is_an_error_not_silently_the_last(tmp_path):
+    path, msg = _error(tmp_path, "kind: city\nseed: 1\nblocks: [2, 2]\nseed: 2\n")
+    assert msg == f"{path}:4: seed: duplicate key"
+
+
 def test_several_errors_are_all_reported(tmp_path):
     path, msg = _error(tmp_path, "kind: taskmap\nseed: -1\ntask_count: 3.5\nfoo: 1\n")
     lines = msg.splitlines()
