@@ -9,6 +9,7 @@ overhead pipes do not block a vehicle flying under them and a 20 m building does
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import networkx as nx
 import numpy as np
@@ -119,4 +120,43 @@ def grid_graph(
         graph.add_weighted_edges_from(
             ((int(i), int(j)), (int(i) + dr, int(j) + dc), w) for i, j in zip(r, c, strict=True)
         )
+    return graph
+
+
+def visibility_graph(
+    world: World,
+    altitude_m: float | None = None,
+    t_s: float = 0.0,
+    clearance_m: float = 0.0,
+    points_xy_m: Sequence[tuple[float, float]] = (),
+) -> nx.Graph:
+    """Corners of the free space plus ``points_xy_m``, joined where the straight segment is free.
+
+    Nodes are integers with ``pos`` (x, y) in m; the given points come first (nodes 0, 1, ...), so
+    a planner asks ``nx.shortest_path(g, 0, 1, weight="weight")`` from start 0 to goal 1. Edges hold
+    their length as ``weight``. Cost grows with the square of the corner count (cylinders have 32
+    corners): meant for worlds of tens of obstacles; use :func:`grid_graph` for dense ones.
+    """
+    free = free_space(world, altitude_m, t_s, clearance_m)
+    rings = []
+    for part in getattr(free, "geoms", [free]):
+        if isinstance(part, shapely.Polygon) and not part.is_empty:
+            rings.append(part.exterior)
+            rings.extend(part.interiors)
+    corners = [np.asarray(ring.coords)[:-1] for ring in rings]
+    given = np.asarray(points_xy_m, dtype=float).reshape(-1, 2)
+    xy = np.vstack([given, *corners]) if corners else given
+    graph = nx.Graph()
+    graph.add_nodes_from((i, {"pos": (float(x), float(y))}) for i, (x, y) in enumerate(xy))
+    if len(xy) < 2:
+        return graph
+    i, j = np.triu_indices(len(xy), k=1)
+    segments = shapely.linestrings(np.stack([xy[i], xy[j]], axis=1))
+    tolerant = free.buffer(1e-6)
+    shapely.prepare(tolerant)
+    ok = shapely.covers(tolerant, segments)
+    lengths = np.hypot(*(xy[j] - xy[i]).T)
+    graph.add_weighted_edges_from(
+        (int(a), int(b), float(w)) for a, b, w in zip(i[ok], j[ok], lengths[ok], strict=True)
+    )
     return graph

@@ -9,7 +9,14 @@ import shapely
 
 from worlds import build, parse_world
 from worlds.examples import KINDS
-from worlds.maps import cell_of, free_space, grid_graph, obstacle_polygons, occupancy_grid
+from worlds.maps import (
+    cell_of,
+    free_space,
+    grid_graph,
+    obstacle_polygons,
+    occupancy_grid,
+    visibility_graph,
+)
 
 
 def _world(kind, seed=2):
@@ -106,3 +113,24 @@ def test_every_kind_exports_maps(kind):
     graph = grid_graph(world, max(world.size_m) / 60.0, altitude_m=2.0)
     assert graph.number_of_nodes() > 0
     assert nx.number_connected_components(graph) >= 1
+
+
+def test_visibility_graph_paths_are_free_and_not_longer_than_grid_paths():
+    world = build(parse_world("kind: city\nseed: 3\nblocks: [3, 3]\nsize_m: [300, 300]\n"))
+    x0, y0, x1, y1 = world.bounds_xy_m
+    start, goal = (x0 + 5.0, y0 + 5.0), (x1 - 5.0, y1 - 5.0)
+    vis = visibility_graph(world, altitude_m=5.0, points_xy_m=[start, goal])
+    free = free_space(world, 5.0).buffer(1e-6)
+    for a, b in vis.edges():
+        seg = shapely.LineString([vis.nodes[a]["pos"], vis.nodes[b]["pos"]])
+        assert free.covers(seg)
+    assert not vis.has_edge(0, 1)  # buildings block the diagonal
+    path = nx.shortest_path(vis, 0, 1, weight="weight")
+    length = nx.path_weight(vis, path, "weight")
+    res = 3.0
+    grid = grid_graph(world, res, altitude_m=5.0)
+    origin = grid.graph["origin_xy_m"]
+    grid_len = nx.shortest_path_length(
+        grid, cell_of(start, origin, res), cell_of(goal, origin, res), weight="weight"
+    )
+    assert math.dist(start, goal) < length <= grid_len + 2 * res
