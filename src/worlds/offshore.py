@@ -83,9 +83,9 @@ def build_offshore(spec: OffshoreSpec, rng: np.random.Generator) -> World:
             _SUPERSTRUCTURE_WHITE,
         )
     )
-    wind_from = (
-        spec.wind_from_deg if spec.wind_from_deg is not None else float(rng.uniform(0.0, 360.0))
-    )
+    # Drawn even when the file fixes it, so fixing the wind does not move the spills.
+    drawn_from_deg = float(rng.uniform(0.0, 360.0))
+    wind_from = spec.wind_from_deg if spec.wind_from_deg is not None else drawn_from_deg
     wind = Wind(spec.wind_speed_m_s, wind_from, spec.wind_gust_std_m_s)
     # Spills on open sea: spill_clearance_m clear of every solid, not overlapping each other.
     keep_out = shapely.unary_union([s.footprint_at(0.0) for s in solids]).buffer(

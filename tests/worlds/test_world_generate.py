@@ -61,6 +61,13 @@ def test_offshore_spills_lie_on_open_sea_and_appear_over_time():
     assert world.wind is not None and math.isclose(np.hypot(*world.wind.velocity_enu_m_s[:2]), 6.0)
 
 
+def test_fixing_the_wind_direction_keeps_the_spills():
+    drawn = _world("offshore", 4)
+    fixed = _world("offshore", 4, "wind_from_deg: 270.0\n")
+    assert fixed.wind.from_direction_deg == 270.0 != drawn.wind.from_direction_deg
+    assert fixed.targets == drawn.targets
+
+
 def test_city_buildings_do_not_overlap_and_the_land_base_is_clear():
     world = _world("city", 5)
     footprints = [s.footprint_at() for s in world.solids]
