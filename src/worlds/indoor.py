@@ -135,12 +135,18 @@ def build_indoor(spec: IndoorSpec, rng: np.random.Generator) -> World:
             )
     # People on the floor, in rooms, not in or against machinery.
     people = []
-    while len(people) < spec.person_count:
+    for _ in range(1000 * max(spec.person_count, 1)):
+        if len(people) == spec.person_count:
+            break
         x0, y0, x1, y1 = inner_rooms[int(rng.integers(len(inner_rooms)))]
         p = Point(rng.uniform(x0, x1), rng.uniform(y0, y1))
         if any(p.distance(m.footprint_at()) < 0.8 for m in machines):
             continue
         people.append(Person(f"person_{len(people)}", (float(p.x), float(p.y), 0.0)))
+    if len(people) < spec.person_count:
+        raise ValueError(
+            f"person_count: no room left for {spec.person_count} people beside the machinery"
+        )
     yard = spec.yard_m
     sx, sy = px + 2.0 * yard, py + 2.0 * yard
     safe = LaunchArea("safe_point", (exit_x, -py / 2.0 - yard / 2.0, 0.0), min(yard / 2.0, 2.0))
