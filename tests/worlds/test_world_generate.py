@@ -184,3 +184,17 @@ def test_taskmap_tasks_on_distinct_grid_vertices():
     assert np.allclose((xy + 5.0) / 0.5, np.round((xy + 5.0) / 0.5))
     assert all(1.0 <= t.demand <= 5.0 for t in tasks)
     assert len(world.launch_areas) == 10
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_box_solids_fit_the_simulators_box_obstacle(kind):
+    """What ``sitl`` will build: every box maps field for field onto ``BoxObstacle`` (it validates)."""
+    from sitl.physics.obstacles import BoxObstacle
+
+    world = _world(kind, 0)
+    for solid in world.solids_at(30.0):
+        if solid.shape == "box":
+            box = BoxObstacle(solid.center_enu_m, solid.size_m, solid.yaw_deg, solid.rgba)
+            assert box.size_m == solid.size_m
+        else:
+            assert solid.size_m[0] == solid.size_m[1] > 0
