@@ -188,7 +188,7 @@ def test_taskmap_tasks_on_distinct_grid_vertices():
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_box_solids_fit_the_simulators_box_obstacle(kind):
-    """What ``sitl`` will build: every box maps field for field onto ``BoxObstacle`` (it validates)."""
+    """What ``sitl`` will build: each box maps field for field onto ``BoxObstacle``."""
     from sitl.physics.obstacles import BoxObstacle
 
     world = _world(kind, 0)
