@@ -30,7 +30,8 @@ from sitl.physics.bullet import GROUND_TILE_M, BulletScene
 from sitl.physics.earth import isa_pressure_pa, isa_temperature_k
 from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
 from sitl.physics.ground_texture import ground_texture
-from sitl.physics.obstacles import BoxObstacle, add_boxes
+from sitl.physics.moving_solids import MOVING_SOLIDS_HZ, MovingSolids
+from sitl.physics.obstacles import BoxObstacle, add_boxes, add_solids
 from sitl.physics.rotors import RotorModel
 from sitl.physics.wind import WindConfig, WindField
 from sitl.power.loads import PayloadLoads
@@ -46,6 +47,7 @@ from sitl.sensors.mocap import Mocap, MocapParams, MocapSample
 from sitl.sensors.rangefinder import RangefinderArray
 from sitl.truth import TruthState
 from sitl.vehicles.multirotor import MultirotorSpec, airframe_yaml_path, load_airframe
+from worlds import World as WorldsWorld
 
 log = logging.getLogger(__name__)
 
@@ -112,6 +114,10 @@ class WorldConfig:
     """State of charge of every pack at the start, 0..1."""
     obstacles: tuple[BoxObstacle, ...] = ()
     """Static boxes (walls, pillars) the vehicles can hit and the sensors see."""
+    scene: WorldsWorld | None = None
+    """A built ``worlds`` world whose solids (boxes, vertical cylinders; moving ones follow their
+    ``motion``) are added to the scene after ``obstacles``; None: no scenery beyond ``obstacles``.
+    Its surface, targets and wind are not simulated yet (docs/worlds.md, "In the simulator")."""
     rangefinders: bool = False
     """Fly the airframes' ultrasonic rangefinders (their ``rangefinders`` section); off (the
     default): none, ``poll_rangefinders`` returns None and a flight-only run pays nothing."""
@@ -163,6 +169,8 @@ class WorldConfig:
         for k, box in enumerate(self.obstacles):
             if not isinstance(box, BoxObstacle):
                 raise ValueError(f"obstacles[{k}] must be a BoxObstacle, got {box!r}")
+        if self.scene is not None and not isinstance(self.scene, WorldsWorld):
+            raise ValueError(f"scene must be a worlds.World or None, got {type(self.scene)!r}")
         if not 0.0 <= self.battery_soc <= 1.0:
             raise ValueError(f"battery_soc must be in [0, 1], got {self.battery_soc!r}")
         if len(self.loads) not in (1, self.n_vehicles):
@@ -281,7 +289,15 @@ class World:
             [spec.urdf_path for spec in self.airframes], self._spawn_enu, tuple(facing_north), dt
         )
         self.obstacle_ids: list[int] = add_boxes(self._scene.client_id, config.obstacles)
-        """PyBullet body ids of ``config.obstacles``, in order."""
+        """PyBullet body ids of ``config.obstacles``, then of ``config.scene``'s solids."""
+        self._moving_solids: MovingSolids | None = None
+        if config.scene is not None:
+            solid_ids = add_solids(self._scene.client_id, config.scene.solids)
+            self.obstacle_ids.extend(solid_ids)
+            movers = MovingSolids(self._scene.client_id, config.scene.solids, solid_ids)
+            if len(movers):
+                self._moving_solids = movers
+                self._moving_div = max(1, round(config.physics_hz / MOVING_SOLIDS_HZ))
 
         # Sensor construction order fixes the order of random draws: keep it (group by group in
         # order of first appearance; one group is the single-airframe world).
@@ -469,6 +485,8 @@ class World:
             for group in self._groups:
                 group.rotors.advance()
         self._clock.advance()
+        if self._moving_solids is not None and self._clock.tick % self._moving_div == 0:
+            self._moving_solids.update(self._clock.time_s)
         if self._clock.tick % self._power_div == 0:
             dt = self._power_div * self._clock.dt_s
             for group in self._groups:
