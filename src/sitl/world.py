@@ -29,7 +29,7 @@ from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import GROUND_TILE_M, BulletScene
 from sitl.physics.earth import isa_pressure_pa, isa_temperature_k
 from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
-from sitl.physics.ground_texture import ground_texture
+from sitl.physics.ground_texture import ground_texture, tinted
 from sitl.physics.moving_solids import MOVING_SOLIDS_HZ, MovingSolids
 from sitl.physics.obstacles import BoxObstacle, add_boxes, add_solids
 from sitl.physics.rotors import RotorModel
@@ -422,11 +422,14 @@ class World:
         if all(spec is None for spec in specs):
             return None
         scene = self._scene
+        texture = ground_texture(scenery_rng, tile_m=GROUND_TILE_M)
+        if config.scene is not None:
+            texture = tinted(texture, config.scene.surface.rgba)
         rig = CameraRig(
             scene.client_id,
             specs,
             config.physics_hz,
-            ground_texture(scenery_rng, tile_m=GROUND_TILE_M),
+            texture,
             GROUND_TILE_M,
             scene.ground_id,
             scene.body_ids,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -146,3 +147,17 @@ def test_without_a_scene_nothing_changes_and_a_far_scene_draws_no_random_numbers
 def test_a_scene_must_be_a_worlds_world():
     with pytest.raises(ValueError, match="scene"):
         WorldConfig(scene="offshore")  # type: ignore[arg-type]
+
+
+def test_the_down_camera_sees_the_scene_surface_colour():
+    """Over a sea-blue surface the down camera's mean colour is the surface's, not grass."""
+    sea = worlds.Surface("sea", (0.05, 0.22, 0.35, 1.0), "waves", 8.0, 0.3)
+    scene = dataclasses.replace(_hand_made(), surface=sea)
+    with World(WorldConfig(cameras=True, spawn_altitude_m=10.0, scene=scene)) as world:
+        frames = None
+        while frames is None:
+            world.step()
+            frames = world.poll_cameras()
+    mean_rgb = frames[0].rgb.reshape(-1, 3).mean(axis=0)
+    assert mean_rgb[2] > mean_rgb[1] > mean_rgb[0]
+    assert np.allclose(mean_rgb, 255.0 * np.array(sea.rgba[:3]), atol=12.0)
