@@ -500,7 +500,7 @@ def up(
     procs: dict[str, subprocess.Popen] = {}
     if net_run is not None:
         attach(net_run, sim)
-        console.print(node_table(net_run, speed))
+        console.print(node_table(net_run))
         env = f"SWARMSITL_SPEED={speed:g} SWARMSITL_CLOCK_ORIGIN={t_start!r}"
         (run_dir / "net.env").write_text(
             f"# source this, then set SWARMSITL_NODE (one of: "

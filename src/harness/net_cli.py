@@ -47,7 +47,7 @@ def attach(net: NetRun, sim: Simulation) -> None:
     sim.on_positions(feed)
 
 
-def node_table(net: NetRun, speed: float) -> Table:
+def node_table(net: NetRun) -> Table:
     """Who is who: node, role, vehicle, where it listens, where others reach it."""
     table = Table(title=f"messaging network ({net.net_path})")
     for column in ("node", "role", "vehicle", "binds", "reached at (router)", "groups"):
@@ -231,7 +231,7 @@ def net_demo(
     )
     sim = open_simulation(cfg)
     attach(net, sim)
-    console.print(node_table(net, speed))
+    console.print(node_table(net))
     flag = StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
     procs: dict[str, subprocess.Popen] = {}

@@ -182,13 +182,6 @@ class NetRun:
         self.records_dir = out_dir / "net"
         self.records_dir.mkdir(exist_ok=True)
 
-    def node_of_vehicle(self, i: int) -> NetNode:
-        """The node of vehicle ``i``'s companion."""
-        for node in self._vehicle_nodes:
-            if node.vehicle == i:
-                return node
-        raise KeyError(f"vehicle {i} has no node")
-
     def update(self, now_s: float, positions_enu_m: np.ndarray, rotor_power_w: np.ndarray) -> None:
         """Tell the network where the vehicles are and the ledger what their rotors draw."""
         for node in self._vehicle_nodes:

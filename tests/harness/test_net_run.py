@@ -114,7 +114,7 @@ def test_paced_router_and_lockstep_port_agree(tmp_path):
                 _wait_readable(paced)
             paced.router.poll(now[0])
             for node_id, transport in senders.items():
-                got_paced[node_id] += [(tick, d[:40]) for d in _drain(transport)]
+                got_paced[node_id] += [(tick, d[:40]) for d in transport.receive()]
                 got_lockstep[node_id] += [(tick, d[:40]) for d in port.receive(node_id)]
         assert got_paced == got_lockstep
         assert sum(map(len, got_paced.values())) > 0.9 * 4 * 667
@@ -123,10 +123,6 @@ def test_paced_router_and_lockstep_port_agree(tmp_path):
         for transport in senders.values():
             transport.close()
         paced.router.close()
-
-
-def _drain(transport: UdpTransport) -> list[bytes]:
-    return transport.receive()
 
 
 def _wait_readable(net: NetRun) -> None:

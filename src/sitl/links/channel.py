@@ -196,10 +196,6 @@ class LinkChannel:
         """Whether the link is up at ``now_s``."""
         return self._outages.is_up(now_s)
 
-    def backlog_bytes(self, now_s: float) -> float:
-        """Bytes waiting in the transmitter at ``now_s`` (the one being sent included)."""
-        return max(0.0, self._busy_until_s - now_s) * self._bytes_per_s
-
     def submit(
         self, now_s: float, payload_bytes: int, distance_m: float = 0.0
     ) -> tuple[float | None, Drop | None]:
