@@ -89,14 +89,11 @@ RATE_MULT_UPDATE_US = 1_000_000
 MAVLINK2_NON_PAYLOAD_BYTES = 12
 """Header (10) and checksum (2) of an unsigned MAVLink 2 frame."""
 
-_STREAM_IDS: tuple[int, ...] = tuple(
-    getattr(mavlink2, f"MAVLINK_MSG_ID_{name}") for name in STREAMABLE
-)
-
-
-def _max_frame_bytes(msg_id: int) -> float:
-    """Bytes of message ``msg_id``'s frame with its full payload (PX4's size before averages)."""
-    return float(mavlink2.mavlink_map[msg_id].unpacker.size + MAVLINK2_NON_PAYLOAD_BYTES)
+_MAX_FRAME_BYTES: dict[int, float] = {
+    msg_id: float(mavlink2.mavlink_map[msg_id].unpacker.size + MAVLINK2_NON_PAYLOAD_BYTES)
+    for msg_id in (getattr(mavlink2, f"MAVLINK_MSG_ID_{name}") for name in STREAMABLE)
+}
+"""Bytes of each stream's frame with its full payload (PX4's size before it has averages)."""
 
 
 STATUSTEXT_POLL_INTERVAL_US = 20_000
@@ -600,8 +597,7 @@ class MavlinkEndpoint:
         A stream's load is its bytes per emission (a running average of what was sent; before
         its first emission the largest frame of its message) times its configured rate.
         """
-        sizes = {msg_id: _max_frame_bytes(msg_id) for msg_id in _STREAM_IDS}
-        sizes.update(self._emission_bytes)
+        sizes = _MAX_FRAME_BYTES | self._emission_bytes
         const, scaled = self._streams.bytes_per_s(sizes)
         if scaled > 0:
             mult = (self._config.datarate_bytes_s - const) / scaled
