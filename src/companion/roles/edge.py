@@ -16,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from companion import clock
-from companion.net import AsyncNode, RequestTimeout
+from companion.net import AsyncNode
+from companion.roles.asking import ask, ask_until_answered
 from companion.roles.cluster import coordinator_of, nodes_with_role
 from companion.roles.periodic import every
 
@@ -54,12 +55,9 @@ async def run_edge(
     end_s = clock.now_s() + duration_s
 
     async def request(dst: str, topic: str, body: dict) -> bool:
-        try:
-            await node.request(dst, topic, body, params.request_timeout_s, params.retries)
-        except RequestTimeout:
-            counts["timeouts"] += 1
-            return False
-        return True
+        answered = await ask(node, dst, topic, body, params.request_timeout_s, params.retries)
+        counts["timeouts"] += not answered
+        return answered
 
     async def status() -> None:
         node.send(fog, "status", {"seq": counts["status"], "t_s": clock.now_s()})
@@ -78,9 +76,11 @@ async def run_edge(
     jobs = []
     if fog is not None:
         with node.task("T_conn"):
-            # Keep asking until the coordinator answers: it may boot later than this node.
-            while not counts["joined"] and clock.now_s() < end_s:
-                counts["joined"] = int(await request(fog, "join", {"role": "edge"}))
+            joined, timeouts = await ask_until_answered(
+                node, fog, "join", {"role": "edge"}, params.request_timeout_s, params.retries, end_s
+            )
+            counts["joined"] = int(joined)
+            counts["timeouts"] += timeouts
         jobs += [every(params.status_period_s, end_s, status)]
         jobs += [every(params.image_period_s, end_s, image)]
     if peers:

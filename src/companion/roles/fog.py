@@ -11,7 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from companion import clock
-from companion.net import AsyncNode, Envelope, RequestTimeout
+from companion.net import AsyncNode, Envelope
+from companion.roles.asking import ask, ask_until_answered
 from companion.roles.cluster import clusters, nodes_with_role
 from companion.roles.periodic import every
 
@@ -30,8 +31,8 @@ async def run_fog(
     node: AsyncNode,
     duration_s: float,
     params: FogParams,
-    counts: dict[str, object] | None = None,
-) -> dict[str, object]:
+    counts: dict[str, int] | None = None,
+) -> dict[str, int]:
     """Run the fog role for ``duration_s`` simulated seconds; return its counters.
 
     ``counts`` (filled in place) lets a caller that cancels the role still read them.
@@ -53,16 +54,16 @@ async def run_fog(
     last_status: dict[str, float] = {}
 
     def on_status(env: Envelope) -> None:
-        counts["status"] = int(counts["status"]) + 1
+        counts["status"] += 1
         last_status[env.src] = env.sent_s
 
     def on_image(env: Envelope) -> None:
-        counts["images"] = int(counts["images"]) + 1
+        counts["images"] += 1
         body = env.body if isinstance(env.body, dict) else {}
-        counts["image_bytes"] = int(counts["image_bytes"]) + len(body.get("jpeg", b""))
+        counts["image_bytes"] += len(body.get("jpeg", b""))
 
     def on_join(env: Envelope) -> dict[str, object]:
-        counts["joins"] = int(counts["joins"]) + 1
+        counts["joins"] += 1
         return {"fog": node.node_id, "cluster": members}
 
     node.on("status", on_status)
@@ -71,16 +72,6 @@ async def run_fog(
     node.on("ping", lambda env: {"from": node.node_id})
     end_s = clock.now_s() + duration_s
 
-    async def request(topic: str, body: dict, category: str = "control") -> bool:
-        try:
-            await node.request(
-                cloud, topic, body, params.request_timeout_s, params.retries, category=category
-            )
-        except RequestTimeout:
-            counts["timeouts"] = int(counts["timeouts"]) + 1
-            return False
-        return True
-
     async def summary() -> None:
         with node.task("T_report"):
             body = {
@@ -88,14 +79,20 @@ async def run_fog(
                 "images": counts["images"],
                 "image_bytes": counts["image_bytes"],
             }
-            acked = await request("summary", body, category="data")
-            counts["summaries_acked"] = int(counts["summaries_acked"]) + acked
+            acked = await ask(
+                node, cloud, "summary", body, params.request_timeout_s, params.retries, "data"
+            )
+            counts["summaries_acked"] += acked
+            counts["timeouts"] += not acked
 
     if cloud is not None:
         with node.task("T_conn"):
-            # Keep asking until the cloud answers: it may be reachable later than this node boots.
-            while not counts["registered"] and clock.now_s() < end_s:
-                counts["registered"] = int(await request("register", {"cluster": members}))
+            registered, timeouts = await ask_until_answered(
+                node, cloud, "register", {"cluster": members},
+                params.request_timeout_s, params.retries, end_s,
+            )  # fmt: skip
+            counts["registered"] = int(registered)
+            counts["timeouts"] += timeouts
         await every(params.summary_period_s, end_s, summary)
     await clock.sleep(max(0.0, end_s - clock.now_s()))
     return counts
