@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 import shapely
-from shapely.geometry import Point, Polygon, box
+from shapely.geometry import Point, Polygon
 
 from worlds.model import LaunchArea, Solid, SolidMotion, Surface, TaskPoint, World
 from worlds.schema import ArenaAcoSpec, TaskmapSpec, WorkspaceMcoSpec
-from worlds.shapes import irregular_outline
+from worlds.shapes import centred_rectangle, irregular_outline
 
 _OBSTACLE = (0.5, 0.42, 0.35, 1.0)
 _MOVER = (0.85, 0.1, 0.1, 1.0)
@@ -89,7 +89,7 @@ def build_arena_aco(spec: ArenaAcoSpec, rng: np.random.Generator) -> World:
         kind="arena_aco",
         seed=spec.seed,
         size_m=(sx, sy),
-        boundary=box(-sx / 2.0, -sy / 2.0, sx / 2.0, sy / 2.0),
+        boundary=centred_rectangle(sx, sy),
         surface=surface,
         solids=tuple(solids),
         launch_areas=(start, goal),
@@ -189,7 +189,7 @@ def build_taskmap(spec: TaskmapSpec, rng: np.random.Generator) -> World:
         kind="taskmap",
         seed=spec.seed,
         size_m=(sx, sy),
-        boundary=box(-sx / 2.0, -sy / 2.0, sx / 2.0, sy / 2.0),
+        boundary=centred_rectangle(sx, sy),
         surface=surface,
         launch_areas=launch,
         targets=tasks,

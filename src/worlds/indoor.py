@@ -9,10 +9,11 @@ GPS-denied: vehicles fly on the indoor positioning source.
 from __future__ import annotations
 
 import numpy as np
-from shapely.geometry import Point, box
+from shapely.geometry import Point
 
 from worlds.model import LaunchArea, Person, Solid, Surface, World
 from worlds.schema import IndoorSpec
+from worlds.shapes import centred_rectangle
 
 _WALL = (0.78, 0.76, 0.7, 1.0)
 _MACHINE = (0.2, 0.35, 0.6, 1.0)
@@ -155,7 +156,7 @@ def build_indoor(spec: IndoorSpec, rng: np.random.Generator) -> World:
         kind="indoor",
         seed=spec.seed,
         size_m=(sx, sy),
-        boundary=box(-sx / 2.0, -sy / 2.0, sx / 2.0, sy / 2.0),
+        boundary=centred_rectangle(sx, sy),
         surface=surface,
         solids=tuple(solids),
         launch_areas=(safe,),

@@ -6,11 +6,10 @@ import math
 
 import numpy as np
 import shapely
-from shapely.geometry import box
 
 from worlds.model import LaunchArea, OilSpill, Solid, Surface, Wind, World
 from worlds.schema import OffshoreSpec
-from worlds.shapes import irregular_outline
+from worlds.shapes import centred_rectangle, irregular_outline
 
 _STEEL = (0.45, 0.45, 0.48, 1.0)
 _RIG_YELLOW = (0.85, 0.7, 0.15, 1.0)
@@ -91,7 +90,7 @@ def build_offshore(spec: OffshoreSpec, rng: np.random.Generator) -> World:
     keep_out = shapely.unary_union([s.footprint_at(0.0) for s in solids]).buffer(
         spec.spill_clearance_m
     )
-    area = box(-sx / 2.0, -sy / 2.0, sx / 2.0, sy / 2.0)
+    area = centred_rectangle(sx, sy)
     spills: list[OilSpill] = []
     taken = keep_out
     attempts = 0

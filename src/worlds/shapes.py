@@ -1,9 +1,14 @@
-"""Random outlines the generators share: irregular star-shaped blobs (spills, zones)."""
+"""Outlines the generators share: the world's centred rectangle, irregular blobs (spills, zones)."""
 
 from __future__ import annotations
 
 import numpy as np
-from shapely.geometry import Polygon
+from shapely.geometry import Polygon, box
+
+
+def centred_rectangle(size_x_m: float, size_y_m: float) -> Polygon:
+    """The rectangle of a world's extent, centred on the origin (the worlds' ENU frame)."""
+    return box(-size_x_m / 2.0, -size_y_m / 2.0, size_x_m / 2.0, size_y_m / 2.0)
 
 
 def irregular_outline(
