@@ -61,3 +61,16 @@ def test_parse_roles():
         parse_roles("edge,fog", 3)
     with pytest.raises(ValueError, match="--net"):
         parse_roles("edge,satellite", 2)
+
+
+def test_companion_and_link_models_name_the_link_classes_alike():
+    """The report joins the nodes' records and the link models' by class name: the two packages
+    (which may not import each other) must name every role pair the same way."""
+    from itertools import product
+
+    from companion.net import link_class
+    from sitl.links.config import canonical_class
+
+    roles = ("edge", "fog", "cloud", "ground")
+    for a, b in product(roles, roles):
+        assert link_class(a, b) == canonical_class(a, b)
