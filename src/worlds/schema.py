@@ -11,7 +11,9 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+
+from worlds.yaml_source import node_at, validate_yaml
 
 
 def _ordered(value: tuple[float, float]) -> tuple[float, float]:
@@ -183,84 +185,22 @@ class WorldSpecError(ValueError):
     """A world file that does not fit the schema; the message names file, line and field path."""
 
 
-def _node_at(root: yaml.Node, loc: tuple[Any, ...]) -> tuple[yaml.Node, bool]:
-    """The YAML node at pydantic's ``loc``, and whether it exists (else the deepest parent)."""
-    node = root
-    for i, part in enumerate(loc):
-        if isinstance(node, yaml.MappingNode):
-            for key, value in node.value:
-                if key.value == str(part):
-                    node = key if i == len(loc) - 1 else value
-                    break
-            else:
-                return node, False
-        elif (
-            isinstance(node, yaml.SequenceNode) and isinstance(part, int) and part < len(node.value)
-        ):
-            node = node.value[part]
-        else:
-            return node, False
-    return node, True
-
-
-def _duplicate_keys(node: yaml.Node) -> list[yaml.Node]:
-    """Key nodes repeating an earlier key of their mapping (YAML would silently keep the last)."""
-    out: list[yaml.Node] = []
-    if isinstance(node, yaml.MappingNode):
-        seen = set()
-        for key, value in node.value:
-            if key.value in seen:
-                out.append(key)
-            seen.add(key.value)
-            out += _duplicate_keys(value)
-    elif isinstance(node, yaml.SequenceNode):
-        for item in node.value:
-            out += _duplicate_keys(item)
-    return out
-
-
 def parse_world(text: str, source: str = "<string>") -> WorldSpec:
     """Validate world YAML ``text`` (``source`` names it in errors): :class:`WorldSpecError`."""
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f":{mark.line + 1}" if mark is not None else ""
-        raise WorldSpecError(f"{source}{line}: not valid YAML: {exc}") from exc
-    if not isinstance(data, dict) or root is None:
-        raise WorldSpecError(
-            f"{source}:1: a world file is a mapping with at least 'kind' and 'seed'"
-        )
-    duplicates = list(_duplicate_keys(root))
-    if duplicates:
-        raise WorldSpecError(
-            "\n".join(
-                f"{source}:{k.start_mark.line + 1}: {k.value}: duplicate key" for k in duplicates
+
+    def model_of(data: dict[str, Any], root: yaml.Node) -> type[BaseModel]:
+        kind = data.get("kind")
+        if kind not in SPEC_BY_KIND:
+            node, _ = node_at(root, ("kind",))
+            what = "missing field" if kind is None else f"unknown kind {kind!r}"
+            raise WorldSpecError(
+                f"{source}:{node.start_mark.line + 1}: kind: {what}; one of {sorted(SPEC_BY_KIND)}"
             )
-        )
-    kind = data.get("kind")
-    if kind not in SPEC_BY_KIND:
-        node, _ = _node_at(root, ("kind",))
-        what = "missing field" if kind is None else f"unknown kind {kind!r}"
-        raise WorldSpecError(
-            f"{source}:{node.start_mark.line + 1}: kind: {what}; one of {sorted(SPEC_BY_KIND)}"
-        )
-    try:
-        return SPEC_BY_KIND[kind].model_validate(data)
-    except ValidationError as exc:
-        lines = []
-        for err in exc.errors():
-            loc = tuple(err["loc"])
-            node, _ = _node_at(root, loc)
-            field = ".".join(str(p) for p in loc) or "<top>"
-            msg = err["msg"]
-            if err["type"] == "extra_forbidden":
-                msg = "unknown key"
-            elif err["type"] == "missing":
-                msg = "missing field"
-            lines.append(f"{source}:{node.start_mark.line + 1}: {field}: {msg}")
-        raise WorldSpecError("\n".join(lines)) from None
+        return SPEC_BY_KIND[kind]
+
+    return validate_yaml(  # type: ignore[return-value]
+        text, source, model_of, WorldSpecError, "a world file is a mapping with 'kind' and 'seed'"
+    )
 
 
 def load_world(path: str | Path) -> WorldSpec:
