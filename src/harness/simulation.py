@@ -277,6 +277,7 @@ class Simulation:
         """The modelled MAVLink links by (vehicle index, ``onboard`` or ``gcs``)."""
         self.router: LinkRouter | None = None
         self._position_hooks: list[Callable[[float, np.ndarray], None]] = []
+        self._frame_hooks: list[Callable[[list[CameraFrame]], None]] = []
         self._next_positions_s = 0.0
         self._payload_links: list[MavlinkEndpoint | None] = [None] * n
         """Every MAVLink link: vehicle 0's onboard link, its GCS link (if any), vehicle 1's ..."""
@@ -456,8 +457,18 @@ class Simulation:
         """Each vehicle's camera stream URL (cv2.VideoCapture opens it), None without a camera."""
         return [None if s is None else s.uri for s in self.video_servers]
 
+    def on_frames(self, hook: Callable[[list[CameraFrame]], None]) -> None:
+        """Call ``hook(frames)`` with the camera frames of every step that rendered some.
+
+        For observers of a run (the scenario runner saves sample images); nothing it does is fed
+        back into the flight.
+        """
+        self._frame_hooks.append(hook)
+
     def _on_frames(self, frames: list[CameraFrame]) -> None:
-        """Hand the frames taken this step to their vehicles' stream servers."""
+        """Hand the frames taken this step to their vehicles' stream servers and the hooks."""
+        for hook in self._frame_hooks:
+            hook(frames)
         servers = self.video_servers
         for frame in frames:
             server = servers[frame.vehicle]

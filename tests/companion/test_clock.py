@@ -43,3 +43,49 @@ def test_now_counts_from_the_simulation_origin(monkeypatch):
     assert clock.now_s() == pytest.approx(40.0)
     monkeypatch.setenv("SWARMSITL_CLOCK_ORIGIN", "garbage")
     assert clock.now_s() == pytest.approx(400.0)
+
+
+def test_clock_file_gives_the_simulation_time(monkeypatch, tmp_path):
+    """An unpaced run publishes its time in SWARMSITL_CLOCK_FILE; now_s reads it, not wall time."""
+    from harness.sim_clock import ClockFile
+
+    clock_file = ClockFile(tmp_path / "clock")
+    monkeypatch.setenv("SWARMSITL_CLOCK_FILE", str(clock_file.path))
+    monkeypatch.setenv("SWARMSITL_SPEED", "3")
+    try:
+        clock_file.publish(12.5)
+        assert clock.now_s() == 12.5
+        clock_file.publish(13.0)
+        assert clock.now_s() == 13.0
+    finally:
+        clock_file.close()
+
+
+def test_sleep_on_the_clock_file_waits_for_simulated_time(monkeypatch, tmp_path):
+    """clock.sleep(2) returns only once the published simulation time advanced by 2 s."""
+    from harness.sim_clock import ClockFile
+
+    clock_file = ClockFile(tmp_path / "clock")
+    monkeypatch.setenv("SWARMSITL_CLOCK_FILE", str(clock_file.path))
+    clock_file.publish(10.0)
+    seen = []
+
+    async def scenario():
+        async def advance():
+            for k in range(1, 31):
+                await asyncio.sleep(0.002)
+                seen.append(10.0 + 0.1 * k)
+                clock_file.publish(10.0 + 0.1 * k)
+
+        task = asyncio.create_task(advance())
+        await clock.sleep(2.0)
+        now = clock.now_s()
+        await task
+        return now
+
+    try:
+        woke_at = asyncio.run(scenario())
+    finally:
+        clock_file.close()
+    assert 12.0 - 1e-9 <= woke_at <= 12.0 + 0.1 * 3  # woke on the first polls after t = 12 s
+    assert max(seen) == pytest.approx(13.0)

@@ -1,0 +1,359 @@
+"""The scenario file: world + fleet + one companion program per role + links + duration + seed.
+
+``load_scenario(path)`` validates a scenario YAML against a pydantic schema (unknown keys, wrong
+types and missing fields are errors naming file, line and field, as for world files), then checks
+what the schema alone cannot: that every group's role has a program, that the world file exists
+and is valid, that airframes, launch areas, link presets and autopilot parameters are known.
+Nothing starts before all of that passed. ``docs/scenarios.md`` describes every key.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+import worlds
+from autopilot_emu.params import ParamStore
+from harness.link_options import check_link_model, links_config
+from harness.net_plan import VEHICLE_ROLES
+from sitl.vehicles.multirotor import airframe_yaml_path
+from worlds.examples import example_path
+from worlds.yaml_source import node_at, validate_yaml
+
+EXAMPLE_PREFIX = "example:"
+"""``world: example:offshore`` names a world shipped in ``worlds/examples``."""
+DEFAULT_PARAMS: dict[str, float] = {"NAV_DLL_ACT": 2.0}
+"""Autopilot parameters every scenario vehicle gets unless its role sets them: Return when the
+companion falls silent (PX4's data-link-loss failsafe after COM_DL_LOSS_T without a HEARTBEAT;
+PX4's own default, 0, would let a vehicle whose companion crashed hover until its battery ends)."""
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot run; the message names file, line and field where it can."""
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RoleSpec(_Model):
+    """The companion program every vehicle of a role runs (one process per vehicle)."""
+
+    module: str | None = None
+    """Run ``python -m MODULE`` (e.g. ``companion.scripts.coverage``)."""
+    script: str | None = None
+    """Run ``python SCRIPT`` (a path relative to the scenario file)."""
+    command: list[str] | None = None
+    """Run this argv; ``{python}`` stands for the interpreter running swarmsitl."""
+    args: dict[str, Any] = Field(default_factory=dict)
+    """Passed to the program as JSON in ``SWARMSITL_PARAMS`` (``ScenarioEnv.params``)."""
+    env: dict[str, str] = Field(default_factory=dict)
+    """Extra environment variables of the program."""
+    params: dict[str, float] = Field(default_factory=dict)
+    """Autopilot parameters of this role's vehicles (over the airframe's and DEFAULT_PARAMS)."""
+
+    @model_validator(mode="after")
+    def _one_program(self) -> RoleSpec:
+        given = [k for k in ("module", "script", "command") if getattr(self, k)]
+        if len(given) > 1:
+            raise ValueError(f"give one of module, script or command, not {' and '.join(given)}")
+        return self
+
+    @property
+    def has_program(self) -> bool:
+        """False for a role whose vehicles run no companion (they idle on the ground)."""
+        return bool(self.module or self.script or self.command)
+
+
+class FleetGroup(_Model):
+    """``count`` vehicles of one airframe and role."""
+
+    role: str
+    count: int = Field(1, ge=1, le=255)
+    airframe: str = "typhoon_h480"
+    """A folder of ``sitl/vehicles`` or the path of an airframe folder."""
+    launch_area: str | None = None
+    """Launch area of the world these vehicles start in [default: the scenario's]."""
+    start_enu_m: list[tuple[float, float, float]] | None = None
+    """Explicit start points (east, north, surface height; m), one per vehicle of the group."""
+    node: str | None = None
+    """Node-messaging role of these vehicles' companions (``edge``, ``fog``); docs/messaging.md."""
+
+    @model_validator(mode="after")
+    def _starts(self) -> FleetGroup:
+        if self.start_enu_m is not None and len(self.start_enu_m) != self.count:
+            raise ValueError(
+                f"start_enu_m has {len(self.start_enu_m)} points for count {self.count}"
+            )
+        if self.node is not None and self.node not in VEHICLE_ROLES:
+            raise ValueError(f"node: unknown role {self.node!r}; one of {VEHICLE_ROLES}")
+        return self
+
+
+class LinksSpec(_Model):
+    """Link models of the MAVLink paths (docs/links.md)."""
+
+    onboard: str = "none"
+    """Companion <-> autopilot path: ``none`` (plain UDP), ``uart``, ... ."""
+    gcs: str = "none"
+    """Ground-station path (only with a ground-station port)."""
+    file: str | None = None
+    """Your link file, relative to the scenario file."""
+
+
+class SensorsSpec(_Model):
+    """Which simulated sensors run (both cost CPU only when on)."""
+
+    cameras: bool = True
+    rangefinders: bool = True
+    camera_mount: Literal["down", "forward"] | None = None
+    camera_size: str | None = Field(None, pattern=r"^\d+x\d+$")
+    camera_hz: float | None = Field(None, gt=0)
+
+
+class ChecksSpec(_Model):
+    """Pass/fail criteria evaluated on the finished run; ``swarmsitl run`` exits 1 if one fails."""
+
+    companions_succeeded: bool = True
+    """Every companion process exited with status 0."""
+    landed_and_disarmed: bool = False
+    """Every vehicle is on the ground and disarmed at the end."""
+    no_failsafe: bool = False
+    """No vehicle announced a failsafe."""
+    min_separation_m: float | None = Field(None, gt=0)
+    max_tilt_deg: float | None = Field(None, gt=0)
+    stay_inside_world: bool = False
+    """Every vehicle stayed inside the world's boundary."""
+    metrics: dict[str, tuple[float | None, float | None]] = Field(default_factory=dict)
+    """``name: [min, max]`` bounds on report metrics (``null`` for no bound), e.g.
+    ``fleet.spills_seen: [1, null]``."""
+
+
+class ScenarioSpec(_Model):
+    """The whole scenario file."""
+
+    name: str
+    description: str = ""
+    seed: int = Field(0, ge=0)
+    """Seed of every random draw of the run (sensors, links); ``--seed`` overrides it."""
+    duration_s: float = Field(gt=0)
+    """Simulated seconds the run lasts at most."""
+    world: str | dict[str, Any] | None = None
+    """A world file (relative to the scenario file), ``example:KIND``, an inline world mapping,
+    or none (a plain ground plane)."""
+    reseed_world: bool = False
+    """Build the world with the run's seed instead of the world file's (a new map per seed)."""
+    launch_area: str | None = None
+    """Where the fleet starts [default: the world's first launch area]."""
+    spacing_m: Annotated[float, Field(gt=0)] = 5.0
+    """Distance between vehicles at the start, m."""
+    fleet: list[FleetGroup] = Field(min_length=1)
+    roles: dict[str, RoleSpec] = Field(default_factory=dict)
+    links: LinksSpec = Field(default_factory=LinksSpec)
+    sensors: SensorsSpec = Field(default_factory=SensorsSpec)
+    cloud: bool = False
+    """With ``node`` roles in the fleet: also start the cloud node (a process)."""
+    end_when_done: bool = True
+    """Stop early once every companion has exited and every vehicle is disarmed."""
+    camera_samples: int = Field(3, ge=0)
+    """Camera images saved per vehicle (spread over the run) in ``camera/``."""
+    checks: ChecksSpec = Field(default_factory=ChecksSpec)
+
+    @model_validator(mode="after")
+    def _roles_have_programs(self) -> ScenarioSpec:
+        missing = sorted({g.role for g in self.fleet} - set(self.roles))
+        if missing:
+            raise ValueError(
+                f"roles: no entry for {', '.join(missing)} (a role without a program: "
+                f"`{missing[0]}: {{}}`)"
+            )
+        nodes = {g.node is None for g in self.fleet}
+        if len(nodes) > 1:
+            raise ValueError("fleet: give every group a node role or none (node messaging)")
+        return self
+
+    @property
+    def n_vehicles(self) -> int:
+        """Vehicles in the fleet."""
+        return sum(g.count for g in self.fleet)
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """One vehicle of the fleet: its place in the scenario."""
+
+    index: int
+    """0-based; MAVLink system id index + 1."""
+    group: FleetGroup
+    role_index: int
+    role_count: int
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario with its world built and paths resolved."""
+
+    spec: ScenarioSpec
+    path: Path | None
+    """The scenario file (None for one parsed from a string)."""
+    text: str
+    """The file's text (copied to the run directory, hashed for the report)."""
+    world_spec: worlds.WorldSpec | None
+    world: worlds.World | None
+    links_file: Path | None
+
+    @property
+    def vehicles(self) -> list[Vehicle]:
+        """The fleet, vehicle by vehicle, in file order."""
+        counts: dict[str, int] = {}
+        for g in self.spec.fleet:
+            counts[g.role] = counts.get(g.role, 0) + g.count
+        seen: dict[str, int] = {}
+        out = []
+        for g in self.spec.fleet:
+            for _ in range(g.count):
+                k = seen.get(g.role, 0)
+                seen[g.role] = k + 1
+                out.append(Vehicle(len(out), g, k, counts[g.role]))
+        return out
+
+    @property
+    def base_dir(self) -> Path:
+        """Where relative paths of the file start."""
+        return self.path.parent if self.path is not None else Path.cwd()
+
+    def config_hash(self) -> str:
+        """SHA-256 of the scenario text and the world spec (what determines the run with a seed)."""
+        h = hashlib.sha256(self.text.encode())
+        if self.world_spec is not None:
+            h.update(json.dumps(self.world_spec.model_dump(mode="json"), sort_keys=True).encode())
+        return h.hexdigest()
+
+    def world_yaml(self) -> str | None:
+        """The world spec of the run as YAML (``worlds.load_world`` reads it back)."""
+        if self.world_spec is None:
+            return None
+        return yaml.safe_dump(self.world_spec.model_dump(mode="json"), sort_keys=False)
+
+    def program(self, role: str) -> list[str] | None:
+        """The argv of a role's companion; None for a role without one."""
+        r = self.spec.roles[role]
+        if r.module:
+            return [sys.executable, "-m", r.module]
+        if r.script:
+            return [sys.executable, str((self.base_dir / r.script).resolve())]
+        if r.command:
+            return [sys.executable if a == "{python}" else a for a in r.command]
+        return None
+
+    def params_of(self, vehicle: Vehicle) -> dict[str, float]:
+        """Autopilot parameters of one vehicle: DEFAULT_PARAMS, then its role's."""
+        return DEFAULT_PARAMS | dict(self.spec.roles[vehicle.group.role].params)
+
+
+def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = None) -> Scenario:
+    """Validate scenario YAML ``text`` completely: :class:`ScenarioError` naming file and line."""
+    spec: ScenarioSpec = validate_yaml(  # type: ignore[assignment]
+        text,
+        source,
+        lambda data, root: ScenarioSpec,
+        ScenarioError,
+        "a scenario file is a mapping with at least name, duration_s, fleet and roles",
+    )
+    root = yaml.compose(text, Loader=yaml.SafeLoader)  # valid: validate_yaml parsed it
+    base = base_dir if base_dir is not None else Path.cwd()
+
+    def fail(loc: tuple[Any, ...], message: str) -> ScenarioError:
+        node, _ = node_at(root, loc)
+        field = ".".join(str(p) for p in loc)
+        return ScenarioError(f"{source}:{node.start_mark.line + 1}: {field}: {message}")
+
+    world_spec = _world_spec(spec, base, fail)
+    world = None
+    if world_spec is not None:
+        if spec.reseed_world:
+            world_spec = world_spec.model_copy(update={"seed": spec.seed})
+        world = worlds.build(world_spec)
+    links_file = None
+    if spec.links.file is not None:
+        links_file = (base / spec.links.file).resolve()
+        if not links_file.is_file():
+            raise fail(("links", "file"), f"no such file: {links_file}")
+    try:
+        links = links_config(links_file)
+    except (OSError, ValueError) as exc:
+        raise fail(("links", "file"), str(exc)) from exc
+    for key in ("onboard", "gcs"):
+        try:
+            check_link_model(getattr(spec.links, key), key, links)
+        except ValueError as exc:
+            raise fail(("links", key), str(exc).removeprefix(f"{key}: ")) from exc
+    known_params = set(ParamStore().names)
+    for name, role in spec.roles.items():
+        for p in role.params:
+            if p not in known_params:
+                raise fail(("roles", name, "params", p), "unknown autopilot parameter")
+        if role.script and not (base / role.script).is_file():
+            raise fail(("roles", name, "script"), f"no such file: {(base / role.script)}")
+    for k, group in enumerate(spec.fleet):
+        try:
+            airframe_yaml_path(group.airframe)
+        except ValueError as exc:
+            raise fail(("fleet", k, "airframe"), str(exc)) from exc
+        area = group.launch_area or spec.launch_area
+        if area is not None:
+            if world is None:
+                raise fail(("fleet", k, "launch_area"), "a launch area needs a world")
+            try:
+                world.launch_area(area)
+            except KeyError as exc:
+                loc = ("fleet", k, "launch_area") if group.launch_area else ("launch_area",)
+                raise fail(loc, str(exc.args[0])) from exc
+    return Scenario(spec, None, text, world_spec, world, links_file)
+
+
+def _world_spec(spec: ScenarioSpec, base: Path, fail: Any) -> worlds.WorldSpec | None:
+    """The scenario's world spec from a path, ``example:KIND`` or an inline mapping."""
+    if spec.world is None:
+        return None
+    try:
+        if isinstance(spec.world, dict):
+            return worlds.parse_world(yaml.safe_dump(spec.world), "world (inline)")
+        if spec.world.startswith(EXAMPLE_PREFIX):
+            kind = spec.world[len(EXAMPLE_PREFIX) :]
+            try:
+                path = example_path(kind)
+            except ValueError as exc:
+                raise fail(("world",), str(exc)) from exc
+            return worlds.load_world(path)
+        path = base / spec.world
+        if not path.is_file():
+            raise fail(("world",), f"no such world file: {path}")
+        return worlds.load_world(path)
+    except worlds.WorldSpecError as exc:
+        raise ScenarioError(str(exc)) from exc
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and completely validate the scenario file at ``path``."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read scenario file: {exc}") from exc
+    scenario = parse_scenario(text, str(path), path.parent)
+    return Scenario(
+        scenario.spec,
+        path,
+        text,
+        scenario.world_spec,
+        scenario.world,
+        scenario.links_file,
+    )
