@@ -77,7 +77,7 @@ def test_newer_format_asks_for_an_upgrade(tmp_path):
     data["format_version"] = FORMAT_VERSION + 1
     data["something_new"] = [1, 2]
     path.write_text(json.dumps(data))
-    with pytest.raises(ManifestError, match="newer.*upgrade swarmsitl"):
+    with pytest.raises(ManifestError, match=r"newer.*upgrade swarmsitl"):
         read_manifest(tmp_path)
 
 
@@ -106,7 +106,7 @@ def test_missing_field_is_named(tmp_path):
     data = _manifest().to_json()
     del data["seed"], data["started_utc"]
     (tmp_path / MANIFEST_FILE).write_text(json.dumps(data))
-    with pytest.raises(ManifestError, match="missing field.*seed, started_utc"):
+    with pytest.raises(ManifestError, match=r"missing field.*seed, started_utc"):
         read_manifest(tmp_path)
 
 
