@@ -93,7 +93,10 @@ def replay(
             window = False
         if window:
             console.print(f"replaying {run_dir} in the PyBullet window; close it to end")
+            seen = len(run.notes)
             play_gui(run, speed=speed, follow=follow)
+            for note in run.notes[seen:]:
+                console.print(f"[yellow]note:[/yellow] {note}")
             return
         out = video if video is not None else run_dir / VIDEO_FILE
         seen = len(run.notes)
@@ -117,7 +120,7 @@ def replay(
             )
         for note in run.notes[seen:]:
             console.print(f"[yellow]note:[/yellow] {note}")
-    except ReplayError as exc:
+    except (ReplayError, OSError) as exc:  # OSError: the video could not be written
         console.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(2) from exc
     console.print(

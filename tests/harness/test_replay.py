@@ -259,3 +259,48 @@ def test_invalid_world_file_is_named(run_dir, tmp_path):
 def test_frame_times_step_by_speed_over_fps():
     track = TruthTrack(np.array([1.0, 2.0, 3.0]), np.zeros((3, 1, 3)), None)
     assert np.allclose(frame_times(track, 2.0, 4.0), [1.0, 1.5, 2.0, 2.5, 3.0])
+
+
+def test_window_plays_to_the_last_pose_and_ends_when_closed(run_dir, monkeypatch):
+    """The GUI loop (on a DIRECT client here: no display in CI) poses the bodies up to the last
+    recorded sample at --speed and returns once the window is gone."""
+    import pybullet
+
+    import harness.replay as replay_module
+
+    checks = {"n": 0}
+    poses: dict[int, list[float]] = {}
+
+    class WindowlessPyBullet:
+        GUI = pybullet.DIRECT
+
+        def __getattr__(self, name):
+            return getattr(pybullet, name)
+
+        def isConnected(self, cid):
+            checks["n"] += 1
+            return checks["n"] < 120 and pybullet.isConnected(cid)
+
+        def resetBasePositionAndOrientation(self, body, pos, quat, physicsClientId):
+            poses[body] = pos
+            pybullet.resetBasePositionAndOrientation(
+                body, pos, quat, physicsClientId=physicsClientId
+            )
+
+    monkeypatch.setattr(replay_module, "p", WindowlessPyBullet())
+    run = load_run(run_dir)
+    replay_module.play_gui(run, speed=20.0, follow=1)  # >= 2 s of wall time: 40 s of flight
+    assert checks["n"] == 120
+    last = run.track.position_enu_m[-1]
+    assert np.allclose([poses[b] for b in sorted(poses)], last, atol=1e-9)
+
+
+def test_airframe_that_no_longer_loads_is_a_marker(run_dir, tmp_path):
+    run = _copy(run_dir, tmp_path)
+    manifest = load_run(run).manifest
+    airframes = ("typhoon_h480", str(tmp_path / "moved_airframe"))
+    write_manifest(run, RunManifest(**{**manifest.__dict__, "airframes": airframes}))
+    result = _replay(run, "--video", tmp_path / "m.mp4", "--size", SIZE, "--speed", 5)
+    assert result.exit_code == 0, result.output
+    assert "shown as a sphere" in " ".join(result.output.split())
+    assert len(_frames(tmp_path / "m.mp4")) == 20
