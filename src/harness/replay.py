@@ -37,6 +37,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pybullet as p
+from matplotlib.path import Path as MplPath
 
 import worlds
 from harness.run_manifest import ManifestError, RunManifest, read_manifest
@@ -432,11 +433,13 @@ SKY_BGR = (235, 215, 190)
 """Colour above the horizon, OpenCV BGR."""
 
 
-def paint_ground(camera: Camera, rgba: Sequence[float]) -> np.ndarray:
+def paint_ground(
+    camera: Camera, rgba: Sequence[float], spills: Sequence[worlds.OilSpill] = ()
+) -> np.ndarray:
     """The ground plane z = 0 in ``rgba`` with grid lines, and the sky, as ``camera`` sees them.
 
     The grid lines are a 1-2-5 x 10^k m apart, about ten over the camera's distance, so that
-    motion reads against them at any scale.
+    motion reads against them at any scale. ``spills`` are painted on the plane in their colour.
 
     Each pixel's ray is intersected with the plane (numpy, the whole image at once): what the
     cameras of ``sitl`` do for their ground, far cheaper than rasterising a ground body.
@@ -474,6 +477,14 @@ def paint_ground(camera: Camera, rgba: Sequence[float]) -> np.ndarray:
     shade = 0.75 if float(np.mean(rgba[:3])) > 0.5 else 1.45
     lines = np.clip(base * shade + (0 if shade < 1 else 25), 0, 255)
     ground = base + line[..., None] * (lines - base)
+    for spill in spills:
+        outline = np.asarray(spill.outline_xy_m, dtype=float)
+        low, high = outline.min(axis=0), outline.max(axis=0)
+        xy = point[..., :2]
+        near_box = hit & np.all((xy >= low) & (xy <= high), axis=-1)
+        inside = np.zeros_like(hit)
+        inside[near_box] = MplPath(outline).contains_points(xy[near_box])
+        ground[inside] = np.array([spill.rgba[2], spill.rgba[1], spill.rgba[0]]) * 255.0
     out = np.where(hit[..., None], ground, np.array(SKY_BGR, dtype=float))
     return out.astype(np.uint8)
 
@@ -496,10 +507,11 @@ def draw_overlay(
                 frame, str(i + 1), (x + 7, y - 7), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1,
                 cv2.LINE_AA,
             )  # fmt: skip
-    cv2.putText(
-        frame, f"t = {t_s:7.2f} s", (10, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (20, 20, 20), 2,
-        cv2.LINE_AA,
-    )  # fmt: skip
+    label = f"t = {t_s:7.2f} s"
+    for colour, thickness in (((20, 20, 20), 4), ((245, 245, 245), 1)):  # light on a dark rim
+        cv2.putText(
+            frame, label, (10, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, colour, thickness, cv2.LINE_AA
+        )
 
 
 class _VideoWriter:
@@ -611,14 +623,17 @@ def render_video(
     run.notes.extend(scene.notes)
     try:
         overview = overview_camera(run.track, size_px)
-        ground = paint_ground(overview, scene.ground_rgba)
+        world = run.world
+        shown: tuple[str, ...] | None = None
+        ground = None
         for k, t in enumerate(times.tolist()):
             pos, quat = run.track.at(t)
             scene.pose(t, pos, quat)
-            camera = overview
-            if follow is not None:
-                camera = follow_camera(pos[follow - 1], size_px)
-                ground = paint_ground(camera, scene.ground_rgba)
+            camera = overview if follow is None else follow_camera(pos[follow - 1], size_px)
+            spills = world.spills_at(t) if world is not None else []
+            names = tuple(spill.name for spill in spills)
+            if ground is None or follow is not None or names != shown:
+                ground, shown = paint_ground(camera, scene.ground_rgba, spills), names
             frame = scene.render(camera, ground)
             draw_overlay(frame, camera, run.track, t, pos)
             writer.write(frame)

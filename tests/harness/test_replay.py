@@ -304,3 +304,22 @@ def test_airframe_that_no_longer_loads_is_a_marker(run_dir, tmp_path):
     assert result.exit_code == 0, result.output
     assert "shown as a sphere" in " ".join(result.output.split())
     assert len(_frames(tmp_path / "m.mp4")) == 20
+
+
+def test_painted_ground_puts_a_spill_where_the_camera_projects_it():
+    """The per-pixel ground agrees with the camera's projection: the pixel of a spill's centre is
+    the spill's colour, a pixel 10 m beside it is the sea's; with no spill both are sea."""
+    from worlds import OilSpill
+
+    track = TruthTrack(np.array([0.0, 1.0]), np.array([[[-40.0, -30, 0]], [[40.0, 30, 20]]]), None)
+    camera = overview_camera(track, (320, 192))
+    square = ((-5.0, -5.0), (5.0, -5.0), (5.0, 5.0), (-5.0, 5.0))
+    spill = OilSpill("s", square, 0.0, (1.0, 0.0, 0.0, 1.0))  # pure red: BGR (0, 0, 255)
+    sea = (0.05, 0.22, 0.35, 1.0)
+    painted = paint_ground(camera, sea, [spill])
+    plain = paint_ground(camera, sea)
+    (cx, cy), (ox, oy) = np.round(camera.project(np.array([[0, 0, 0], [10, 10, 0]]))[0]).astype(int)
+    assert tuple(painted[cy, cx]) == (0, 0, 255)
+    assert tuple(painted[oy, ox]) == tuple(plain[oy, ox]) != (0, 0, 255)
+    assert tuple(plain[cy, cx]) != (0, 0, 255)
+    assert np.count_nonzero(np.all(painted == (0, 0, 255), axis=-1)) > 50
