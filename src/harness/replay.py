@@ -40,7 +40,7 @@ import pybullet as p
 from matplotlib.path import Path as MplPath
 
 import worlds
-from harness.run_manifest import ManifestError, RunManifest, read_manifest
+from harness.run_manifest import MANIFEST_FILE, ManifestError, RunManifest, read_manifest
 from sitl.physics.moving_solids import MovingSolids
 from sitl.physics.obstacles import add_solids
 from sitl.vehicles.multirotor import load_airframe
@@ -56,8 +56,8 @@ VIDEO_SIZE_PX = (640, 360)
 CAMERA_FOV_DEG = 50.0
 """Vertical field of view of the replay cameras, degrees."""
 OVERVIEW_YAW_DEG = 30.0
-"""Where the overview camera looks from: PyBullet yaw about ENU z (0: from the south-east-ish
-side as PyBullet defines it), degrees."""
+"""Heading of the replay cameras' view, PyBullet's camera yaw about ENU z, degrees (0 looks
+north, 30 looks 30 degrees west of north)."""
 OVERVIEW_PITCH_DEG = -40.0
 """Elevation of the overview camera's view, degrees (negative: looking down)."""
 FOLLOW_DISTANCE_M = 8.0
@@ -229,7 +229,7 @@ def load_run(run_dir: Path) -> ReplayRun:
     try:
         manifest = read_manifest(run_dir)
     except ManifestError as exc:
-        if (run_dir / "manifest.json").exists():
+        if (run_dir / MANIFEST_FILE).exists():
             raise ReplayError(str(exc)) from exc
         manifest = None
         notes.append(
