@@ -93,9 +93,12 @@ def test_video_shows_the_flight_frame_by_frame(run_dir, tmp_path):
     assert changed_px(30, 49) > 200
 
 
-def test_speed_makes_fewer_frames_and_default_goes_to_the_run_dir(run_dir, tmp_path):
+def test_without_a_display_the_video_goes_to_the_run_dir(run_dir, tmp_path, monkeypatch):
+    """No DISPLAY, no --video: RUN_DIR/replay.mp4, --speed simulated seconds per video second."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     run = _copy(run_dir, tmp_path)
-    result = _replay(run, "--no-gui", "--speed", 5, "--size", SIZE)
+    result = _replay(run, "--speed", 5, "--size", SIZE)
     assert result.exit_code == 0, result.output
     assert len(_frames(run / "replay.mp4")) == 20  # 5 s at 5x, 20 fps
 
