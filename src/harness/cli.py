@@ -21,6 +21,7 @@ from harness.link_options import NO_LINK, check_link_model, describe, links_conf
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun, parse_roles
+from harness.replay_cli import replay
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from harness.wind_options import (
     GUSTS_HELP,
@@ -665,6 +666,7 @@ def demo(
 
 
 app.command("cloud")(cloud)
+app.command("replay")(replay)
 app.command("net-demo")(net_demo)
 
 

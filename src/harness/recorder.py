@@ -43,7 +43,13 @@ COLUMNS = (
     "landed_state",
     "thrust",
     "wall_s",
+    "quat_x",
+    "quat_y",
+    "quat_z",
+    "quat_w",
 )
+"""Columns of truth.csv. Appended only (readers go by name): ``quat_*`` is the attitude, body
+FLU -> world ENU, (x, y, z, w) as PyBullet (``sitl.truth.TruthState.quaternion_xyzw``)."""
 
 
 @dataclass
@@ -88,6 +94,7 @@ class FlightRecorder:
                 state,
                 fleet.thrust,
                 np.full(n, time.time()),
+                truth.quaternion_xyzw,
             )
         )
         self.rows.append(block)
