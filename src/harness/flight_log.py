@@ -310,7 +310,7 @@ def read_tlog_events(path: Path, sysid: int, vehicle: VehicleLog, warnings: list
         while True:
             try:
                 msg = conn.recv_match(type=[*TIMED_MESSAGES, *EVENT_MESSAGES])
-            except (struct.error, ValueError, IndexError) as exc:
+            except (mavlink2.MAVError, struct.error, ValueError, IndexError) as exc:
                 warnings.append(f"{path.name}: stopped reading at an unreadable frame ({exc})")
                 break
             if msg is None:
