@@ -3,7 +3,9 @@
 :meth:`FlightLog.load` reads ``truth.csv`` (columns of :data:`harness.recorder.COLUMNS`, vehicle
 column 0-based) into one :class:`Track` of numpy arrays per vehicle, and from each
 ``vehicleN.tlog`` (the onboard link of vehicle N, N = sysid = index + 1) the events that matter:
-STATUSTEXT, HEARTBEAT armed/mode transitions and COMMAND_ACK results of that vehicle's autopilot.
+STATUSTEXT, HEARTBEAT armed/mode transitions and COMMAND_ACK results of that vehicle's autopilot
+(frames decoded by pymavlink; records walked by :func:`harness.tlog_records.scan_tlog`, which
+survives cut and corrupt files).
 
 Times are simulation seconds everywhere. Untimed messages (HEARTBEAT, STATUSTEXT, COMMAND_ACK)
 are placed through the tlog stamps of the nearest timed messages of the same autopilot
@@ -19,15 +21,16 @@ read and :attr:`FlightLog.warnings` says what was not. A missing file raises
 from __future__ import annotations
 
 import io
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
 from harness.recorder import COLUMNS
+from harness.tlog_records import scan_tlog
 
 TRUTH_FILE = "truth.csv"
 REQUIRED_COLUMNS = ("time_s", "vehicle", "east_m", "north_m", "up_m")
@@ -39,6 +42,11 @@ TIMED_MESSAGES = {"SYSTEM_TIME": "time_boot_ms", "ALTITUDE": "time_usec"}
 ALTITUDE's microseconds when the tlog has any (onboard link 10 Hz, GCS link 1 Hz), else
 SYSTEM_TIME's milliseconds."""
 EVENT_MESSAGES = ("HEARTBEAT", "STATUSTEXT", "COMMAND_ACK")
+_WANTED = frozenset(
+    getattr(mavlink2, f"MAVLINK_MSG_ID_{name}") for name in (*TIMED_MESSAGES, *EVENT_MESSAGES)
+)
+STATUSTEXT_CHUNK_BYTES = 50
+"""Text bytes of one STATUSTEXT; longer texts are chunks sharing an id (MAVLink 2)."""
 ON_GROUND, IN_AIR, LANDING = 1, 2, 4
 """MAV_LANDED_STATE values in the truth's ``landed_state`` column."""
 AIRBORNE_STATES = (IN_AIR, LANDING)
@@ -260,72 +268,25 @@ def _parse_rows(lines: list[str], width: int) -> tuple[np.ndarray, list[int]]:
     return (np.array(rows, dtype=float).reshape(-1, width), bad)
 
 
-_STAMP = struct.Struct(">Q")
-_V2_HEADER, _V1_HEADER, _CRC, _SIGNATURE = 10, 6, 2, 13
-
-
-def tlog_whole_bytes(data: bytes) -> int:
-    """Length of the leading part of a tlog made of whole records (stamp + MAVLink frame).
-
-    Equals ``len(data)`` for an intact file; less when the last record was cut (or at the first
-    byte that is no frame start).
-    """
-    ofs, n = 0, len(data)
-    while ofs < n:
-        start = ofs + _STAMP.size
-        if start + 3 > n:
-            return ofs
-        marker, length = data[start], data[start + 1]
-        if marker == mavlink2.PROTOCOL_MARKER_V2:
-            size = _V2_HEADER + length + _CRC
-            if data[start + 2] & mavlink2.MAVLINK_IFLAG_SIGNED:
-                size += _SIGNATURE
-        elif marker == mavlink2.PROTOCOL_MARKER_V1:
-            size = _V1_HEADER + length + _CRC
-        else:
-            return ofs
-        if start + size > n:
-            return ofs
-        ofs = start + size
-    return ofs
-
-
 def read_tlog_events(path: Path, sysid: int, vehicle: VehicleLog, warnings: list[str]) -> None:
     """Append the autopilot ``sysid``'s events in tlog ``path`` to ``vehicle`` (see module doc)."""
     if not path.is_file():
         raise FileNotFoundError(f"tlog {path} of {vehicle.name} does not exist")
     data = path.read_bytes()
-    whole = tlog_whole_bytes(data)
-    if whole < len(data):
-        warnings.append(
-            f"{path.name}: {len(data) - whole} byte(s) after byte {whole} are no whole record "
-            "(run interrupted?); read the records before them"
-        )
-    if whole == 0:
-        return
+    scan = scan_tlog(
+        data, lambda msgid, src, comp: msgid in _WANTED and (src, comp) == (sysid, AUTOPILOT_COMPID)
+    )
+    warnings.extend(scan.problems(path.name, len(data)))
     anchors: dict[str, list[tuple[float, float]]] = {f: [] for f in TIMED_MESSAGES.values()}
-    events: list[tuple[float, object]] = []
-    conn = mavutil.mavlink_connection(str(path))
-    try:
-        while True:
-            try:
-                msg = conn.recv_match(type=[*TIMED_MESSAGES, *EVENT_MESSAGES])
-            except (mavlink2.MAVError, struct.error, ValueError, IndexError) as exc:
-                warnings.append(f"{path.name}: stopped reading at an unreadable frame ({exc})")
-                break
-            if msg is None:
-                break
-            if (msg.get_srcSystem(), msg.get_srcComponent()) != (sysid, AUTOPILOT_COMPID):
-                continue
-            kind = msg.get_type()
-            if kind in TIMED_MESSAGES:
-                field_name = TIMED_MESSAGES[kind]
-                scale = 1e-3 if field_name == "time_boot_ms" else 1e-6
-                anchors[field_name].append((msg._timestamp, getattr(msg, field_name) * scale))
-            else:
-                events.append((msg._timestamp, msg))
-    finally:
-        conn.close()
+    events: list[tuple[float, Any]] = []
+    for stamp_s, msg in scan.records:
+        kind = msg.get_type()
+        if kind in TIMED_MESSAGES:
+            field_name = TIMED_MESSAGES[kind]
+            scale = 1e-3 if field_name == "time_boot_ms" else 1e-6
+            anchors[field_name].append((stamp_s, getattr(msg, field_name) * scale))
+        else:
+            events.append((stamp_s, msg))
     if not events:
         return
     stamps = np.array([s for s, _ in events])
@@ -344,13 +305,23 @@ def read_tlog_events(path: Path, sysid: int, vehicle: VehicleLog, warnings: list
     _collect(vehicle, [(float(t), m) for t, (_, m) in zip(times, events, strict=True)])
 
 
-def _collect(vehicle: VehicleLog, events: list[tuple[float, object]]) -> None:
+def _collect(vehicle: VehicleLog, events: list[tuple[float, Any]]) -> None:
     """Sort decoded messages into the vehicle's event lists."""
     state: tuple[bool, str] | None = None
+    chunks: dict[int, list] = {}  # chunk id -> [time of the first chunk, severity, pieces]
     for t, msg in events:
         kind = msg.get_type()
         if kind == "STATUSTEXT":
-            vehicle.status_texts.append(StatusText(t, int(msg.severity), str(msg.text)))
+            text, chunk_id = str(msg.text), int(getattr(msg, "id", 0))
+            if chunk_id == 0:
+                vehicle.status_texts.append(StatusText(t, int(msg.severity), text))
+                continue
+            # A text longer than 50 bytes comes in chunks sharing an id; a short chunk ends it.
+            pending = chunks.setdefault(chunk_id, [t, int(msg.severity), []])
+            pending[2].append(text)
+            if len(msg.text.encode()) < STATUSTEXT_CHUNK_BYTES:
+                first_t, severity, pieces = chunks.pop(chunk_id)
+                vehicle.status_texts.append(StatusText(first_t, severity, "".join(pieces)))
         elif kind == "COMMAND_ACK":
             vehicle.command_acks.append(CommandAck(t, int(msg.command), int(msg.result)))
         elif kind == "HEARTBEAT":
@@ -359,3 +330,6 @@ def _collect(vehicle: VehicleLog, events: list[tuple[float, object]]) -> None:
             if now != state:
                 vehicle.state_changes.append(StateChange(t, *now))
                 state = now
+    for first_t, severity, pieces in chunks.values():  # the log ended inside a chunked text
+        vehicle.status_texts.append(StatusText(first_t, severity, "".join(pieces)))
+    vehicle.status_texts.sort(key=lambda s: s.time_s)
