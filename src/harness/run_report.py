@@ -185,7 +185,11 @@ def write_run_report(
             metrics["companion"] = companion
         vehicles[v.name] = metrics
     report |= {"vehicles": vehicles, "fleet": fleet_metrics(log)}
-    report["files"] = _write_outputs(run_dir, log, world, spawns, warnings)
+    try:
+        report["files"] = _write_outputs(run_dir, log, world, spawns)
+    except Exception as exc:  # a failed plot must not cost the report
+        report["files"] = []
+        warnings.append(f"time series or plots not written: {exc!r}")
     report["warnings"] = warnings
     report |= extra
     (run_dir / REPORT_FILE).write_text(json.dumps(report, indent=2, default=str) + "\n")
@@ -197,7 +201,6 @@ def _write_outputs(
     log: FlightLog,
     world: worlds.World | None,
     spawns: np.ndarray,
-    warnings: list[str],
 ) -> list[str]:
     """Time-series CSVs and plots; the paths written, relative to ``run_dir``."""
     written = []

@@ -163,6 +163,18 @@ def test_a_run_without_truth_writes_a_report_saying_so(tmp_path):
     assert _strict_json(run_dir / "report.json")["seed"] == 1
 
 
+def test_a_failing_plot_does_not_cost_the_report(run, monkeypatch):
+    import harness.run_report as run_report
+
+    def broken(*args):
+        raise RuntimeError("no fonts")
+
+    monkeypatch.setattr(run_report, "plot_map", broken)
+    report = write_run_report(run[0], None, None, {"complete": True})
+    assert any("no fonts" in w for w in report["warnings"])
+    assert _strict_json(run[0] / "report.json")["vehicles"]["vehicle1"]["distance_flown"]
+
+
 def test_summary_table_shows_vehicles_and_fleet(run):
     run_dir, _ = run
     report = write_run_report(run_dir, None, None, EXTRA)
