@@ -290,7 +290,7 @@ def landed_and_disarmed(
         t = float(c["time_s"][-1])
         issues = []
         if c["landed_state"][-1] != ON_GROUND:
-            issues.append(f"landed_state {int(c['landed_state'][-1])} (not ON_GROUND)")
+            issues.append(f"landed_state {c['landed_state'][-1]:g} (not ON_GROUND)")
         if c["armed"][-1] > 0.5:
             issues.append("still armed")
         vz = float(c["v_up_m_s"][-1])

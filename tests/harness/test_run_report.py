@@ -155,6 +155,23 @@ def test_a_partial_run_still_reports(run):
     assert (run_dir / "plots" / "map.png").is_file()
 
 
+def test_an_older_truth_file_without_some_columns_reports_null(run):
+    run_dir, _ = run
+    path = run_dir / "truth.csv"
+    rows = [line.split(",") for line in path.read_text().splitlines()]
+    drop = {rows[0].index(c) for c in ("est_north_m", "est_east_m", "est_down_m", "landed_state")}
+    path.write_text(
+        "\n".join(",".join(x for k, x in enumerate(r) if k not in drop) for r in rows) + "\n"
+    )
+    report = write_run_report(run_dir, None, None, {})
+    m = report["vehicles"]["vehicle1"]
+    assert m["est_error_horizontal_rms"]["value"] is None
+    assert m["distance_flown"]["value"] == pytest.approx(60.0, abs=0.01)
+    assert m["landed_and_disarmed"]["value"] is False  # landed_state unknown
+    assert any("est_north_m" in w and "NaN" in w for w in report["warnings"])
+    _strict_json(run_dir / "report.json")
+
+
 def test_a_run_without_truth_writes_a_report_saying_so(tmp_path):
     run_dir = tmp_path / "run"
     run_dir.mkdir()
