@@ -93,13 +93,19 @@ def demo_metrics(
     if armed.any():
         ta = t[armed]
         out["armed_time_s"] = float(ta[-1] - ta[0])
-    power = track["electrical_power_w"]
-    energy = float(np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(t)))
+    energy = electrical_energy_j(t, track["electrical_power_w"])
     out["electrical_energy_j"] = energy
     out["electrical_energy_wh"] = energy / 3600.0
     if "battery_soc" in track and len(t):
         out["battery_soc_used"] = float(track["battery_soc"][0] - track["battery_soc"][-1])
     return out
+
+
+def electrical_energy_j(time_s: np.ndarray, power_w: np.ndarray) -> float:
+    """Electrical energy drawn, J: the trapezoidal integral of power over simulation time."""
+    if len(time_s) < 2:
+        return 0.0
+    return float(np.sum(0.5 * (power_w[1:] + power_w[:-1]) * np.diff(time_s)))
 
 
 def hover_power_metrics(
