@@ -326,6 +326,7 @@ class World:
             spills = [t for t in targets if isinstance(t, OilSpill)]
             if spills:
                 self._spills = OilSpills(self._scene.client_id, spills)
+        self._scene_updates = self._moving_solids is not None or self._spills is not None
 
         # Sensor construction order fixes the order of random draws: keep it (group by group in
         # order of first appearance; one group is the single-airframe world).
@@ -518,7 +519,7 @@ class World:
             for group in self._groups:
                 group.rotors.advance()
         self._clock.advance()
-        if self._clock.tick % self._moving_div == 0:
+        if self._scene_updates and self._clock.tick % self._moving_div == 0:
             if self._moving_solids is not None:
                 self._moving_solids.update(self._clock.time_s)
             if self._spills is not None:
