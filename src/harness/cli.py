@@ -13,8 +13,10 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
+import worlds
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from harness.launch import StopFlag, console, default_run_dir, open_simulation
 from harness.link_options import NO_LINK, check_link_model, describe, links_config
@@ -32,6 +34,7 @@ from harness.wind_options import (
     parse_wind,
     wind_config,
 )
+from harness.world_setup import WorldSetup, world_setup
 from sitl.sensors.camera import MOUNT_PITCH_DEG, RENDER_S_PER_PIXEL, CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
 from sitl.vehicles.multirotor import airframe_yaml_path, load_airframe
@@ -87,6 +90,67 @@ def camera_override(
                 raise typer.BadParameter(str(exc)) from exc
         cameras[name] = spec
     return tuple(cameras[name] for name in frames)
+
+
+def world_options(
+    path: Path | None, launch_area: str | None, n_vehicles: int, spacing_m: float
+) -> WorldSetup | None:
+    """``--world`` / ``--launch-area`` -> the world's setup; a bad file or area exits with 2."""
+    if path is None:
+        if launch_area is not None:
+            raise typer.BadParameter("needs --world FILE", param_hint="--launch-area")
+        return None
+    try:
+        built = worlds.build(worlds.load_world(path))
+        return world_setup(built, n_vehicles, launch_area, spacing_m)
+    except (OSError, ValueError) as exc:  # WorldSpecError is a ValueError: file:line: field
+        console.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
+        raise typer.Exit(2) from exc
+
+
+def world_overrides(setup: WorldSetup, explicit_mocap: bool) -> dict:
+    """The world's WorldConfig fields; an explicit ``--mocap HZ`` keeps its own rate."""
+    overrides = dict(setup.world_overrides)
+    if explicit_mocap:
+        overrides.pop("mocap_hz", None)
+    return overrides
+
+
+def print_world(
+    setup: WorldSetup, path: Path | None, cfg: SimulationConfig, sim: Simulation
+) -> None:
+    """Tell what the world brought: scene, launch area, wind, and the bridges to start."""
+    scene = setup.world_overrides["scene"]
+    wind = cfg.wind
+    wind_text = (
+        "calm"
+        if wind is None
+        else f"{wind.speed_m_s:g} m/s from {wind.from_deg:.0f} deg, turbulence W20 "
+        f"{wind.turbulence_w20_m_s:.1f} m/s, gusts {wind.gust_peak_m_s:g} m/s"
+    )
+    console.print(
+        f"world {path} ({scene.kind}, seed {scene.seed}): {len(scene.solids)} solids, "
+        f"{len(scene.targets)} targets; launch area {setup.launch_area}; wind {wind_text}",
+        markup=False,
+        highlight=False,
+    )
+    if setup.bridge:
+        ports = cfg.ports
+        console.print(
+            "GPS-denied world: no GNSS fix; each vehicle flies on motion capture through its "
+            f"bridge (EKF2_EV_CTRL {setup.params.get('EKF2_EV_CTRL', 0):g}):",
+            markup=False,
+        )
+        for i in range(cfg.n_vehicles):
+            listen = f"{ports.peer_addr}:{cfg.mocap_port + i}"
+            onboard = ports.listen_port(i)
+            console.print(
+                f"  python -m companion.scripts.mocap_bridge --vehicle {i} --listen {listen} "
+                f"--mavlink udpout:{ports.bind_addr}:{onboard}",
+                markup=False,
+                highlight=False,
+                soft_wrap=True,
+            )
 
 
 def parse_stream_rates(specs: list[str]) -> dict[StreamProfile, dict[str, float]]:
@@ -326,6 +390,23 @@ def up(
     net_proxy_port: Annotated[
         int, typer.Option(help="with --net: the router's port standing for the first node (+k)")
     ] = 47500,
+    world: Annotated[
+        Path | None,
+        typer.Option(
+            metavar="FILE",
+            help="fly in a world file (docs/worlds.md): its solids, spills, people, wind; "
+            "vehicles start in its launch area; GPS-denied worlds fly on motion capture "
+            "(e.g. --world src/worlds/examples/offshore.yaml)",
+        ),
+    ] = None,
+    launch_area: Annotated[
+        str | None,
+        typer.Option(
+            metavar="NAME",
+            help="with --world: the launch area to start from, e.g. helideck [default: the "
+            "world's: helideck, land_base, safe_point, start, agent_start_<i>]",
+        ),
+    ] = None,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -358,6 +439,9 @@ def up(
 
     Example:  swarmsitl up -n 3 --net edge,edge,fog   (then, per companion:
     SWARMSITL_NET=<run>/net.yaml SWARMSITL_NODE=edge1 python my_companion.py)
+
+    Example:  swarmsitl up -n 3 --world src/worlds/examples/offshore.yaml --launch-area helideck
+    (three vehicles on the rig's helideck in the world's sea wind; --wind etc. override it)
     """
     frames = parse_frames(frame, vehicles)
     link = parse_link_model(link, "--link", links)
@@ -384,6 +468,7 @@ def up(
         raise typer.BadParameter(
             f"--mocap {mocap:g}: must be 0 or divide the {physics_hz:g} Hz physics rate"
         )
+    setup = world_options(world, launch_area, vehicles, spacing)
     run_dir = out or default_run_dir()
     net_run = None
     if roles is not None:
@@ -406,6 +491,7 @@ def up(
         payload_listen_base=payload_listen_port,
         payload_base=payload_port,
     )
+    wind_given = wind is not None or turbulence is not None or gusts is not None
     cfg = SimulationConfig(
         n_vehicles=vehicles,
         seed=seed,
@@ -414,8 +500,12 @@ def up(
         ports=ports,
         out_dir=run_dir,
         stream_rates_hz=parse_stream_rates(stream_rate or []),
-        wind=wind_config(parse_wind(wind), parse_turbulence(turbulence), parse_gusts(gusts)),
+        wind=wind_config(parse_wind(wind), parse_turbulence(turbulence), parse_gusts(gusts))
+        if wind_given or setup is None
+        else setup.wind,
+        params=setup.params if setup is not None else {},
         world_overrides={
+            **(world_overrides(setup, explicit_mocap=mocap > 0) if setup is not None else {}),
             **({"cameras": True, "camera": camera_spec} if camera else {}),
             **({"mocap_hz": mocap} if mocap > 0 else {}),
             **({"rangefinders": True} if rangefinders else {}),
@@ -468,9 +558,11 @@ def up(
     console.print(table)
     if sim.mocap is not None:
         console.print(
-            f"motion capture: {mocap:g} Hz, vehicle i's poses to udp {ports.peer_addr}:"
-            f"{mocap_port}+i (bridge: python -m companion.scripts.mocap_bridge)"
+            f"motion capture: {sim.world.config.mocap_hz:g} Hz, vehicle i's poses to udp "
+            f"{ports.peer_addr}:{mocap_port}+i (bridge: python -m companion.scripts.mocap_bridge)"
         )
+    if setup is not None:
+        print_world(setup, world, cfg, sim)
     for i, (uri, spec) in enumerate(zip(sim.video_uris, sim.world.camera_specs, strict=True)):
         if uri is not None and spec is not None:
             console.print(

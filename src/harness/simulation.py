@@ -25,7 +25,7 @@ from autopilot_emu.fleet import AutopilotFleet, FleetConfig
 from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
-from autopilot_emu.params import ParamStore
+from autopilot_emu.params import MAV_PARAM_TYPE_INT32, ParamError, ParamStore
 from autopilot_emu.rangefinder import ROTATION_DOWNWARD
 from harness.link_options import (
     GCS,
@@ -187,6 +187,9 @@ class SimulationConfig:
     links_file: Path | None = None
     """The user's link file (presets and classes merged over ``sitl/links/presets.yaml``);
     None: the shipped presets."""
+    params: dict[str, float] = field(default_factory=dict)
+    """Autopilot parameters set on every vehicle after its airframe's (e.g. a GPS-denied world's
+    EKF2_EV_CTRL, ``harness.world_setup``); an unknown name raises ValueError naming it."""
     router: LinkRouter | Callable[[], LinkRouter] | None = None
     """The paced UDP router of node messaging, or a factory of it, polled with the MAVLink
     links on the simulation clock (the simulation closes it); None: no router."""
@@ -204,6 +207,8 @@ class SimulationConfig:
             )
         if "airframe" in self.world_overrides:
             raise ValueError("set the airframe with frames, not world_overrides")
+        if self.params:
+            object.__setattr__(self, "params", check_params(self.params))
         ratio = self.physics_hz / self.mavlink_poll_hz
         if abs(ratio - round(ratio)) > 1e-9 or ratio < 1:
             raise ValueError(
@@ -226,6 +231,33 @@ def apply_airframe_params(store: ParamStore, airframe: MultirotorSpec) -> set[st
         else:
             unknown.add(name)
     return unknown
+
+
+def check_params(params: dict[str, float]) -> dict[str, float | int]:
+    """The values as the autopilot stores them; ValueError naming an unknown name or bad value.
+
+    A whole float for an INT32 parameter (``EKF2_EV_CTRL: 9.0``, as a YAML or JSON number may
+    arrive) is taken as that integer.
+    """
+    store = ParamStore()
+    known = set(store.names)
+    unknown = sorted(name for name in params if name not in known)
+    if unknown:
+        raise ValueError(f"params: unknown autopilot parameter {unknown[0]!r} (of {unknown})")
+    out: dict[str, float | int] = {}
+    for name, value in params.items():
+        if (
+            store.type_of(name) == MAV_PARAM_TYPE_INT32
+            and isinstance(value, float)
+            and value.is_integer()
+        ):
+            value = int(value)
+        try:
+            store.set(name, value)
+        except ParamError as exc:
+            raise ValueError(f"params: {name}: {exc}") from exc
+        out[name] = value
+    return out
 
 
 def apply_rangefinder_params(store: ParamStore, airframe: MultirotorSpec) -> None:
@@ -263,6 +295,8 @@ class Simulation:
             self.airframe_params_skipped |= apply_airframe_params(store, spec)
             if self.world.config.rangefinders:
                 apply_rangefinder_params(store, spec)
+            for name, value in config.params.items():
+                store.set(name, value)
         if self.airframe_params_skipped:
             log.warning(
                 "airframe parameters unknown to the autopilot, not set: %s",

@@ -33,6 +33,7 @@ from sitl.physics.ground_texture import ground_texture, tinted
 from sitl.physics.moving_solids import MOVING_SOLIDS_HZ, MovingSolids
 from sitl.physics.obstacles import BoxObstacle, add_boxes, add_solids
 from sitl.physics.rotors import RotorModel
+from sitl.physics.spills import OilSpills, add_people
 from sitl.physics.wind import WindConfig, WindField
 from sitl.power.loads import PayloadLoads
 from sitl.power.propulsion import load_power_spec
@@ -47,6 +48,7 @@ from sitl.sensors.mocap import Mocap, MocapParams, MocapSample
 from sitl.sensors.rangefinder import RangefinderArray
 from sitl.truth import TruthState
 from sitl.vehicles.multirotor import MultirotorSpec, airframe_yaml_path, load_airframe
+from worlds import OilSpill, Person
 from worlds import World as WorldsWorld
 
 log = logging.getLogger(__name__)
@@ -85,7 +87,8 @@ class WorldConfig:
     """Airframe of every vehicle, or a tuple with one per vehicle (vehicle order). Each is the name
     of a folder of ``sitl/vehicles`` or the path of a user's airframe folder."""
     spawn_altitude_m: float | None = None
-    """None: spawn resting on the ground; else height of the centre of mass above ground, m."""
+    """None: spawn resting on the surface below; else height of the centre of mass above that
+    surface (the ground, or ``spawn_enu_m``'s surface_z), m."""
     mag_model_decimal_year: float = 2026.0
     """Date of the world magnetic model (WMM2025, valid 2025.0-2030.0), decimal year
     (2026.0 = 2026-01-01; see ``sitl.physics.geomagnetism.decimal_year``)."""
@@ -116,13 +119,20 @@ class WorldConfig:
     """Static boxes (walls, pillars) the vehicles can hit and the sensors see."""
     scene: WorldsWorld | None = None
     """A built ``worlds`` world whose solids (boxes, vertical cylinders; moving ones follow their
-    ``motion``) are added to the scene after ``obstacles``; None: no scenery beyond ``obstacles``.
-    Its surface, targets and wind are not simulated yet (docs/worlds.md, "In the simulator")."""
+    ``motion``) are added to the scene after ``obstacles``, with its people (upright cylinders)
+    and oil spills (dark visual-only patches from their ``appear_s``); None: no scenery beyond
+    ``obstacles``. Its wind and launch areas are the harness's to apply (``wind``,
+    ``spawn_enu_m``; see docs/worlds.md, "In the simulator")."""
     rangefinders: bool = False
     """Fly the airframes' ultrasonic rangefinders (their ``rangefinders`` section); off (the
     default): none, ``poll_rangefinders`` returns None and a flight-only run pays nothing."""
     cameras: bool = False
     """Render the vehicles' cameras (``poll_cameras``); off: no camera costs anything."""
+    spawn_enu_m: tuple[tuple[float, float, float], ...] | None = None
+    """One (east, north, surface_z) per vehicle, m: the point of a surface (the ground z = 0, a
+    helideck at 30 m, ...) where the vehicle rests; its centre of mass starts its resting height
+    (or ``spawn_altitude_m``) above surface_z. None: (i * spacing_m, 0, 0) (see
+    ``worlds.launch.spawn_points`` for points inside a launch area)."""
     camera: CameraSpec | tuple[CameraSpec | None, ...] | None = None
     """With ``cameras``, overrides the airframes' cameras: one CameraSpec for every vehicle, or a
     tuple with one entry per vehicle (None: that vehicle has no camera). None: each airframe's
@@ -153,6 +163,10 @@ class WorldConfig:
             raise ValueError(f"origin_lon_deg out of [-180, 180]: {self.origin_lon_deg}")
         if self.spawn_altitude_m is not None and not self.spawn_altitude_m > 0.0:
             raise ValueError(f"spawn_altitude_m must be positive or None: {self.spawn_altitude_m}")
+        if self.spawn_enu_m is not None:
+            object.__setattr__(
+                self, "spawn_enu_m", _spawn_points(self.spawn_enu_m, self.n_vehicles)
+            )
         if self.mag_strength_gauss is not None and not self.mag_strength_gauss > 0.0:
             raise ValueError(f"mag_strength_gauss must be positive: {self.mag_strength_gauss}")
         if isinstance(self.airframe, os.PathLike):
@@ -241,9 +255,10 @@ class World:
     """N multirotors in a PyBullet DIRECT world, advanced in lockstep.
 
     Vehicle i spawns at ENU (i * spacing_m, 0, h), facing north, with h the resting height of the
-    centre of mass (or ``spawn_altitude_m``). Commands arrive as HIL_ACTUATOR_CONTROLS (controls in
-    [0, 1] in the airframe's output order; zero unless the mode has SAFETY_ARMED); sensors leave as
-    HIL_SENSOR and HIL_GPS, one message per vehicle in vehicle order.
+    centre of mass (or ``spawn_altitude_m``); with ``spawn_enu_m`` at (east, north, surface_z + h).
+    Commands arrive as HIL_ACTUATOR_CONTROLS (controls in [0, 1] in the airframe's output order;
+    zero unless the mode has SAFETY_ARMED); sensors leave as HIL_SENSOR and HIL_GPS, one message
+    per vehicle in vehicle order.
 
     Vehicles may have different airframes (rotor counts, URDFs, sensor parameters): the vehicles of
     one airframe form a group with its own rotor model and sensors, each vectorised over the group.
@@ -283,7 +298,11 @@ class World:
                     f"{heights[lowest]:.3f} m of {spec.name}'s centre of mass"
                 )
             heights[:] = float(config.spawn_altitude_m)
-        self._spawn_enu = np.array([[i * config.spacing_m, 0.0, heights[i]] for i in range(n)])
+        if config.spawn_enu_m is None:
+            self._spawn_enu = np.array([[i * config.spacing_m, 0.0, heights[i]] for i in range(n)])
+        else:
+            self._spawn_enu = np.array(config.spawn_enu_m, dtype=float)
+            self._spawn_enu[:, 2] += heights
         facing_north = frames.quat_ned_frd_to_enu_flu(frames.quat_from_euler_ned_frd(0, 0, 0))
         self._scene = BulletScene(
             [spec.urdf_path for spec in self.airframes], self._spawn_enu, tuple(facing_north), dt
@@ -291,13 +310,23 @@ class World:
         self.obstacle_ids: list[int] = add_boxes(self._scene.client_id, config.obstacles)
         """PyBullet body ids of ``config.obstacles``, then of ``config.scene``'s solids."""
         self._moving_solids: MovingSolids | None = None
+        self._spills: OilSpills | None = None
+        self.person_ids: list[int] = []
+        """PyBullet body ids of ``config.scene``'s people (upright cylinders), in target order."""
+        self._moving_div = max(1, round(config.physics_hz / MOVING_SOLIDS_HZ))
         if config.scene is not None:
             solid_ids = add_solids(self._scene.client_id, config.scene.solids)
             self.obstacle_ids.extend(solid_ids)
             movers = MovingSolids(self._scene.client_id, config.scene.solids, solid_ids)
             if len(movers):
                 self._moving_solids = movers
-                self._moving_div = max(1, round(config.physics_hz / MOVING_SOLIDS_HZ))
+            targets = config.scene.targets
+            people = [t for t in targets if isinstance(t, Person)]
+            self.person_ids = add_people(self._scene.client_id, people)
+            spills = [t for t in targets if isinstance(t, OilSpill)]
+            if spills:
+                self._spills = OilSpills(self._scene.client_id, spills)
+        self._scene_updates = self._moving_solids is not None or self._spills is not None
 
         # Sensor construction order fixes the order of random draws: keep it (group by group in
         # order of first appearance; one group is the single-airframe world).
@@ -434,6 +463,8 @@ class World:
             scene.ground_id,
             scene.body_ids,
         )
+        if self._spills is not None:
+            rig.bound_visuals(self._spills.visual_corners_local)
         checked: set[tuple[str, CameraSpec]] = set()  # same airframe, same camera: same view
         for i, spec in enumerate(specs):
             key = (str(self.airframes[i].urdf_path), spec)
@@ -488,8 +519,11 @@ class World:
             for group in self._groups:
                 group.rotors.advance()
         self._clock.advance()
-        if self._moving_solids is not None and self._clock.tick % self._moving_div == 0:
-            self._moving_solids.update(self._clock.time_s)
+        if self._scene_updates and self._clock.tick % self._moving_div == 0:
+            if self._moving_solids is not None:
+                self._moving_solids.update(self._clock.time_s)
+            if self._spills is not None:
+                self._spills.update(self._clock.time_s)
         if self._clock.tick % self._power_div == 0:
             dt = self._power_div * self._clock.dt_s
             for group in self._groups:
@@ -803,6 +837,22 @@ class World:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _spawn_points(points: object, n_vehicles: int) -> tuple[tuple[float, float, float], ...]:
+    """``WorldConfig.spawn_enu_m`` as a tuple of float triples; ValueError naming the field."""
+    try:
+        rows = [tuple(float(v) for v in point) for point in points]  # type: ignore[attr-defined]
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"spawn_enu_m must be (east, north, surface_z) triples, got {points!r}"
+        ) from exc
+    if len(rows) != n_vehicles:
+        raise ValueError(f"spawn_enu_m: {len(rows)} points for n_vehicles={n_vehicles}")
+    for k, row in enumerate(rows):
+        if len(row) != 3 or not all(math.isfinite(v) for v in row):
+            raise ValueError(f"spawn_enu_m[{k}] must be 3 finite numbers, got {row}")
+    return tuple(rows)  # type: ignore[return-value]
 
 
 def _magnetic_field(config: WorldConfig) -> GeomagneticField:

@@ -56,7 +56,9 @@ def test_an_example_world_becomes_one_fixed_body_per_solid(kind):
     with World(WorldConfig(scene=scene)) as world:
         client = world._scene.client_id
         assert len(world.obstacle_ids) == len(scene.solids)
-        assert p.getNumBodies(physicsClientId=client) == 2 + len(scene.solids)  # vehicle, ground
+        targets = [t for t in scene.targets if isinstance(t, worlds.OilSpill | worlds.Person)]
+        bodies = 2 + len(scene.solids) + len(targets)  # vehicle, ground, solids, spills, people
+        assert p.getNumBodies(physicsClientId=client) == bodies
         for body, solid in zip(world.obstacle_ids, scene.solids, strict=True):
             position, _ = p.getBasePositionAndOrientation(body, physicsClientId=client)
             assert np.allclose(position, solid.center_enu_m, atol=1e-9)

@@ -249,6 +249,15 @@ class CameraRig:
         self.tiny_renders = 0
         """How many frames needed TinyRenderer (some body in view), for diagnostics."""
 
+    def bound_visuals(self, corners_local: dict[int, np.ndarray]) -> None:
+        """Known visual bounds of bodies PyBullet cannot bound (meshes): corners (K, 3) by body id.
+
+        The corners are in the body's frame; without them a mesh body counts as always in view
+        (TinyRenderer would run for every frame).
+        """
+        for body, corners in corners_local.items():
+            self._visual_corners[int(body)] = np.asarray(corners, dtype=float).reshape(-1, 3)
+
     def due(self, tick: int) -> bool:
         """Whether any camera takes a frame at this physics step."""
         return bool(self._every) and tick % self._every == 0
