@@ -17,6 +17,7 @@ Pure: shapely geometry and numpy in, numpy out; no I/O. Units: metres, seconds, 
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -307,7 +308,7 @@ def truncate_to_budget(
     if 2.0 * flown > max_distance_m:
         return xy[:0]
     out = [xy[0]]
-    for a, b in zip(xy[:-1], xy[1:], strict=True):
+    for a, b in itertools.pairwise(xy):
         leg = float(np.hypot(*(b - a)))
         if flown + leg + home(b) <= max_distance_m:
             out.append(b)

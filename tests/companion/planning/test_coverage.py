@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -30,7 +31,7 @@ START = (-140.0, -95.0)
 
 def _segments(waypoints: np.ndarray) -> list[LineString]:
     xy = waypoints[:, :2]
-    return [LineString([a, b]) for a, b in zip(xy[:-1], xy[1:], strict=True)]
+    return [LineString([a, b]) for a, b in itertools.pairwise(xy)]
 
 
 def _covered(plans, spec: CoverageSpec):
@@ -109,14 +110,16 @@ def test_plans_are_deterministic_and_start_near_the_start_point():
     a = plan_vehicle(AREA, OBSTACLES, SPEC, 3, 1, START)
     b = plan_vehicle(AREA, OBSTACLES, SPEC, 3, 1, START)
     np.testing.assert_array_equal(a.waypoints_enu_m, b.waypoints_enu_m)
-    ends = [np.asarray(c) for lane in a.part.lanes for s in lane for c in (s.coords[0], s.coords[-1])]
+    ends = [
+        np.asarray(c) for lane in a.part.lanes for s in lane for c in (s.coords[0], s.coords[-1])
+    ]
     nearest = min(float(np.hypot(*(e - START))) for e in ends)
     assert a.transit_m == pytest.approx(nearest)
     assert np.all(a.waypoints_enu_m[:, 2] == SPEC.altitude_m)
 
 
 def test_a_time_budget_truncates_the_path_to_fly_it_and_return():
-    """start -> path -> start at speed v fits the budget, and the cut path is a prefix of the full one."""
+    """start -> path -> start at speed v fits the budget; the cut path begins as the full one."""
     full = plan_vehicle(AREA, OBSTACLES, SPEC, 2, 0, START)
     speed, budget = 5.0, 0.4 * full.flight_time_s(5.0)
     cut = plan_vehicle(AREA, OBSTACLES, SPEC, 2, 0, START, speed, budget)
