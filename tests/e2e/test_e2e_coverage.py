@@ -1,0 +1,145 @@
+"""The coverage companion (``python -m companion.scripts.coverage``) against ``swarmsitl up``.
+
+One vehicle with its camera streaming, paced at :data:`e2e_support.SPEED`; the companion runs
+as ``swarmsitl run`` would start it: its own process, told everything by ``SWARMSITL_*``
+variables, a small rectangle at 8 m so the flight takes about a simulated minute.
+UDP/TCP ports 43000-43099, gRPC 43100.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import subprocess
+import sys
+
+import pytest
+from e2e_support import (
+    REPO_ROOT,
+    SPEED,
+    Ports,
+    kill_mavsdk_servers,
+    mavsdk_servers,
+    require_free_udp,
+    start_swarm,
+    stop_swarm,
+)
+from pymavlink import mavutil
+
+from sitl.world import WorldConfig
+
+pytestmark = pytest.mark.e2e
+
+PORTS = Ports(sdk=43000, listen=43005, gcs_listen=43010, grpc=43100)
+VIDEO_PORT = 43020
+AREA_ENU_M = (-10.0, -10.0, 30.0, 15.0)
+ALTITUDE_M = 8.0
+TIMEOUT_WALL_S = 240.0
+
+
+TLOG_TYPES = ["HEARTBEAT", "EXTENDED_SYS_STATE", "GLOBAL_POSITION_INT"]
+
+
+def _flight_in_tlog(path) -> dict:
+    """Highest relative altitude, east/north extent, and the last armed and landed states."""
+    log = mavutil.mavlink_connection(str(path))
+    out = {"max_rel_alt_m": 0.0, "armed": None, "landed_state": None, "east": [], "north": []}
+    origin = None
+    try:
+        while (msg := log.recv_match(type=TLOG_TYPES)) is not None:
+            if msg.get_srcSystem() != 1 or msg.get_srcComponent() != 1:
+                continue
+            kind = msg.get_type()
+            if kind == "HEARTBEAT":
+                out["armed"] = bool(msg.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            elif kind == "EXTENDED_SYS_STATE":
+                out["landed_state"] = msg.landed_state
+            elif kind == "GLOBAL_POSITION_INT":
+                out["max_rel_alt_m"] = max(out["max_rel_alt_m"], msg.relative_alt / 1000.0)
+                if origin is None:
+                    origin = (msg.lat, msg.lon)
+                # metres east/north of the first fix (small distances: flat Earth is fine)
+                out["north"].append((msg.lat - origin[0]) * 1e-7 * 111_195.0)
+                out["east"].append((msg.lon - origin[1]) * 1e-7 * 111_195.0 * 0.6769)
+    finally:
+        log.close()
+    return out
+
+
+def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
+    """It plans the rectangle's lanes, flies them with the camera on, returns, lands, disarms
+    and writes result.json: the whole rectangle under the footprint, a flown distance at least
+    the lanes' length, frames used, no spill seen on a plain ground (no false positives)."""
+    require_free_udp([PORTS.sdk, PORTS.listen])
+    assert not mavsdk_servers(PORTS.grpc)
+    cfg = WorldConfig()
+    origin = (cfg.origin_lat_deg, cfg.origin_lon_deg, cfg.origin_alt_amsl_m)
+    extra = (
+        "--camera", "--video-port", VIDEO_PORT,
+        "--payload-port", 43030, "--payload-listen-port", 43035,
+    )  # fmt: skip
+    swarm = start_swarm(1, PORTS, tmp_path / "run", extra=extra)
+    out_dir = tmp_path / "vehicle1"
+    env = os.environ | {
+        "PYTHONUNBUFFERED": "1",
+        "SWARMSITL_SPEED": str(SPEED),
+        "SWARMSITL_MAVLINK_URL": PORTS.url(0),
+        "SWARMSITL_GRPC_PORT": str(PORTS.grpc),
+        "SWARMSITL_VEHICLE": "1",
+        "SWARMSITL_VEHICLES": "1",
+        "SWARMSITL_ROLE": "coverage",
+        "SWARMSITL_ROLE_INDEX": "0",
+        "SWARMSITL_ROLE_COUNT": "1",
+        "SWARMSITL_OUT": str(out_dir),
+        "SWARMSITL_ORIGIN": ",".join(str(v) for v in origin),
+        "SWARMSITL_VIDEO_URI": f"http://127.0.0.1:{VIDEO_PORT}/video.mjpg",
+        "SWARMSITL_DURATION_S": "400",
+        "SWARMSITL_PARAMS": json.dumps(
+            {"area_enu_m": AREA_ENU_M, "altitude_m": ALTITUDE_M, "speed_m_s": 5.0}
+        ),
+    }
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "companion.scripts.coverage"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            stdin=subprocess.DEVNULL,
+            cwd=REPO_ROOT,
+            env=env,
+            text=True,
+            start_new_session=True,
+        )
+        try:
+            stdout, stderr = proc.communicate(timeout=TIMEOUT_WALL_S)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            stdout, stderr = proc.communicate()
+            pytest.fail(f"coverage companion timed out\n{stdout}\n{stderr[-3000:]}")
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            kill_mavsdk_servers(PORTS.grpc)
+    finally:
+        stop_swarm(swarm)
+    assert proc.returncode == 0, f"rc={proc.returncode}\n{stdout}\n{stderr[-3000:]}"
+    for event in ("planned", "took_off", "mission_done", "landed", "disarmed"):
+        assert f"[coverage] {event}" in stdout, stdout
+    result = json.loads((out_dir / "result.json").read_text())
+    assert set(result) >= {
+        "spills_seen", "spills_in_footprint", "distance_flown_m", "coverage_fraction",
+    }  # fmt: skip
+    assert result["coverage_fraction"]["value"] >= 0.95
+    # Two 40 m lanes and the step between them, plus the climb and the descent at least.
+    assert result["distance_flown_m"]["value"] >= 80.0 + 2 * ALTITUDE_M
+    assert result["camera_frames_used"]["value"] > 20
+    assert result["spills_seen"]["value"] == 0
+    assert result["spills_in_footprint"]["value"] == 0
+    flight = _flight_in_tlog(swarm.tlog(0))
+    assert flight["max_rel_alt_m"] >= 0.9 * ALTITUDE_M
+    assert flight["armed"] is False
+    assert flight["landed_state"] == mavutil.mavlink.MAV_LANDED_STATE_ON_GROUND
+    # The track reached both ends of the lanes (the rectangle spans 40 m east-west).
+    assert max(flight["east"]) - min(flight["east"]) >= 30.0
