@@ -328,6 +328,31 @@ def truncate_to_budget(
     return np.asarray(out)
 
 
+def reachable_area(
+    area: BaseGeometry,
+    start_xy_m: Sequence[float],
+    k: int,
+    spec: CoverageSpec,
+    max_distance_m: float,
+) -> BaseGeometry:
+    """``area`` cut to the square around the start that k vehicles can sweep in a flight each.
+
+    Each vehicle flies ``max_distance_m`` = d (start, lanes and back). Its lanes cover about
+    ``spacing * (d - s)`` m^2 when about s of d go to getting to its strip and back, so
+    ``s^2 = k spacing (d - s)`` gives the square's side s (the positive root). ``area`` itself
+    if the square would contain it.
+    """
+    if k < 1 or not max_distance_m > 0.0:
+        raise ValueError(f"k must be >= 1 and max_distance_m > 0, got {k}, {max_distance_m}")
+    w = k * spec.lane_spacing_m
+    side = (-w + math.sqrt(w * w + 4.0 * w * max_distance_m)) / 2.0
+    x, y = (float(v) for v in start_xy_m[:2])
+    square = box(x - side / 2.0, y - side / 2.0, x + side / 2.0, y + side / 2.0)
+    if square.contains(area):
+        return area
+    return shapely.make_valid(area.intersection(square))
+
+
 def plan_vehicle(
     area: BaseGeometry,
     obstacles: Sequence[BaseGeometry],

@@ -45,7 +45,7 @@ from shapely.geometry import box
 
 from companion.perception.camera_model import CameraModel, rotation_flu_enu_from_quaternion
 from companion.perception.spill_detector import DetectorConfig, SpillCounter, detect_spills
-from companion.planning.coverage import CoverageSpec, VehiclePlan, plan_vehicle
+from companion.planning.coverage import CoverageSpec, VehiclePlan, plan_vehicle, reachable_area
 from companion.scenario_env import ScenarioEnv
 from companion.scripts.demo_flight import FlightError, _first, _wait_for
 from companion.vehicle_clock import VehicleClock
@@ -62,7 +62,7 @@ class CoverageParams:
 
     altitude_m: float = 30.0
     """Flight height above the launch point, m."""
-    speed_m_s: float = 8.0
+    speed_m_s: float = 10.0
     """Speed along the lanes, m/s."""
     overlap: float = 0.2
     """Fraction of the footprint width neighbouring lanes share."""
@@ -71,8 +71,9 @@ class CoverageParams:
     camera_pitch_deg: float = -90.0
     """Camera elevation above the body's forward axis, degrees (-90: down)."""
     area_enu_m: tuple[float, float, float, float] | None = None
-    """Rectangle (x_min, y_min, x_max, y_max) to cover, world ENU m; None: the world's boundary
-    (or, with no world, a 200 m square around the launch point)."""
+    """Rectangle (x_min, y_min, x_max, y_max) to cover, world ENU m; None: the world's boundary,
+    cut to the square around the launch point the fleet can sweep in the run's time
+    (``coverage.reachable_area``), or with no world a 200 m square around the launch point."""
     sweep_deg: float | None = None
     """Lane direction, degrees counter-clockwise from east; None: along the area's longer side."""
     margin_m: float = 10.0
@@ -147,12 +148,6 @@ def plan(
 ) -> VehiclePlan:
     """This vehicle's coverage path in world ENU (z = flight height above the sea/ground)."""
     flight_z = float(home_enu_m[2]) + params.altitude_m
-    if params.area_enu_m is not None:
-        area = box(*params.area_enu_m)
-    elif world is not None:
-        area = world.boundary
-    else:
-        area = shapely.Point(home_enu_m[:2]).buffer(100.0, cap_style="square")
     spec = CoverageSpec(
         altitude_m=flight_z,
         hfov_deg=params.hfov_deg,
@@ -160,6 +155,15 @@ def plan(
         sweep_deg=params.sweep_deg,
         margin_m=params.margin_m,
     )
+    if params.area_enu_m is not None:
+        area = box(*params.area_enu_m)
+    elif world is not None:
+        area = world.boundary
+        if budget_s is not None:
+            reach = params.speed_m_s * budget_s
+            area = reachable_area(area, home_enu_m[:2], env.role_count, spec, reach)
+    else:
+        area = shapely.Point(home_enu_m[:2]).buffer(100.0, cap_style="square")
     return plan_vehicle(
         area,
         _obstacles(world, flight_z),

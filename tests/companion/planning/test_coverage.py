@@ -15,6 +15,7 @@ from companion.planning.coverage import (
     free_area,
     plan_fleet,
     plan_vehicle,
+    reachable_area,
     split,
     truncate_to_budget,
 )
@@ -147,3 +148,16 @@ def test_bad_input_names_the_field():
         plan_vehicle(box(0, 0, 5, 5), [box(-1, -1, 6, 6)], SPEC, 1, 0, START)
     with pytest.raises(ValueError, match="speed_m_s"):
         plan_vehicle(AREA, [], SPEC, 1, 0, START, None, 10.0)
+
+
+def test_the_reachable_area_is_what_the_fleet_can_sweep_in_its_distance():
+    """Cut to a square around the start whose lanes, shared by k, fit the distance about."""
+    big = box(-1000.0, -1000.0, 1000.0, 1000.0)
+    reach = reachable_area(big, (100.0, 50.0), 3, SPEC, 600.0)
+    side = math.sqrt(reach.area)
+    assert reach.centroid.x == pytest.approx(100.0) and reach.centroid.y == pytest.approx(50.0)
+    # k vehicles' lanes (area / spacing) plus about one side of getting there and back each.
+    assert side * side / SPEC.lane_spacing_m + 3 * side == pytest.approx(3 * 600.0)
+    plans = plan_fleet(reach, [], SPEC, [(100.0, 50.0)] * 3, speed_m_s=1.0, budget_s=600.0)
+    assert all(len(p.waypoints_enu_m) >= 2 for p in plans)
+    assert reachable_area(AREA, (0.0, 0.0), 3, SPEC, 1e6) is AREA  # all of it is in reach

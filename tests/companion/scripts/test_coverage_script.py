@@ -1,0 +1,97 @@
+"""The coverage companion without a vehicle: parameters, environment, planning, metrics."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pytest
+import shapely
+
+import worlds
+from companion.perception.camera_model import CameraModel, rotation_flu_enu_from_euler
+from companion.scenario_env import ScenarioEnv, ScenarioEnvError
+from companion.scripts.coverage import CoverageParams, Track, _metrics, plan, scenario_env
+from worlds.examples import example_path
+
+
+@pytest.fixture(scope="module")
+def offshore() -> worlds.World:
+    return worlds.build(worlds.load_world(example_path("offshore")))
+
+
+def _env(index: int, count: int) -> ScenarioEnv:
+    return ScenarioEnv(
+        mavlink_url="udpin://0.0.0.0:43000",
+        grpc_port=43100,
+        vehicle=index + 1,
+        vehicles=count,
+        role="coverage",
+        role_index=index,
+        role_count=count,
+        seed=0,
+        out_dir=".",
+    )
+
+
+def test_params_reject_unknown_keys_and_bad_values_naming_them():
+    """PARAMS is checked: an unknown key or a bad value is an error naming it."""
+    assert CoverageParams.from_mapping(None) == CoverageParams()
+    with pytest.raises(ValueError, match="altitud_m"):
+        CoverageParams.from_mapping({"altitud_m": 20})
+    with pytest.raises(ValueError, match="speed_m_s"):
+        CoverageParams.from_mapping({"speed_m_s": 0})
+    with pytest.raises(ValueError, match="area_enu_m"):
+        CoverageParams.from_mapping({"area_enu_m": [10, 0, 0, 10]})
+
+
+def test_options_override_the_environment():
+    """Command-line options win over SWARMSITL_* variables; bad variables still name themselves."""
+    names = ("url", "grpc_port", "vehicle", "role_index", "role_count", "out", "world", "origin")
+    args = argparse.Namespace(**dict.fromkeys(names), video_uri=None, duration=60.0, params=None)
+    args.role_index, args.role_count = 1, 3
+    environ = {"SWARMSITL_MAVLINK_URL": "udpin://0.0.0.0:43001", "SWARMSITL_VEHICLE": "2",
+               "SWARMSITL_DURATION_S": "120", "SWARMSITL_PARAMS": '{"altitude_m": 12}'}  # fmt: skip
+    env = scenario_env(args, environ)
+    assert (env.mavlink_url, env.vehicle, env.role_index, env.role_count) == (
+        "udpin://0.0.0.0:43001", 2, 1, 3,
+    )  # fmt: skip
+    assert env.duration_s == 60.0 and env.params == {"altitude_m": 12}
+    with pytest.raises(ScenarioEnvError, match="SWARMSITL_ORIGIN"):
+        scenario_env(args, environ | {"SWARMSITL_ORIGIN": "47,8"})
+
+
+def test_three_vehicles_from_the_helideck_get_disjoint_flyable_strips(offshore):
+    """On the offshore world, from the helideck, each of three vehicles gets a non-empty path in
+    its own strip near the rig that fits the budget and keeps clear of the derrick."""
+    helideck = np.array(offshore.launch_area("helideck").center_enu_m)
+    params = CoverageParams()
+    plans = [plan(_env(i, 3), params, offshore, helideck, 45.0) for i in range(3)]
+    derrick = next(s for s in offshore.solids if s.name == "rig_derrick").footprint_at(0.0)
+    for p in plans:
+        assert len(p.waypoints_enu_m) >= 2
+        assert p.flight_time_s(params.speed_m_s) <= 45.0 + 1e-6
+        np.testing.assert_allclose(p.waypoints_enu_m[:, 2], helideck[2] + params.altitude_m)
+        track = shapely.LineString(p.waypoints_enu_m[:, :2])
+        assert track.distance(derrick) >= params.margin_m - 1e-3
+    for i in range(3):
+        for j in range(i + 1, 3):
+            assert plans[i].part.polygon.intersection(plans[j].part.polygon).area < 1e-6
+
+
+def test_metrics_count_the_spills_under_the_footprint_once_they_exist(offshore):
+    """A footprint over a spill counts it only if taken after the spill appeared."""
+    spill = max(offshore.spills_at(1e9), key=lambda s: s.appear_s)
+    x, y = spill.polygon.centroid.coords[0]
+    camera = CameraModel()
+    footprint = camera.footprint((x, y, 40.0), rotation_flu_enu_from_euler(0, 0, 0))
+    helideck = np.array(offshore.launch_area("helideck").center_enu_m)
+    path = plan(_env(0, 1), CoverageParams(), offshore, helideck, None)
+
+    def spills(t_s: float) -> int:
+        track = Track(footprints=[(t_s, footprint)])
+        return _metrics(offshore, path, track, None)["spills_in_footprint"][0]
+
+    others = sum(1 for s in offshore.spills_at(spill.appear_s) if s.polygon.intersects(footprint))
+    assert spills(spill.appear_s) == others >= 1
+    assert spills(spill.appear_s - 1.0) == others - 1
