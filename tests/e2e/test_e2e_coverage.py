@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import signal
 import subprocess
@@ -143,3 +144,72 @@ def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
     assert flight["landed_state"] == mavutil.mavlink.MAV_LANDED_STATE_ON_GROUND
     # The track reached both ends of the lanes (the rectangle spans 40 m east-west).
     assert max(flight["east"]) - min(flight["east"]) >= 30.0
+
+
+def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
+    """Two spill-coloured slabs in the rectangle (simulation in this process, paced): the camera
+    thread finds exactly two spills, each within 3 m of a slab's centre (frames, poses, the
+    attitude quaternion and the camera model agree)."""
+    from harness.simulation import PortPlan, Simulation, SimulationConfig
+    from sitl.physics.obstacles import BoxObstacle
+
+    ports = PortPlan(
+        sdk_base=43040, listen_base=43041, gcs_port=0, video_base=43044,
+        payload_listen_base=43045, payload_base=43046,
+    )  # fmt: skip
+    require_free_udp([43040, 43041])
+    slabs_xy = [(5.0, -3.0), (22.0, 9.0)]
+    slabs = tuple(
+        BoxObstacle((x, y, 0.05), (8.0, 6.0, 0.1), rgba=(0.06, 0.05, 0.05, 1.0))
+        for x, y in slabs_xy
+    )
+    config = SimulationConfig(
+        ports=ports,
+        record_hz=0,
+        out_dir=tmp_path / "run",
+        world_overrides={"cameras": True, "obstacles": slabs},
+    )
+    grpc = 43101
+    with Simulation(config) as sim:
+        origin = sim.world.origin
+        env = os.environ | {
+            "PYTHONUNBUFFERED": "1",
+            "SWARMSITL_SPEED": str(SPEED),
+            "SWARMSITL_MAVLINK_URL": f"udpin://0.0.0.0:{ports.sdk_port(0)}",
+            "SWARMSITL_GRPC_PORT": str(grpc),
+            "SWARMSITL_VEHICLE": "1",
+            "SWARMSITL_OUT": str(tmp_path / "vehicle1"),
+            "SWARMSITL_ORIGIN": f"{origin.lat_deg},{origin.lon_deg},{origin.alt_amsl_m}",
+            "SWARMSITL_VIDEO_URI": sim.video_uris[0],
+            "SWARMSITL_DURATION_S": "400",
+            "SWARMSITL_PARAMS": json.dumps(
+                {"area_enu_m": AREA_ENU_M, "altitude_m": ALTITUDE_M, "speed_m_s": 5.0}
+            ),
+        }
+        with (
+            (tmp_path / "companion.out").open("w") as out,
+            (tmp_path / "companion.err").open("w") as err,
+        ):
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "companion.scripts.coverage"],
+                stdout=out, stderr=err, stdin=subprocess.DEVNULL, cwd=REPO_ROOT, env=env,
+                text=True, start_new_session=True,
+            )  # fmt: skip
+        try:
+            sim.run_paced(
+                SPEED, lambda: proc.poll() is not None, max_duration_s=TIMEOUT_WALL_S * SPEED
+            )
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+            kill_mavsdk_servers(grpc)
+    stdout = (tmp_path / "companion.out").read_text()
+    stderr = (tmp_path / "companion.err").read_text()
+    assert proc.returncode == 0, f"rc={proc.returncode}\n{stdout}\n{stderr[-3000:]}"
+    result = json.loads((tmp_path / "vehicle1" / "result.json").read_text())
+    assert result["spills_seen"]["value"] == 2, stdout
+    line = next(x for x in stdout.splitlines() if x.startswith("[coverage] spills "))
+    seen = json.loads(line.removeprefix("[coverage] spills "))["positions_enu_m"]
+    for x, y in slabs_xy:
+        assert min(math.hypot(p[0] - x, p[1] - y) for p in seen) < 3.0, seen

@@ -246,9 +246,12 @@ class CameraWatcher:
                 detections = detect_spills(rgb, camera, position, rotation, self.config)
                 with self.lock:
                     new = self.counter.add(detections)
+                    latest = [
+                        s.position_enu_m.round(2).tolist() for s in self.counter.spills[-new:]
+                    ]
                 self.frames_used += 1
                 if new:
-                    _log("spill_seen", count=self.counter.count, at=detections[0].position_enu_m)
+                    _log("spill_seen", count=self.counter.count, new_at_enu_m=latest)
         except Exception:  # the flight goes on without the camera; reported in the result
             self.error = traceback.format_exc()
             print(self.error, file=sys.stderr, flush=True)
@@ -444,6 +447,10 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
         await _wait_for(drone.telemetry.armed(), lambda a: not a, 30, "auto-disarm", vehicle_clock)
         flying = False
         _log("disarmed", vehicle_time_s=vehicle_clock.now_s)
+        if watcher is not None:
+            with lock:
+                seen = [s.position_enu_m.round(2).tolist() for s in watcher.counter.spills]
+            _log("spills", positions_enu_m=seen, frames=watcher.frames, error=watcher.error)
     except BaseException:
         if flying:
             try:
