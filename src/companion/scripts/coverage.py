@@ -47,7 +47,7 @@ from companion.perception.camera_model import CameraModel, rotation_flu_enu_from
 from companion.perception.spill_detector import DetectorConfig, SpillCounter, detect_spills
 from companion.planning.coverage import CoverageSpec, VehiclePlan, plan_vehicle, reachable_area
 from companion.scenario_env import ScenarioEnv
-from companion.scripts.demo_flight import FlightError, _first, _wait_for
+from companion.telemetry_waits import FlightError, first, wait_for
 from companion.vehicle_clock import VehicleClock
 
 FOOTPRINT_PERIOD_S = 0.5
@@ -329,19 +329,19 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
     flying = False
     try:
         await drone.connect(system_address=env.mavlink_url)
-        await _wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
+        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
         tasks.append(asyncio.create_task(attitudes()))
         await vehicle_clock.wait_started(60.0)
         tasks += [asyncio.create_task(positions()), asyncio.create_task(armed_state())]
         _log("connected", vehicle_time_s=vehicle_clock.now_s)
-        await _wait_for(
+        await wait_for(
             drone.telemetry.health(),
             lambda h: h.is_global_position_ok and h.is_home_position_ok,
             60,
             "global position and home",
             vehicle_clock,
         )
-        home = await _first(drone.telemetry.home())
+        home = await first(drone.telemetry.home())
         home_enu = np.array(
             pymap3d.geodetic2enu(
                 home.latitude_deg, home.longitude_deg, home.absolute_altitude_m, *origin
@@ -402,7 +402,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
         flying = True
         _log("armed", vehicle_time_s=vehicle_clock.now_s)
         await drone.action.takeoff()
-        await _wait_for(
+        await wait_for(
             drone.telemetry.position(),
             lambda p: p.relative_altitude_m >= 0.9 * params.altitude_m,
             climb_s + 60.0,
@@ -416,7 +416,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             watcher.active.set()
         _log("mission_started", vehicle_time_s=vehicle_clock.now_s)
         progress = asyncio.create_task(
-            _wait_for(
+            wait_for(
                 drone.mission.mission_progress(),
                 lambda m: m.total > 0 and m.current >= m.total,
                 max(60.0, 3.0 * path.flight_time_s(params.speed_m_s)),
@@ -441,10 +441,10 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
         surveying = False
         if watcher is not None:
             watcher.active.clear()
-        await _wait_for(drone.telemetry.in_air(), lambda a: not a, land_s + 120.0, "landing",
+        await wait_for(drone.telemetry.in_air(), lambda a: not a, land_s + 120.0, "landing",
                         vehicle_clock)  # fmt: skip
         _log("landed", vehicle_time_s=vehicle_clock.now_s)
-        await _wait_for(drone.telemetry.armed(), lambda a: not a, 30, "auto-disarm", vehicle_clock)
+        await wait_for(drone.telemetry.armed(), lambda a: not a, 30, "auto-disarm", vehicle_clock)
         flying = False
         _log("disarmed", vehicle_time_s=vehicle_clock.now_s)
         if watcher is not None:
