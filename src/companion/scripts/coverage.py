@@ -139,6 +139,28 @@ def _obstacles(world: Any, flight_z_m: float, clearance_m: float = 5.0) -> list:
     return out
 
 
+def climb_and_landing_s(params: CoverageParams) -> tuple[float, float]:
+    """Simulated seconds budgeted for the take-off and for the return's descent and landing."""
+    return (
+        params.altitude_m / params.climb_m_s + 5.0,
+        params.altitude_m / params.descent_m_s + 5.0,
+    )
+
+
+def reference_point(world: Any, home_enu_m: np.ndarray) -> np.ndarray:
+    """The point every vehicle of a launch area splits the area from: the area's centre.
+
+    Vehicles on the same helideck have homes a few metres apart (and their GPS altitudes
+    differ): the split must not depend on them, or the strips would overlap. Without a world's
+    launch area, the vehicle's own home.
+    """
+    areas = world.launch_areas if world is not None else ()
+    if not areas:
+        return np.asarray(home_enu_m, dtype=float)
+    centres = np.array([a.center_enu_m for a in areas], dtype=float)
+    return centres[int(np.argmin(np.hypot(*(centres[:, :2] - home_enu_m[:2]).T)))]
+
+
 def plan(
     env: ScenarioEnv,
     params: CoverageParams,
@@ -146,8 +168,15 @@ def plan(
     home_enu_m: np.ndarray,
     budget_s: float | None,
 ) -> VehiclePlan:
-    """This vehicle's coverage path in world ENU (z = flight height above the sea/ground)."""
-    flight_z = float(home_enu_m[2]) + params.altitude_m
+    """This vehicle's coverage path in world ENU (z = flight height above the sea/ground).
+
+    The area and its split depend only on what every vehicle of the role shares (world, launch
+    area, params, the run's duration), so the K strips fit together; the order of the lanes,
+    the cut to ``budget_s`` (what is left of this vehicle's time) and the legs from and to the
+    start use the vehicle's own home.
+    """
+    ref = reference_point(world, home_enu_m)
+    flight_z = float(ref[2]) + params.altitude_m
     spec = CoverageSpec(
         altitude_m=flight_z,
         hfov_deg=params.hfov_deg,
@@ -159,11 +188,12 @@ def plan(
         area = box(*params.area_enu_m)
     elif world is not None:
         area = world.boundary
-        if budget_s is not None:
-            reach = params.speed_m_s * budget_s
-            area = reachable_area(area, home_enu_m[:2], env.role_count, spec, reach)
+        if env.duration_s is not None:
+            overhead = sum(climb_and_landing_s(params)) + params.reserve_s
+            reach = params.speed_m_s * max(env.duration_s - overhead, 1.0)
+            area = reachable_area(area, ref[:2], env.role_count, spec, reach)
     else:
-        area = shapely.Point(home_enu_m[:2]).buffer(100.0, cap_style="square")
+        area = shapely.Point(ref[:2]).buffer(100.0, cap_style="square")
     return plan_vehicle(
         area,
         _obstacles(world, flight_z),
@@ -201,7 +231,8 @@ class CameraWatcher:
         """Set while the vehicle surveys: frames are only used then."""
         self.stop = threading.Event()
         self.error: str | None = None
-        self.frame_size: tuple[int, int] | None = None
+        self.camera: CameraModel | None = None
+        """The camera model sized to the stream's frames (None before the first frame)."""
         self._thread = threading.Thread(target=self._run, name="coverage-camera", daemon=True)
 
     def start(self) -> None:
@@ -235,13 +266,14 @@ class CameraWatcher:
                 if not self.active.is_set() or position is None or rotation is None:
                     continue
                 h, w = bgr.shape[:2]
-                self.frame_size = (w, h)
-                camera = CameraModel(
-                    width_px=w,
-                    height_px=h,
-                    hfov_deg=self.params.hfov_deg,
-                    pitch_deg=self.params.camera_pitch_deg,
-                )
+                camera = self.camera
+                if camera is None or (camera.width_px, camera.height_px) != (w, h):
+                    camera = self.camera = CameraModel(
+                        width_px=w,
+                        height_px=h,
+                        hfov_deg=self.params.hfov_deg,
+                        pitch_deg=self.params.camera_pitch_deg,
+                    )
                 rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
                 detections = detect_spills(rgb, camera, position, rotation, self.config)
                 with self.lock:
@@ -314,7 +346,9 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
                 and rotation is not None
                 and now - track.last_footprint_s >= FOOTPRINT_PERIOD_S
             ):
-                footprint = footprint_camera.footprint(here, rotation)
+                # The stream's frame size once known (the footprint's aspect ratio).
+                camera = watcher.camera if watcher is not None else None
+                footprint = (camera or footprint_camera).footprint(here, rotation)
                 if footprint is not None:
                     track.footprints.append((now, footprint))
                     track.last_footprint_s = now
@@ -349,8 +383,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             dtype=float,
         )
         now = vehicle_clock.now_s
-        climb_s = params.altitude_m / params.climb_m_s + 5.0
-        land_s = params.altitude_m / params.descent_m_s + 5.0
+        climb_s, land_s = climb_and_landing_s(params)
         budget = duration - now - climb_s - land_s - params.reserve_s
         if budget <= 0:
             raise FlightError(
@@ -427,7 +460,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
         # Return early if the run's end comes first (the path was budgeted; this is the guard).
         while not progress.done():
             with lock:
-                here = pose.position_enu_m
+                here = home_enu if pose.position_enu_m is None else pose.position_enu_m
             back_s = float(np.linalg.norm(here[:2] - home_enu[:2])) / params.speed_m_s
             if vehicle_clock.now_s + back_s + land_s + params.reserve_s / 2 >= duration:
                 progress.cancel()

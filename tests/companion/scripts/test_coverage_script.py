@@ -20,7 +20,7 @@ def offshore() -> worlds.World:
     return worlds.build(worlds.load_world(example_path("offshore")))
 
 
-def _env(index: int, count: int) -> ScenarioEnv:
+def _env(index: int, count: int, duration_s: float | None = 120.0) -> ScenarioEnv:
     return ScenarioEnv(
         mavlink_url="udpin://0.0.0.0:43000",
         grpc_port=43100,
@@ -31,6 +31,7 @@ def _env(index: int, count: int) -> ScenarioEnv:
         role_count=count,
         seed=0,
         out_dir=".",
+        duration_s=duration_s,
     )
 
 
@@ -62,21 +63,29 @@ def test_options_override_the_environment():
 
 
 def test_three_vehicles_from_the_helideck_get_disjoint_flyable_strips(offshore):
-    """On the offshore world, from the helideck, each of three vehicles gets a non-empty path in
-    its own strip near the rig that fits the budget and keeps clear of the derrick."""
+    """On the offshore world, from three spots of the helideck (GPS altitudes a little apart),
+    each vehicle gets a non-empty path in its own strip near the rig that fits its budget and
+    keeps clear of the derrick; the strips do not overlap."""
     helideck = np.array(offshore.launch_area("helideck").center_enu_m)
+    homes = helideck + np.array([[-5.0, 0.0, 0.3], [0.0, 0.0, -0.2], [5.0, 0.0, 0.1]])
+    budgets = (45.0, 43.0, 40.0)  # each connected at its own time
     params = CoverageParams()
-    plans = [plan(_env(i, 3), params, offshore, helideck, 45.0) for i in range(3)]
+    plans = [plan(_env(i, 3), params, offshore, homes[i], budgets[i]) for i in range(3)]
     derrick = next(s for s in offshore.solids if s.name == "rig_derrick").footprint_at(0.0)
-    for p in plans:
+    for p, home, budget in zip(plans, homes, budgets, strict=True):
         assert len(p.waypoints_enu_m) >= 2
-        assert p.flight_time_s(params.speed_m_s) <= 45.0 + 1e-6
+        assert p.transit_m == pytest.approx(np.hypot(*(p.waypoints_enu_m[0, :2] - home[:2])))
+        assert p.flight_time_s(params.speed_m_s) <= budget + 1e-6
         np.testing.assert_allclose(p.waypoints_enu_m[:, 2], helideck[2] + params.altitude_m)
         track = shapely.LineString(p.waypoints_enu_m[:, :2])
         assert track.distance(derrick) >= params.margin_m - 1e-3
+    strips = [p.part.polygon for p in plans]
     for i in range(3):
         for j in range(i + 1, 3):
-            assert plans[i].part.polygon.intersection(plans[j].part.polygon).area < 1e-6
+            assert strips[i].intersection(strips[j]).area < 1e-6
+    # Together they are one square around the helideck (no gaps between the strips).
+    union = shapely.union_all(strips)
+    assert union.area == pytest.approx(shapely.envelope(union).area, rel=0.02)
 
 
 def test_metrics_count_the_spills_under_the_footprint_once_they_exist(offshore):
@@ -86,7 +95,7 @@ def test_metrics_count_the_spills_under_the_footprint_once_they_exist(offshore):
     camera = CameraModel()
     footprint = camera.footprint((x, y, 40.0), rotation_flu_enu_from_euler(0, 0, 0))
     helideck = np.array(offshore.launch_area("helideck").center_enu_m)
-    path = plan(_env(0, 1), CoverageParams(), offshore, helideck, None)
+    path = plan(_env(0, 1, None), CoverageParams(), offshore, helideck, None)
 
     def spills(t_s: float) -> int:
         track = Track(footprints=[(t_s, footprint)])
