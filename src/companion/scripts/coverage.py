@@ -148,17 +148,18 @@ def climb_and_landing_s(params: CoverageParams) -> tuple[float, float]:
 
 
 def reference_point(world: Any, home_enu_m: np.ndarray) -> np.ndarray:
-    """The point every vehicle of a launch area splits the area from: the area's centre.
+    """The point the vehicles of one launch area split the area from: that area's centre.
 
     Vehicles on the same helideck have homes a few metres apart (and their GPS altitudes
-    differ): the split must not depend on them, or the strips would overlap. Without a world's
-    launch area, the vehicle's own home.
+    differ): the split must not depend on them, or the strips would overlap. A vehicle whose
+    home is on none of the world's launch areas (within its radius plus 5 m) uses its home.
     """
-    areas = world.launch_areas if world is not None else ()
-    if not areas:
-        return np.asarray(home_enu_m, dtype=float)
-    centres = np.array([a.center_enu_m for a in areas], dtype=float)
-    return centres[int(np.argmin(np.hypot(*(centres[:, :2] - home_enu_m[:2]).T)))]
+    home = np.asarray(home_enu_m, dtype=float)
+    for area in world.launch_areas if world is not None else ():
+        centre = np.asarray(area.center_enu_m, dtype=float)
+        if np.hypot(*(centre[:2] - home[:2])) <= area.radius_m + 5.0:
+            return centre
+    return home
 
 
 def plan(

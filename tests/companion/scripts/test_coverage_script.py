@@ -11,7 +11,14 @@ import shapely
 import worlds
 from companion.perception.camera_model import CameraModel, rotation_flu_enu_from_euler
 from companion.scenario_env import ScenarioEnv, ScenarioEnvError
-from companion.scripts.coverage import CoverageParams, Track, _metrics, plan, scenario_env
+from companion.scripts.coverage import (
+    CoverageParams,
+    Track,
+    _metrics,
+    plan,
+    reference_point,
+    scenario_env,
+)
 from worlds.examples import example_path
 
 
@@ -104,3 +111,15 @@ def test_metrics_count_the_spills_under_the_footprint_once_they_exist(offshore):
     others = sum(1 for s in offshore.spills_at(spill.appear_s) if s.polygon.intersects(footprint))
     assert spills(spill.appear_s) == others >= 1
     assert spills(spill.appear_s - 1.0) == others - 1
+
+
+def test_a_home_off_every_launch_area_plans_from_itself(offshore):
+    """Homes on the helideck share its centre (deck height); a home on the sea keeps its own."""
+    helideck = np.array(offshore.launch_area("helideck").center_enu_m)
+    np.testing.assert_allclose(
+        reference_point(offshore, helideck + np.array([3.0, -2.0, 0.4])), helideck
+    )
+    sea = np.array([200.0, -150.0, 0.1])
+    np.testing.assert_allclose(reference_point(offshore, sea), sea)
+    p = plan(_env(0, 1), CoverageParams(altitude_m=20.0), offshore, sea, 60.0)
+    np.testing.assert_allclose(p.waypoints_enu_m[:, 2], 20.1)
