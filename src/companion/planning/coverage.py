@@ -26,7 +26,7 @@ import networkx as nx
 import numpy as np
 import shapely
 from shapely import affinity
-from shapely.geometry import LineString, Polygon, box
+from shapely.geometry import LineString, Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
 _TOLERANCE_M = 1e-6
@@ -365,6 +365,9 @@ def plan_vehicle(
 ) -> VehiclePlan:
     """Vehicle ``index``'s (0-based) coverage path of its part of ``area`` among ``k`` vehicles.
 
+    The path begins with the corners that lead around obstacles from the start to the first
+    lane (if the start is in the free area), then sweeps the lanes.
+
     Args:
         area: the polygon to cover, ENU m.
         obstacles: footprints to keep ``spec.margin_m`` away from (solids, no-fly zones).
@@ -383,12 +386,16 @@ def plan_vehicle(
         raise ValueError(f"budget_s must be >= 0, got {budget_s!r}")
     free = free_area(area, obstacles, spec.margin_m)
     part = split(free, spec, k)[index]
-    full = order_part(part, free, start_xy_m)
+    router = _Router(free)
+    lanes = order_part(part, free, start_xy_m, router)
+    # The way in from the start goes around obstacles too (the way back is the autopilot's).
+    start = np.asarray(start_xy_m, dtype=float)[:2]
+    lead = router.path(start, lanes[0]) if free.buffer(_TOLERANCE_M).covers(Point(start)) else []
+    full = np.vstack([*lead, lanes]) if lead else lanes
     xy = full
     if budget_s is not None and speed_m_s is not None:
         xy = truncate_to_budget(full, start_xy_m, speed_m_s * budget_s)
     truncated = len(xy) < len(full) or (len(xy) > 0 and not np.allclose(xy[-1], full[-1]))
-    start = np.asarray(start_xy_m, dtype=float)[:2]
     waypoints = np.column_stack((xy, np.full(len(xy), spec.altitude_m))).reshape(-1, 3)
     return VehiclePlan(
         part=part,

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
 import json
 import math
 import os
@@ -139,12 +140,51 @@ def _obstacles(world: Any, flight_z_m: float, clearance_m: float = 5.0) -> list:
     return out
 
 
-def climb_and_landing_s(params: CoverageParams) -> tuple[float, float]:
-    """Simulated seconds budgeted for the take-off and for the return's descent and landing."""
+def climb_and_landing_s(
+    params: CoverageParams, return_altitude_m: float | None = None
+) -> tuple[float, float]:
+    """Simulated seconds budgeted for the take-off, and for the return's climb, descent, landing.
+
+    ``return_altitude_m``: the return-to-launch altitude above home (default: ``altitude_m``);
+    a higher one adds the climb to it and its longer descent. 10 s cover the return's
+    accelerations and the land detector.
+    """
+    rtl = params.altitude_m if return_altitude_m is None else return_altitude_m
+    climb_back = max(rtl - params.altitude_m, 0.0) / params.climb_m_s
     return (
         params.altitude_m / params.climb_m_s + 5.0,
-        params.altitude_m / params.descent_m_s + 5.0,
+        climb_back + rtl / params.descent_m_s + 10.0,
     )
+
+
+def return_altitude_m(
+    world: Any,
+    home_enu_m: np.ndarray,
+    waypoints_enu_m: np.ndarray,
+    altitude_m: float,
+    clearance_m: float = 5.0,
+) -> float:
+    """Return-to-launch altitude above home that clears every solid on the way back, m.
+
+    The return flies straight from wherever the vehicle is to home: any solid under the hull
+    of the path and home (grown by ``clearance_m``) must be ``clearance_m`` below it. Moving
+    solids count over their whole range of motion.
+    """
+    if world is None or len(waypoints_enu_m) == 0:
+        return altitude_m
+    points = np.vstack([np.asarray(home_enu_m)[:2], np.asarray(waypoints_enu_m)[:, :2]])
+    region = shapely.MultiPoint(points).convex_hull.buffer(clearance_m)
+    tops = []
+    for solid in world.solids:
+        if solid.motion is None:
+            footprint, top = solid.footprint_at(0.0), solid.z_range_at(0.0)[1]
+        else:
+            footprint = box(*solid.motion.bounds_xy_m).buffer(max(solid.size_m[:2]) / 2.0)
+            top = solid.z_range_at(0.0)[1] + abs(solid.motion.vertical_amplitude_m) * 2.0
+        if footprint.intersects(region):
+            tops.append(top)
+    needed = max(tops, default=-math.inf) + clearance_m - float(home_enu_m[2])
+    return max(altitude_m, needed)
 
 
 def reference_point(world: Any, home_enu_m: np.ndarray) -> np.ndarray:
@@ -376,6 +416,12 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             "global position and home",
             vehicle_clock,
         )
+        # RTL flies home at MPC_XY_CRUISE: the lanes' speed, so the budgeted return holds.
+        top_speed = await drone.param.get_param_float("MPC_XY_VEL_MAX")
+        if params.speed_m_s > top_speed:
+            _log("speed_capped", speed_m_s=top_speed, asked_m_s=params.speed_m_s)
+            params = dataclasses.replace(params, speed_m_s=top_speed)
+        await drone.param.set_param_float("MPC_XY_CRUISE", params.speed_m_s)
         home = await first(drone.telemetry.home())
         home_enu = np.array(
             pymap3d.geodetic2enu(
@@ -392,6 +438,13 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
                 f"{climb_s + land_s + params.reserve_s:.0f} s needed for take-off and landing"
             )
         path = plan(env, params, world, home_enu, budget if math.isfinite(budget) else None)
+        rtl_alt = return_altitude_m(world, home_enu, path.waypoints_enu_m, params.altitude_m)
+        if rtl_alt > params.altitude_m:  # climbing over a solid on the way back takes time too
+            climb_s, land_s = climb_and_landing_s(params, rtl_alt)
+            budget = duration - now - climb_s - land_s - params.reserve_s
+            if budget <= 0:
+                raise FlightError(f"no time to fly with a return at {rtl_alt:.0f} m")
+            path = plan(env, params, world, home_enu, budget if math.isfinite(budget) else None)
         waypoints = path.waypoints_enu_m
         _log(
             "planned",
@@ -402,6 +455,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             truncated=path.truncated,
             budget_s=round(budget, 1),
             home_enu_m=home_enu.round(2).tolist(),
+            return_altitude_m=round(rtl_alt, 1),
         )
         if len(waypoints) == 0:
             raise FlightError(f"the {budget:.0f} s budget leaves no part of the strip to fly")
@@ -429,7 +483,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
         await drone.mission.set_return_to_launch_after_mission(True)
         await drone.mission.upload_mission(MissionPlan(items))
         await drone.action.set_takeoff_altitude(params.altitude_m)
-        await drone.action.set_return_to_launch_altitude(params.altitude_m)
+        await drone.action.set_return_to_launch_altitude(rtl_alt)
         if watcher is not None:
             watcher.start()
         await drone.action.arm()

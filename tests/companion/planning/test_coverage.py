@@ -68,11 +68,14 @@ def test_neighbouring_lanes_are_at_most_a_footprint_less_overlap_apart():
 
 
 @pytest.mark.parametrize("k", [1, 2, 3])
-def test_no_leg_crosses_an_obstacle(k):
-    """Every leg between waypoints keeps the margin from every obstacle (detours around them)."""
-    for plan in plan_fleet(AREA, OBSTACLES, SPEC, [START] * k):
+@pytest.mark.parametrize("start", [START, (-5.0, 35.0), (100.0, -40.0)])
+def test_no_leg_crosses_an_obstacle(k, start):
+    """Every leg, from the start through the waypoints, keeps the margin from every obstacle
+    (detours around them; starts behind the block and the tank need one to reach their lane)."""
+    for plan in plan_fleet(AREA, OBSTACLES, SPEC, [start] * k):
         assert len(plan.waypoints_enu_m) >= 2
-        for seg in _segments(plan.waypoints_enu_m):
+        legs = np.vstack([[*start, SPEC.altitude_m], plan.waypoints_enu_m])
+        for seg in _segments(legs):
             for obstacle in OBSTACLES:
                 assert seg.distance(obstacle) >= SPEC.margin_m - 1e-3
 

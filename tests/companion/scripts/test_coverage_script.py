@@ -15,8 +15,10 @@ from companion.scripts.coverage import (
     CoverageParams,
     Track,
     _metrics,
+    climb_and_landing_s,
     plan,
     reference_point,
+    return_altitude_m,
     scenario_env,
 )
 from worlds.examples import example_path
@@ -123,3 +125,18 @@ def test_a_home_off_every_launch_area_plans_from_itself(offshore):
     np.testing.assert_allclose(reference_point(offshore, sea), sea)
     p = plan(_env(0, 1), CoverageParams(altitude_m=20.0), offshore, sea, 60.0)
     np.testing.assert_allclose(p.waypoints_enu_m[:, 2], 20.1)
+
+
+def test_the_return_altitude_clears_the_solids_on_the_way_home(offshore):
+    """Coming back over the rig's derrick (top 60 m, helideck at 32 m): RTL at least 33 m above
+    home; a path on the open sea west of the helideck keeps the flight altitude."""
+    helideck = np.array(offshore.launch_area("helideck").center_enu_m)
+    east = np.array([[120.0, 48.0, 62.0], [150.0, 48.0, 62.0]])
+    west = np.array([[-150.0, 48.0, 62.0], [-200.0, 48.0, 62.0]])
+    assert return_altitude_m(offshore, helideck, east, 30.0) == pytest.approx(60.0 + 5.0 - 32.0)
+    assert return_altitude_m(offshore, helideck, west, 30.0) == 30.0
+    assert return_altitude_m(offshore, helideck, east, 40.0) == 40.0
+    assert return_altitude_m(None, helideck, east, 30.0) == 30.0
+    # The higher return costs time: its climb and its longer descent.
+    params = CoverageParams()
+    assert climb_and_landing_s(params, 33.0)[1] > climb_and_landing_s(params)[1] + 3.0
