@@ -20,7 +20,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import networkx as nx
 import numpy as np
@@ -96,9 +96,15 @@ class VehiclePlan:
     transit_m: float
     """Straight distance from the start point to the first waypoint, m."""
     return_m: float
-    """Straight distance from the last waypoint back to the start point, m."""
+    """Straight distance from the last waypoint back to the start point, m (what the budget
+    counts; the way around obstacles, ``return_route_enu_m``, may be a little longer)."""
     truncated: bool
     """True if the time budget cut the path short."""
+    free_area: BaseGeometry | None = None
+    """Where the vehicle may fly (the area minus the grown obstacles), for routing it later."""
+    return_route_enu_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    """(R, 3) corners leading around obstacles from the last waypoint back to the start
+    (empty if the straight way is clear, or the start is in no free area), z as waypoints."""
 
     def flight_time_s(self, speed_m_s: float) -> float:
         """Time to fly start -> path -> start at ``speed_m_s``, s (no turns, no climbs)."""
@@ -197,7 +203,7 @@ def split(free: BaseGeometry, spec: CoverageSpec, k: int) -> list[Part]:
     return parts
 
 
-class _Router:
+class Router:
     """Shortest paths inside the free area (a visibility graph of its corners, built lazily)."""
 
     def __init__(self, free: BaseGeometry) -> None:
@@ -206,6 +212,10 @@ class _Router:
         self._free = free
         self._graph: nx.Graph | None = None
         self._corners = np.zeros((0, 2))
+
+    def contains(self, point: np.ndarray) -> bool:
+        """Whether ``point`` (x, y) is in the free area."""
+        return bool(shapely.covers(self._tolerant, Point(point[0], point[1])))
 
     def clear(self, a: np.ndarray, b: np.ndarray) -> bool:
         """Whether the straight segment a-b stays in the free area."""
@@ -263,7 +273,7 @@ def _ordered(part: Part, lane_order: int, first_dir: int) -> list[np.ndarray]:
 
 
 def order_part(
-    part: Part, free: BaseGeometry, start_xy_m: Sequence[float], router: _Router | None = None
+    part: Part, free: BaseGeometry, start_xy_m: Sequence[float], router: Router | None = None
 ) -> np.ndarray:
     """A part's waypoints (M, 2), boustrophedon from the lane end nearest the start point.
 
@@ -272,7 +282,7 @@ def order_part(
     start = np.asarray(start_xy_m, dtype=float)[:2]
     variants = [_ordered(part, o, d) for o in (1, -1) for d in (1, -1)]
     best = min(variants, key=lambda pts: float(np.hypot(*(pts[0] - start))))
-    router = router or _Router(free)
+    router = router or Router(free)
     out = [best[0]]
     for p in best[1:]:
         out.extend(router.path(out[-1], p))
@@ -386,17 +396,20 @@ def plan_vehicle(
         raise ValueError(f"budget_s must be >= 0, got {budget_s!r}")
     free = free_area(area, obstacles, spec.margin_m)
     part = split(free, spec, k)[index]
-    router = _Router(free)
+    router = Router(free)
     lanes = order_part(part, free, start_xy_m, router)
     # The way in from the start goes around obstacles too (the way back is the autopilot's).
     start = np.asarray(start_xy_m, dtype=float)[:2]
-    lead = router.path(start, lanes[0]) if free.buffer(_TOLERANCE_M).covers(Point(start)) else []
+    start_free = bool(free.buffer(_TOLERANCE_M).covers(Point(start)))
+    lead = router.path(start, lanes[0]) if start_free else []
     full = np.vstack([*lead, lanes]) if lead else lanes
     xy = full
     if budget_s is not None and speed_m_s is not None:
         xy = truncate_to_budget(full, start_xy_m, speed_m_s * budget_s)
     truncated = len(xy) < len(full) or (len(xy) > 0 and not np.allclose(xy[-1], full[-1]))
     waypoints = np.column_stack((xy, np.full(len(xy), spec.altitude_m))).reshape(-1, 3)
+    back = np.asarray(router.path(xy[-1], start) if start_free and len(xy) else []).reshape(-1, 2)
+    route = np.column_stack((back, np.full(len(back), spec.altitude_m))).reshape(-1, 3)
     return VehiclePlan(
         part=part,
         waypoints_enu_m=waypoints,
@@ -404,6 +417,8 @@ def plan_vehicle(
         transit_m=float(np.hypot(*(xy[0] - start))) if len(xy) else 0.0,
         return_m=float(np.hypot(*(xy[-1] - start))) if len(xy) else 0.0,
         truncated=bool(truncated),
+        free_area=free,
+        return_route_enu_m=route,
     )
 
 

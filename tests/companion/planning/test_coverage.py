@@ -70,11 +70,12 @@ def test_neighbouring_lanes_are_at_most_a_footprint_less_overlap_apart():
 @pytest.mark.parametrize("k", [1, 2, 3])
 @pytest.mark.parametrize("start", [START, (-5.0, 35.0), (100.0, -40.0)])
 def test_no_leg_crosses_an_obstacle(k, start):
-    """Every leg, from the start through the waypoints, keeps the margin from every obstacle
-    (detours around them; starts behind the block and the tank need one to reach their lane)."""
+    """Every leg, from the start through the waypoints and back, keeps the margin from every
+    obstacle (detours; starts behind the block and the tank need one to and from their lanes)."""
     for plan in plan_fleet(AREA, OBSTACLES, SPEC, [start] * k):
         assert len(plan.waypoints_enu_m) >= 2
-        legs = np.vstack([[*start, SPEC.altitude_m], plan.waypoints_enu_m])
+        home = [[*start, SPEC.altitude_m]]
+        legs = np.vstack([home, plan.waypoints_enu_m, plan.return_route_enu_m, home])
         for seg in _segments(legs):
             for obstacle in OBSTACLES:
                 assert seg.distance(obstacle) >= SPEC.margin_m - 1e-3
