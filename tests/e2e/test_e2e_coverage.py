@@ -69,20 +69,10 @@ def _flight_in_tlog(path) -> dict:
     return out
 
 
-def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
-    """It plans the rectangle's lanes, flies them with the camera on, returns, lands, disarms
-    and writes result.json: the whole rectangle under the footprint, a flown distance at least
-    the lanes' length, frames used, no spill seen on a plain ground (no false positives)."""
-    require_free_udp([PORTS.sdk, PORTS.listen])
-    assert not mavsdk_servers(PORTS.grpc)
+def _companion_env(out_dir, duration_s: float, params: dict, video: bool) -> dict[str, str]:
+    """The SWARMSITL_* variables swarmsitl run would give vehicle 1's companion."""
     cfg = WorldConfig()
     origin = (cfg.origin_lat_deg, cfg.origin_lon_deg, cfg.origin_alt_amsl_m)
-    extra = (
-        "--camera", "--video-port", VIDEO_PORT,
-        "--payload-port", 43030, "--payload-listen-port", 43035,
-    )  # fmt: skip
-    swarm = start_swarm(1, PORTS, tmp_path / "run", extra=extra)
-    out_dir = tmp_path / "vehicle1"
     env = os.environ | {
         "PYTHONUNBUFFERED": "1",
         "SWARMSITL_SPEED": str(SPEED),
@@ -95,12 +85,16 @@ def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
         "SWARMSITL_ROLE_COUNT": "1",
         "SWARMSITL_OUT": str(out_dir),
         "SWARMSITL_ORIGIN": ",".join(str(v) for v in origin),
-        "SWARMSITL_VIDEO_URI": f"http://127.0.0.1:{VIDEO_PORT}/video.mjpg",
-        "SWARMSITL_DURATION_S": "400",
-        "SWARMSITL_PARAMS": json.dumps(
-            {"area_enu_m": AREA_ENU_M, "altitude_m": ALTITUDE_M, "speed_m_s": 5.0}
-        ),
+        "SWARMSITL_DURATION_S": str(duration_s),
+        "SWARMSITL_PARAMS": json.dumps(params),
     }
+    if video:
+        env["SWARMSITL_VIDEO_URI"] = f"http://127.0.0.1:{VIDEO_PORT}/video.mjpg"
+    return env
+
+
+def _run_companion(swarm, env: dict[str, str]) -> tuple[int, str, str]:
+    """Run the companion to its end (bounded), then stop the swarm; (rc, stdout, stderr)."""
     try:
         proc = subprocess.Popen(
             [sys.executable, "-m", "companion.scripts.coverage"],
@@ -125,7 +119,34 @@ def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
             kill_mavsdk_servers(PORTS.grpc)
     finally:
         stop_swarm(swarm)
-    assert proc.returncode == 0, f"rc={proc.returncode}\n{stdout}\n{stderr[-3000:]}"
+    return proc.returncode, stdout, stderr
+
+
+def _events(stdout: str) -> dict[str, dict]:
+    """The companion's logged events by name (the last of each)."""
+    out = {}
+    for line in stdout.splitlines():
+        if line.startswith("[coverage] "):
+            name, _, data = line.removeprefix("[coverage] ").partition(" ")
+            out[name] = json.loads(data) if data.strip() else {}
+    return out
+
+
+def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
+    """It plans the rectangle's lanes, flies them with the camera on, returns, lands, disarms
+    and writes result.json: the whole rectangle under the footprint, a flown distance at least
+    the lanes' length, frames used, no spill seen on a plain ground (no false positives)."""
+    require_free_udp([PORTS.sdk, PORTS.listen])
+    assert not mavsdk_servers(PORTS.grpc)
+    extra = (
+        "--camera", "--video-port", VIDEO_PORT,
+        "--payload-port", 43030, "--payload-listen-port", 43035,
+    )  # fmt: skip
+    swarm = start_swarm(1, PORTS, tmp_path / "run", extra=extra)
+    out_dir = tmp_path / "vehicle1"
+    params = {"area_enu_m": AREA_ENU_M, "altitude_m": ALTITUDE_M, "speed_m_s": 5.0}
+    rc, stdout, stderr = _run_companion(swarm, _companion_env(out_dir, 400.0, params, True))
+    assert rc == 0, f"rc={rc}\n{stdout}\n{stderr[-3000:]}"
     for event in ("planned", "took_off", "mission_done", "landed", "disarmed"):
         assert f"[coverage] {event}" in stdout, stdout
     result = json.loads((out_dir / "result.json").read_text())
@@ -213,3 +234,30 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
     seen = json.loads(line.removeprefix("[coverage] spills "))["positions_enu_m"]
     for x, y in slabs_xy:
         assert min(math.hypot(p[0] - x, p[1] - y) for p in seen) < 3.0, seen
+
+
+def test_the_coverage_companion_goes_home_in_time_when_it_is_late(tmp_path):
+    """A 200 m strip, a short run and a budget that assumes the full speed throughout: the
+    vehicle falls behind, goes home before the end of its lanes, and has landed and disarmed
+    before the run's end."""
+    require_free_udp([PORTS.sdk, PORTS.listen])
+    assert not mavsdk_servers(PORTS.grpc)
+    swarm = start_swarm(1, PORTS, tmp_path / "run")
+    duration_s = 75.0
+    params = {
+        "area_enu_m": [-10.0, -10.0, 190.0, 10.0],
+        "altitude_m": ALTITUDE_M,
+        "speed_m_s": 8.0,
+        "mean_speed_fraction": 1.0,
+    }
+    env = _companion_env(tmp_path / "vehicle1", duration_s, params, False)
+    rc, stdout, stderr = _run_companion(swarm, env)
+    assert rc == 0, f"rc={rc}\n{stdout}\n{stderr[-3000:]}"
+    events = _events(stdout)
+    assert "time_up" in events and "mission_done" not in events, stdout
+    assert events["disarmed"]["vehicle_time_s"] <= duration_s, stdout
+    flight = _flight_in_tlog(swarm.tlog(0))
+    assert flight["armed"] is False
+    assert flight["landed_state"] == mavutil.mavlink.MAV_LANDED_STATE_ON_GROUND
+    # Landed back at home (within a few metres), not where it gave up.
+    assert abs(flight["east"][-1]) < 3.0 and abs(flight["north"][-1]) < 3.0
