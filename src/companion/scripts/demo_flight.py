@@ -27,52 +27,8 @@ from typing import Any
 import pymap3d
 
 from companion import clock
+from companion.telemetry_waits import first, wait_for
 from companion.vehicle_clock import VehicleClock
-
-
-class FlightError(RuntimeError):
-    """The vehicle did not do what was asked in time."""
-
-
-async def _first(stream: Any) -> Any:
-    async for item in stream:
-        return item
-    raise FlightError("telemetry stream ended")
-
-
-async def _wait_for(
-    stream: Any, predicate: Any, timeout_s: float, what: str, vehicle: VehicleClock | None = None
-) -> Any:
-    """Wait until an item of ``stream`` satisfies ``predicate``, for ``timeout_s`` simulated s.
-
-    With a running ``vehicle`` clock the limit is measured on the vehicle's clock (plus a generous
-    wall-clock bound in case telemetry stops); without one (before the first timestamp) it is wall
-    time scaled by the nominal simulation speed.
-    """
-
-    async def scan() -> Any:
-        async for item in stream:
-            if predicate(item):
-                return item
-        raise FlightError(f"telemetry stream ended while waiting for {what}")
-
-    if vehicle is None or not vehicle.started:
-        try:
-            return await asyncio.wait_for(scan(), timeout_s / clock.speed_factor())
-        except TimeoutError as exc:
-            raise FlightError(f"timed out after {timeout_s:.0f} s waiting for {what}") from exc
-    found = asyncio.create_task(scan())
-    limit = asyncio.create_task(vehicle.sleep(timeout_s, 30.0 + 2.0 * timeout_s))
-    try:
-        await asyncio.wait({found, limit}, return_when=asyncio.FIRST_COMPLETED)
-        if found.done():
-            return found.result()
-        if limit.exception() is not None:
-            raise FlightError(f"{limit.exception()} while waiting for {what}")
-        raise FlightError(f"timed out after {timeout_s:.0f} s (vehicle time) waiting for {what}")
-    finally:
-        found.cancel()
-        limit.cancel()
 
 
 async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
@@ -98,18 +54,18 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
     follower: asyncio.Task | None = None
     try:
         await drone.connect(system_address=args.url)
-        await _wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
+        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
         follower = asyncio.create_task(vehicle_clock.follow(timestamps()))
         await vehicle_clock.wait_started(wall_limit(10.0))
         event("connected")
-        await _wait_for(
+        await wait_for(
             drone.telemetry.health(),
             lambda h: h.is_global_position_ok and h.is_home_position_ok,
             60,
             "global position and home",
             vehicle_clock,
         )
-        home = await _first(drone.telemetry.home())
+        home = await first(drone.telemetry.home())
         event(
             "health_ok",
             home_lat=home.latitude_deg,
@@ -124,7 +80,7 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
         event("armed")
         await drone.action.takeoff()
         event("takeoff_commanded", altitude_m=args.takeoff_alt)
-        await _wait_for(
+        await wait_for(
             drone.telemetry.position(),
             lambda p: p.relative_altitude_m >= 0.95 * args.takeoff_alt,
             60,
@@ -133,7 +89,7 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
         )
         event("takeoff_reached")
         await vehicle_clock.sleep(args.hover_s, wall_limit(args.hover_s))
-        pos = await _first(drone.telemetry.position())
+        pos = await first(drone.telemetry.position())
         event("hover_done", relative_alt_m=pos.relative_altitude_m)
 
         lat, lon, _ = pymap3d.ned2geodetic(
@@ -154,19 +110,19 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
             )
             return math.sqrt(n * n + e * e + d * d) < args.arrive_radius_m
 
-        await _wait_for(drone.telemetry.position(), arrived, 90, "goto arrival", vehicle_clock)
+        await wait_for(drone.telemetry.position(), arrived, 90, "goto arrival", vehicle_clock)
         event("goto_arrived")
         await vehicle_clock.sleep(args.settle_s, wall_limit(args.settle_s))
-        p = await _first(drone.telemetry.position())
+        p = await first(drone.telemetry.position())
         n, e, d = pymap3d.geodetic2ned(
             p.latitude_deg, p.longitude_deg, p.absolute_altitude_m, lat, lon, alt
         )
         event("goto_settled", reported_error_m=math.sqrt(n * n + e * e + d * d))
         await drone.action.return_to_launch()
         event("rtl_commanded")
-        await _wait_for(drone.telemetry.in_air(), lambda a: not a, 180, "landing", vehicle_clock)
+        await wait_for(drone.telemetry.in_air(), lambda a: not a, 180, "landing", vehicle_clock)
         event("landed")
-        await _wait_for(drone.telemetry.armed(), lambda a: not a, 30, "auto-disarm", vehicle_clock)
+        await wait_for(drone.telemetry.armed(), lambda a: not a, 30, "auto-disarm", vehicle_clock)
         event("disarmed")
     finally:
         if follower is not None:

@@ -1,0 +1,1 @@
+"""Path planners of the companion: pure geometry in, waypoints out."""
