@@ -24,6 +24,8 @@ from harness.net_cli import attach, cloud, net_demo, node_table, role_process, s
 from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun, parse_roles
 from harness.replay_cli import replay
+from harness.run_cli import run
+from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from harness.wind_options import (
     GUSTS_HELP,
@@ -239,6 +241,14 @@ def parse_gps_outages(specs: list[str]) -> tuple[GpsOutageWindow, ...]:
 def up(
     vehicles: Annotated[int, typer.Option("--vehicles", "-n", min=1, max=255)] = 1,
     speed: Annotated[float, typer.Option(help="simulation seconds per wall second")] = 1.0,
+    lockstep: Annotated[
+        bool,
+        typer.Option(
+            "--lockstep",
+            help="run as fast as the CPU allows instead of --speed; companions read the "
+            "simulation time from RUN/clock (SWARMSITL_CLOCK_FILE, companion.clock)",
+        ),
+    ] = False,
     bind: Annotated[str, typer.Option(help="address the vehicles listen on")] = "127.0.0.1",
     sdk_port: Annotated[
         int, typer.Option(help="onboard link: MAVSDK port of vehicle 0 (+i)")
@@ -442,6 +452,9 @@ def up(
 
     Example:  swarmsitl up -n 3 --world src/worlds/examples/offshore.yaml --launch-area helideck
     (three vehicles on the rig's helideck in the world's sea wind; --wind etc. override it)
+
+    Example:  swarmsitl up -n 2 --lockstep --out runs/ci   (as fast as possible; companions:
+    SWARMSITL_CLOCK_FILE=runs/ci/clock python my_companion.py, waits via companion.clock)
     """
     frames = parse_frames(frame, vehicles)
     link = parse_link_model(link, "--link", links)
@@ -590,6 +603,7 @@ def up(
             "--camera-size, or --no-camera"
         )
     t_start = time.monotonic()
+    clock = ClockFile(run_dir / "clock")
     procs: dict[str, subprocess.Popen] = {}
     if net_run is not None:
         attach(net_run, sim)
@@ -608,15 +622,21 @@ def up(
         )
         if cloud_node:
             procs["cloud"] = role_process(
-                net_run, "cloud", 1e9, speed, t_start, run_dir / "cloud.log"
-            )
+                net_run, "cloud", 1e9, speed, t_start, run_dir / "cloud.log",
+                clock_file=clock.path,
+            )  # fmt: skip
             console.print(f"cloud node: process {procs['cloud'].pid}, log {run_dir / 'cloud.log'}")
+    console.print(
+        f"simulation clock: SWARMSITL_CLOCK_FILE={clock.path} (companion.clock reads it)"
+        + ("; lockstep: as fast as the CPU allows" if lockstep else "")
+    )
     console.print("Press Ctrl-C to stop.")
     flag = StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
     shown = [t_start]
 
     def should_stop() -> bool:
+        clock.publish(sim.time_s)
         now = time.monotonic()
         if now - shown[0] >= 0.5:
             shown[0] = now
@@ -630,17 +650,23 @@ def up(
 
     try:
         with console.status("starting ...") as status:
-            sim.run_paced(
-                speed,
-                should_stop,
-                duration if duration > 0 else float("inf"),
-                wall_origin_s=t_start,
-            )
+            if lockstep:
+                sim.run_lockstep(
+                    duration if duration > 0 else float("inf"), lambda _: should_stop()
+                )
+            else:
+                sim.run_paced(
+                    speed,
+                    should_stop,
+                    duration if duration > 0 else float("inf"),
+                    wall_origin_s=t_start,
+                )
     finally:
         # Close (tlogs, truth.csv) while Ctrl-C still only sets the flag: a second Ctrl-C or
         # a SIGTERM from a wrapper during shutdown must not cut the recordings short.
         stop_processes(procs)
         sim.close()
+        clock.close()
         for s, h in old.items():
             signal.signal(s, h)
     wall = max(time.monotonic() - t_start, 1e-9)
@@ -651,7 +677,7 @@ def up(
         )
     console.print(
         f"stopped at t = {sim.time_s:.1f} s simulated ({sim.time_s / wall:.2f}x real time "
-        f"achieved, {speed:g}x asked); tlogs in {run_dir}"
+        f"achieved, {'lockstep' if lockstep else f'{speed:g}x asked'}); tlogs in {run_dir}"
     )
 
 
@@ -757,6 +783,7 @@ def demo(
         raise typer.Exit(1)
 
 
+app.command("run")(run)
 app.command("cloud")(cloud)
 app.command("replay")(replay)
 app.command("net-demo")(net_demo)

@@ -72,10 +72,17 @@ def role_process(
     wall_origin_s: float,
     log_path: Path,
     extra: list[str] | None = None,
+    clock_file: Path | None = None,
 ) -> subprocess.Popen:
-    """Start ``python -m companion.roles`` as ``node_id`` (a real process, real UDP)."""
+    """Start ``python -m companion.roles`` as ``node_id`` (a real process, real UDP).
+
+    ``clock_file``: the simulation clock (``SWARMSITL_CLOCK_FILE``), which the node's clock
+    reads instead of scaling wall time (needed when the simulation is not paced).
+    """
     env = os.environ | net.env(node_id)
     env |= {"SWARMSITL_SPEED": f"{speed:g}", "SWARMSITL_CLOCK_ORIGIN": repr(wall_origin_s)}
+    if clock_file is not None:
+        env["SWARMSITL_CLOCK_FILE"] = str(clock_file)
     cmd = [sys.executable, "-m", "companion.roles", "--duration-s", f"{duration_s:g}"]
     with log_path.open("w") as log:
         return subprocess.Popen(

@@ -57,7 +57,7 @@ def test_malformed_variable_is_named(tmp_path, name, value):
 
 
 def test_missing_url_says_how_to_start_the_program():
-    with pytest.raises(ScenarioEnvError, match="SWARMSITL_MAVLINK_URL.*swarmsitl run"):
+    with pytest.raises(ScenarioEnvError, match=r"SWARMSITL_MAVLINK_URL.*swarmsitl run"):
         ScenarioEnv.from_env({"SWARMSITL_VEHICLE": "1"})
 
 

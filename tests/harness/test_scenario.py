@@ -127,7 +127,7 @@ def test_a_world_mistake_names_the_world_file(tmp_path):
 
 
 def test_not_a_mapping_and_not_yaml(tmp_path):
-    with pytest.raises(ScenarioError, match="s.yaml:1: a scenario file is a mapping"):
+    with pytest.raises(ScenarioError, match=r"s\.yaml:1: a scenario file is a mapping"):
         load_scenario(write(tmp_path, "- just a list\n"))
     with pytest.raises(ScenarioError, match="not valid YAML"):
         load_scenario(write(tmp_path, "name: [unclosed\n"))
@@ -140,5 +140,5 @@ def test_script_paths_resolve_against_the_scenario(tmp_path):
     text = GOOD.replace("    module: companion.scripts.coverage\n", "    script: mine.py\n")
     scenario = load_scenario(write(tmp_path, text))
     assert scenario.program("survey") == [sys.executable, str(tmp_path / "mine.py")]
-    with pytest.raises(ScenarioError, match="roles.survey.script: no such file"):
+    with pytest.raises(ScenarioError, match=r"roles\.survey\.script: no such file"):
         load_scenario(write(tmp_path, text.replace("mine.py", "theirs.py")))

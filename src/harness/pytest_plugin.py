@@ -1,0 +1,385 @@
+"""pytest plugin: fly a fleet or a whole scenario in a test, then assert on what happened.
+
+Installed with swarmsitl (entry point ``pytest11``), so any test suite gets the fixtures:
+
+* ``swarmsitl_run``: a function that runs a scenario file (``swarmsitl run``, in its own
+  process, lockstep by default) and returns a :class:`RunResult` with the report, the flight log
+  and assertion helpers;
+* ``swarmsitl_fleet``: a function that starts ``swarmsitl up`` (vehicles on a world, paced or
+  lockstep) and returns a :class:`Fleet` with each vehicle's connection URL; the test runs its own
+  companion code against them, then ``fleet.stop()`` returns the flight log;
+* ``swarmsitl_ports``: free port bases for this test (two tests may run at once).
+
+Waits and windows are in simulation time; nothing here asserts wall-clock timings. The module
+imports nothing heavy at start-up (pytest loads it in every session): the simulator's packages
+are imported when a fixture is used.
+``docs/testing_your_companion.md`` has the example test a user writes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import random
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+from harness.run_ports import RunPorts
+
+if TYPE_CHECKING:
+    from harness.flight_log import FlightLog
+
+RUN_TIMEOUT_WALL_S = 900.0
+"""Default wall-clock limit of one ``swarmsitl run`` in a test (a hung run fails, never hangs)."""
+FLEET_READY_TIMEOUT_S = 60.0
+"""Wall seconds ``swarmsitl up`` gets to print its endpoint table."""
+READY_MARKER = "Press Ctrl-C to stop."
+
+
+def _udp_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        try:
+            sock.bind(("0.0.0.0", port))
+        except OSError:
+            return False
+    return True
+
+
+def _tcp_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        try:
+            sock.bind(("127.0.0.1", port))
+        except OSError:
+            return False
+    return True
+
+
+def free_ports(vehicles: int = 16, rng: random.Random | None = None) -> RunPorts:
+    """Port bases with ``vehicles`` free ports each, chosen at random in 20000-39999.
+
+    Random blocks make two test processes (pytest-xdist workers, two CI jobs) unlikely to pick
+    the same ports; each block is checked free before it is returned.
+    """
+    rng = rng or random.Random()
+    for _ in range(200):
+        base = rng.randrange(20000, 39000, 200)
+        ports = RunPorts(
+            sdk=base,
+            listen=base + 40,
+            grpc=base + 80,
+            payload=base + 120,
+            mocap=base + 140,
+            net=base + 160,
+            net_proxy=base + 180,
+        )
+        udp = [
+            *range(ports.sdk, ports.sdk + vehicles),
+            *range(ports.listen, ports.listen + vehicles),
+            *range(ports.payload, ports.payload + vehicles),
+            *range(ports.mocap, ports.mocap + vehicles),
+        ]
+        if all(_udp_free(p) for p in udp) and all(
+            _tcp_free(p) for p in range(ports.grpc, ports.grpc + vehicles)
+        ):
+            return ports
+    raise RuntimeError("no free block of ports in 20000-39999")
+
+
+def _cli(*args: object) -> list[str]:
+    return [sys.executable, "-m", "harness.cli", *(str(a) for a in args)]
+
+
+def _port_options(ports: RunPorts) -> list[object]:
+    return ["--sdk-port", ports.sdk, "--listen-port", ports.listen, "--payload-port", ports.payload]
+
+
+def _checks() -> Any:
+    from harness import flight_checks
+
+    return flight_checks
+
+
+def _load_log(run_dir: Path) -> FlightLog:
+    from harness.flight_log import FlightLog
+
+    return FlightLog.load(run_dir)
+
+
+class _Checks:
+    """Assertion helpers over a flight log (shared by RunResult and a stopped Fleet)."""
+
+    @property
+    def log(self) -> FlightLog:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def assert_waypoints_reached(
+        self,
+        vehicle: int,
+        waypoints_enu_m: Sequence[Sequence[float]],
+        tolerance_m: float,
+        in_order: bool = True,
+    ) -> None:
+        """Vehicle ``vehicle`` (0-based) passed within ``tolerance_m`` of every waypoint (ENU)."""
+        _checks().assert_waypoints_reached(
+            self.log, vehicle, waypoints_enu_m, tolerance_m, in_order
+        )
+
+    def assert_min_separation(self, distance_m: float) -> None:
+        """No two vehicles came closer than ``distance_m``."""
+        _checks().assert_min_separation(self.log, distance_m)
+
+    def assert_max_tilt(self, max_deg: float, vehicle: int | None = None) -> None:
+        """No vehicle (or ``vehicle``) tilted more than ``max_deg``."""
+        _checks().assert_max_tilt(self.log, max_deg, vehicle)
+
+    def assert_landed_and_disarmed(self, vehicle: int | None = None) -> None:
+        """Every vehicle (or ``vehicle``) ended on the ground, disarmed."""
+        _checks().assert_landed_and_disarmed(self.log, vehicle)
+
+    def assert_no_failsafe(self) -> None:
+        """No vehicle announced a failsafe."""
+        _checks().assert_no_failsafe(self.log)
+
+
+@dataclass
+class RunResult(_Checks):
+    """A finished ``swarmsitl run``: exit status, report, flight log, assertion helpers."""
+
+    run_dir: Path
+    exit_code: int
+    output: str
+    _log: FlightLog | None = field(default=None, repr=False)
+
+    @property
+    def report(self) -> dict[str, Any]:
+        """``report.json``."""
+        path = self.run_dir / "report.json"
+        if not path.exists():
+            raise AssertionError(f"the run wrote no report; its output:\n{self.output}")
+        return json.loads(path.read_text())
+
+    @property
+    def log(self) -> FlightLog:
+        """Truth and tlogs of the run."""
+        if self._log is None:
+            self._log = _load_log(self.run_dir)
+        return self._log
+
+    def metric(self, name: str) -> Any:
+        """A report value by dotted name, e.g. ``vehicles.vehicle1.max_tilt_deg``."""
+        from harness.scenario_run import lookup
+
+        return lookup(self.report, name)
+
+    def assert_passed(self) -> None:
+        """The run completed and every check of the scenario passed (else the failures)."""
+        report = self.report
+        if report.get("passed"):
+            return
+        lines = [f"run in {self.run_dir} did not pass (exit {self.exit_code}):"]
+        if not report.get("complete"):
+            lines.append(f"  incomplete: {report.get('stop_reason')}")
+        for name, check in report.get("checks", {}).items():
+            if not check["ok"]:
+                lines.append(f"  {name}: {check['message']}")
+        for key, c in report.get("companions", {}).items():
+            if c.get("traceback"):
+                lines.append(f"  {key}'s companion exited {c['exit_code']}:\n{c['traceback']}")
+        raise AssertionError("\n".join(lines))
+
+    def assert_companions_succeeded(self) -> None:
+        """Every companion process exited with status 0."""
+        bad = {k: c for k, c in self.report.get("companions", {}).items() if c["exit_code"] != 0}
+        if bad:
+            raise AssertionError(
+                "\n".join(
+                    f"{k} ({c['role']}) exited {c['exit_code']}:\n{c.get('traceback') or ''}"
+                    for k, c in bad.items()
+                )
+            )
+
+
+@dataclass
+class Fleet(_Checks):
+    """A running ``swarmsitl up``: where to connect; ``stop()`` ends it and loads the log."""
+
+    process: subprocess.Popen
+    vehicles: int
+    ports: RunPorts
+    run_dir: Path
+    output_path: Path
+    lockstep: bool
+    _log: FlightLog | None = field(default=None, repr=False)
+
+    def url(self, i: int = 0) -> str:
+        """MAVSDK URL of vehicle ``i`` (0-based): ``udpin://0.0.0.0:PORT``."""
+        return f"udpin://0.0.0.0:{self.ports.sdk + i}"
+
+    @property
+    def urls(self) -> list[str]:
+        """MAVSDK URL of every vehicle."""
+        return [self.url(i) for i in range(self.vehicles)]
+
+    def pymavlink_url(self, i: int = 0) -> str:
+        """Pymavlink URL of vehicle ``i``: ``udpin:0.0.0.0:PORT``."""
+        return f"udpin:0.0.0.0:{self.ports.sdk + i}"
+
+    def grpc_port(self, i: int = 0) -> int:
+        """A free port for vehicle ``i``'s client's mavsdk_server."""
+        return self.ports.grpc + i
+
+    @property
+    def env(self) -> dict[str, str]:
+        """Environment for companion processes (the simulation clock of a lockstep fleet)."""
+        env = {"SWARMSITL_CLOCK_FILE": str(self.run_dir / "clock")} if self.lockstep else {}
+        return os.environ | env
+
+    @property
+    def output(self) -> str:
+        """What ``swarmsitl up`` printed so far."""
+        return self.output_path.read_text(errors="replace")
+
+    def stop(self, timeout_s: float = 60.0) -> FlightLog:
+        """Stop the fleet (SIGINT, as Ctrl-C), wait for its recordings, return the flight log."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+            try:
+                self.process.wait(timeout_s)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+                raise AssertionError(f"swarmsitl up ignored SIGINT:\n{self.output}") from None
+        if self._log is None:
+            self._log = _load_log(self.run_dir)
+        return self._log
+
+    @property
+    def log(self) -> FlightLog:
+        """The flight log (stops the fleet first)."""
+        return self.stop()
+
+
+@pytest.fixture
+def swarmsitl_ports() -> RunPorts:
+    """Free port bases for this test."""
+    return free_ports()
+
+
+@pytest.fixture
+def swarmsitl_run(tmp_path: Path, swarmsitl_ports: RunPorts) -> Callable[..., RunResult]:
+    """Run a scenario: ``swarmsitl_run("my.yaml", seed=1)`` -> :class:`RunResult`.
+
+    Keyword arguments: ``seed``, ``speed`` (None: lockstep), ``out`` (default: a directory
+    under the test's tmp_path), ``timeout_wall_s`` (the run is stopped and reported incomplete
+    after it), ``extra_args`` (more ``swarmsitl run`` options).
+    """
+    count = [0]
+
+    def run(
+        scenario: str | Path,
+        *,
+        seed: int | None = None,
+        speed: float | None = None,
+        out: Path | None = None,
+        timeout_wall_s: float = RUN_TIMEOUT_WALL_S,
+        extra_args: Sequence[object] = (),
+    ) -> RunResult:
+        count[0] += 1
+        run_dir = out or tmp_path / f"run{count[0]}"
+        ports = swarmsitl_ports
+        args: list[object] = ["run", scenario, "--out", run_dir, *_port_options(ports)]
+        args += ["--grpc-port", ports.grpc, "--net-port", ports.net, "--mocap-port", ports.mocap]
+        args += ["--net-proxy-port", ports.net_proxy, "--timeout", timeout_wall_s]
+        args += [] if seed is None else ["--seed", seed]
+        args += ["--lockstep"] if speed is None else ["--speed", speed]
+        proc = subprocess.run(
+            _cli(*args, *extra_args),
+            capture_output=True,
+            text=True,
+            env=os.environ | {"COLUMNS": "200", "PYTHONUNBUFFERED": "1"},
+            timeout=timeout_wall_s + 120,
+            check=False,
+        )
+        return RunResult(run_dir, proc.returncode, proc.stdout + proc.stderr)
+
+    return run
+
+
+@pytest.fixture
+def swarmsitl_fleet(tmp_path: Path, swarmsitl_ports: RunPorts) -> Iterator[Callable[..., Fleet]]:
+    """Start vehicles with ``swarmsitl up``; returns the start function.
+
+    ``fleet = swarmsitl_fleet(vehicles=2, world="example:offshore")``. Keyword arguments:
+    ``vehicles``, ``world`` (a world file, ``example:KIND`` or None),
+    ``launch_area``, ``speed`` (paced, simulated s per wall s) or ``lockstep=True`` (as fast as
+    possible; companions use ``fleet.env`` for the simulation clock), ``frame``, ``extra_args``.
+    Every fleet still running at the end of the test is stopped.
+    """
+    fleets: list[Fleet] = []
+
+    def start(
+        *,
+        vehicles: int = 1,
+        world: str | Path | None = None,
+        launch_area: str | None = None,
+        speed: float = 1.0,
+        lockstep: bool = False,
+        frame: str | None = None,
+        extra_args: Sequence[object] = (),
+    ) -> Fleet:
+        ports = swarmsitl_ports
+        run_dir = tmp_path / f"fleet{len(fleets) + 1}"
+        args: list[object] = ["up", "-n", vehicles, "--out", run_dir, "--gcs-port", 0]
+        args += [*_port_options(ports), "--video-port", 0, "--payload-listen-port", 0]
+        args += ["--lockstep"] if lockstep else ["--speed", speed]
+        if world is not None:
+            args += ["--world", world]
+        if launch_area is not None:
+            args += ["--launch-area", launch_area]
+        if frame is not None:
+            args += ["--frame", frame]
+        run_dir.mkdir(parents=True, exist_ok=True)
+        output_path = tmp_path / f"fleet{len(fleets) + 1}.log"
+        with output_path.open("w") as out:
+            proc = subprocess.Popen(
+                _cli(*args, *extra_args),
+                stdout=out,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                env=os.environ | {"COLUMNS": "200", "PYTHONUNBUFFERED": "1"},
+                start_new_session=True,
+            )
+        fleet = Fleet(proc, vehicles, ports, run_dir, output_path, lockstep)
+        fleets.append(fleet)
+        deadline = time.monotonic() + FLEET_READY_TIMEOUT_S
+        while READY_MARKER not in fleet.output:
+            if proc.poll() is not None:
+                raise AssertionError(f"swarmsitl up exited {proc.returncode}:\n{fleet.output}")
+            if time.monotonic() > deadline:
+                proc.kill()
+                proc.wait()
+                raise AssertionError(f"swarmsitl up not ready:\n{fleet.output}")
+            time.sleep(0.1)
+        return fleet
+
+    yield start
+    for fleet in fleets:
+        with contextlib.suppress(AssertionError):
+            fleet.stop()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Register the plugin's marker."""
+    config.addinivalue_line(
+        "markers", "swarmsitl: a test that flies swarmsitl vehicles (plugin fixtures)"
+    )

@@ -1,0 +1,172 @@
+"""``swarmsitl run SCENARIO.yaml``: one scenario, its companions, its report."""
+
+from __future__ import annotations
+
+import signal
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from autopilot_emu.mavlink.endpoint import PortInUseError
+from harness.launch import console, default_run_dir
+from harness.scenario import ScenarioError, load_scenario
+from harness.scenario_run import RunOptions, RunPorts, ScenarioRun
+
+EXIT_FAILED = 1
+"""A check failed, a companion failed, or the run did not complete."""
+EXIT_BAD_INPUT = 2
+"""The scenario (or a port, or an option) is wrong: nothing ran."""
+EXIT_INTERRUPTED = 130
+"""Ctrl-C: the partial report is written (``complete: false``)."""
+
+
+def progress_text(run: ScenarioRun) -> str:
+    """The status line under the progress bar."""
+    sim = run.sim
+    assert sim is not None
+    commanders = sim.fleet.commanders
+    armed = sum(c.armed for c in commanders)
+    flying = sum(c.in_air for c in commanders)
+    running = sum(c.exit_code is None for c in run.companions)
+    failed = sum(c.exit_code not in (None, 0) for c in run.companions)
+    text = f"{armed} armed, {flying} flying; companions {running} running"
+    if failed:
+        text += f", [red]{failed} failed[/red]"
+    return text
+
+
+def print_report(report: dict[str, Any]) -> None:
+    """The checks and the headline metrics of a finished run."""
+    checks = report.get("checks", {})
+    if checks:
+        table = Table(title="checks")
+        for col in ("check", "result", "detail"):
+            table.add_column(col)
+        for name, c in checks.items():
+            table.add_row(
+                name, "[green]ok[/green]" if c["ok"] else "[red]FAILED[/red]", c["message"]
+            )
+        console.print(table)
+    for key, c in report.get("companions", {}).items():
+        if c.get("traceback"):
+            console.print(f"[red]{key}'s companion failed[/red] ({c['log']}):\n{c['traceback']}")
+
+
+def run(
+    scenario: Annotated[
+        Path, typer.Argument(exists=True, dir_okay=False, help="the scenario file (YAML)")
+    ],
+    out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
+    seed: Annotated[
+        int | None, typer.Option(min=0, help="seed of the run [default: the scenario's]")
+    ] = None,
+    speed: Annotated[
+        float | None,
+        typer.Option(min=0.01, help="paced: simulated seconds per wall second (e.g. 2)"),
+    ] = None,
+    lockstep: Annotated[
+        bool,
+        typer.Option(
+            "--lockstep",
+            help="as fast as the CPU allows, companions on the simulation clock (the default "
+            "without --speed)",
+        ),
+    ] = False,
+    sdk_port: Annotated[
+        int, typer.Option(help="vehicle i's onboard link sends to this +i")
+    ] = 14540,
+    listen_port: Annotated[
+        int, typer.Option(help="vehicle i's onboard link listens here +i")
+    ] = 14580,
+    grpc_port: Annotated[
+        int, typer.Option(help="vehicle i's companion's mavsdk_server +i")
+    ] = 50051,
+    payload_port: Annotated[
+        int, typer.Option(help="vehicle i's MAVLink camera +i; 0: no MAVLink camera")
+    ] = 14030,
+    mocap_port: Annotated[
+        int, typer.Option(help="vehicle i's motion-capture datagrams +i (GPS-denied worlds)")
+    ] = 15400,
+    net_port: Annotated[int, typer.Option(help="first node-messaging port (node roles)")] = 47000,
+    net_proxy_port: Annotated[int, typer.Option(help="first port of the messaging router")] = 47500,
+    timeout: Annotated[
+        float | None, typer.Option(help="give up after this many wall seconds (report incomplete)")
+    ] = None,
+) -> None:
+    """Run a scenario: world, fleet, one companion process per vehicle, report.
+
+    Checks the whole scenario (and its world) before anything starts, then flies it and writes
+    the run directory: report.json, truth.csv, vehicleN.tlog, timeseries/, plots/, camera/ and
+    each companion's log and result (docs/scenarios.md). Exit status: 0 when the run completed
+    and every check passed, 1 when not, 2 for a bad scenario, 130 after Ctrl-C (the partial
+    report is written, marked incomplete).
+
+    Example:  swarmsitl run scenarios/offshore_demo.yaml --out runs/offshore
+
+    Example:  swarmsitl run my_scenario.yaml --seed 3 --speed 2
+    """
+    if speed is not None and lockstep:
+        raise typer.BadParameter("give --speed or --lockstep, not both", param_hint="--speed")
+    try:
+        scenario = load_scenario(scenario)
+    except ScenarioError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(EXIT_BAD_INPUT) from exc
+    run_dir = out or default_run_dir()
+    ports = RunPorts(
+        sdk=sdk_port,
+        listen=listen_port,
+        grpc=grpc_port,
+        payload=payload_port,
+        mocap=mocap_port,
+        net=net_port,
+        net_proxy=net_proxy_port,
+    )
+    runner = ScenarioRun(scenario, RunOptions(run_dir, seed, speed, ports, timeout))
+    spec = scenario.spec
+    mode = "lockstep" if speed is None else f"paced at {speed:g}x"
+    console.print(
+        f"[bold]{spec.name}[/bold]: {spec.n_vehicles} vehicle(s), "
+        f"{scenario.world.kind if scenario.world else 'no'} world, {spec.duration_s:g} s, "
+        f"seed {runner.seed}, {mode}; run dir {run_dir}"
+    )
+    old = {
+        s: signal.signal(s, lambda *_: runner.request_stop())
+        for s in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        with Progress(
+            TextColumn("[bold]t = {task.completed:7.1f} s[/bold]"),
+            BarColumn(),
+            TextColumn("{task.fields[status]}"),
+            TimeElapsedColumn(),
+            console=console,
+            transient=False,
+        ) as bar:
+            task = bar.add_task("simulated", total=spec.duration_s, status="starting")
+
+            def show(r: ScenarioRun) -> None:
+                bar.update(task, completed=r.sim.time_s, status=progress_text(r))
+
+            report = runner.run(show)
+    except PortInUseError as exc:
+        console.print(f"[red]error:[/red] {exc} (choose other ports: --listen-port, ...)")
+        raise typer.Exit(EXIT_BAD_INPUT) from exc
+    except (OSError, ValueError) as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(EXIT_BAD_INPUT) from exc
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+    print_report(report)
+    console.print(
+        f"{report.get('stop_reason')}: {report.get('sim_time_s', 0):.1f} s simulated in "
+        f"{report.get('wall_time_s', 0):.1f} s; report {run_dir / 'report.json'}"
+    )
+    if runner.stop_reason == "interrupted":
+        raise typer.Exit(EXIT_INTERRUPTED)
+    if not report.get("passed", False):
+        raise typer.Exit(EXIT_FAILED)
