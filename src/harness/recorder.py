@@ -52,14 +52,28 @@ COLUMNS = (
 FLU -> world ENU, (x, y, z, w) as PyBullet (``sitl.truth.TruthState.quaternion_xyzw``)."""
 
 
+STREAM_EVERY_S = 5.0
+"""Simulated seconds between two appends of a streaming recorder to its CSV file."""
+FORMATS = {"time_s": "{:.10g}", "wall_s": "{:.6f}"}
+"""Column formats other than the default 6 significant digits (times need more)."""
+
+
 @dataclass
 class FlightRecorder:
-    """Samples every vehicle at ``rate_hz`` of simulation time."""
+    """Samples every vehicle at ``rate_hz`` of simulation time.
+
+    With ``stream_path`` the samples are also appended to that CSV every ``STREAM_EVERY_S``
+    simulated seconds (flushed), so a process killed outright still leaves its truth up to
+    then; ``write_csv`` to the same path completes the file.
+    """
 
     sim: Simulation
     rate_hz: float
+    stream_path: Path | None = None
     rows: list[np.ndarray] = field(default_factory=list)
     _next_s: float = 0.0
+    _written: int = 0
+    _stream: object | None = None
 
     def maybe_record(self) -> None:
         """Record a sample if one is due."""
@@ -98,6 +112,10 @@ class FlightRecorder:
             )
         )
         self.rows.append(block)
+        if self.stream_path is not None and len(self.rows) - self._written >= max(
+            1, round(STREAM_EVERY_S * self.rate_hz)
+        ):
+            self._append(self.stream_path)
 
     def table(self) -> np.ndarray:
         """(samples*N, len(COLUMNS)) array of everything recorded."""
@@ -111,11 +129,30 @@ class FlightRecorder:
         tab = tab[tab[:, 1] == i]
         return {name: tab[:, k] for k, name in enumerate(COLUMNS)}
 
+    def _append(self, path: Path) -> None:
+        """Append the samples not yet written to the streamed CSV (header first), flushed."""
+        if self._stream is None:
+            self._stream = path.open("w", newline="")
+            csv.writer(self._stream).writerow(COLUMNS)
+        pending = self.rows[self._written :]
+        self._written = len(self.rows)
+        _write_rows(self._stream, np.concatenate(pending) if pending else np.zeros((0, 0)))
+        self._stream.flush()
+
     def write_csv(self, path: Path) -> None:
-        """Write the recording as CSV with a header row."""
-        tab = self.table()
+        """Write the recording as CSV with a header row (completing a streamed file)."""
+        if self._stream is not None and path == self.stream_path:
+            self._append(path)
+            self._stream.close()
+            return
         with path.open("w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(COLUMNS)
-            for row in tab:
-                w.writerow([f"{v:.6g}" for v in row])
+            csv.writer(fh).writerow(COLUMNS)
+            _write_rows(fh, self.table())
+
+
+def _write_rows(fh: object, tab: np.ndarray) -> None:
+    """Rows of the table as CSV lines, each column in its format."""
+    formats = [FORMATS.get(name, "{:.6g}") for name in COLUMNS]
+    w = csv.writer(fh)
+    for row in tab:
+        w.writerow([f.format(v) for f, v in zip(formats, row, strict=True)])

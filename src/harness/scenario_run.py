@@ -576,17 +576,35 @@ class ScenarioRun:
         return report
 
 
+FRACTION_UNITS = ("1", "fraction", "ratio", "%")
+"""Units of companion results that are shares, which the fleet averages instead of adding."""
+
+
 def fleet_totals(report: dict[str, Any]) -> dict[str, Any]:
-    """Each numeric companion result summed over the vehicles that reported it (value, unit)."""
-    totals: dict[str, dict[str, Any]] = {}
+    """Each numeric companion result over the vehicles that reported it.
+
+    ``sum`` and ``mean`` for every result; ``value`` is the mean for shares (unit ``1``,
+    ``fraction``, ``%``) and the sum for everything else (counts, metres, joules).
+    """
+    values: dict[str, list[float]] = {}
+    units: dict[str, Any] = {}
     for metrics in report.get("vehicles", {}).values():
         for name, q in (metrics.get("companion") or {}).items():
             value = q.get("value") if isinstance(q, dict) else None
             if isinstance(value, bool) or not isinstance(value, int | float):
                 continue
-            entry = totals.setdefault(name, {"value": 0, "unit": q.get("unit"), "vehicles": 0})
-            entry["value"] += value
-            entry["vehicles"] += 1
+            values.setdefault(name, []).append(value)
+            units.setdefault(name, q.get("unit"))
+    totals = {}
+    for name, vs in values.items():
+        total, mean = sum(vs), sum(vs) / len(vs)
+        totals[name] = {
+            "value": mean if units[name] in FRACTION_UNITS else total,
+            "unit": units[name],
+            "sum": total,
+            "mean": mean,
+            "vehicles": len(vs),
+        }
     return totals
 
 

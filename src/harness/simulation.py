@@ -364,7 +364,15 @@ class Simulation:
         self._poll_every = round(config.physics_hz / config.mavlink_poll_hz)
         self._step_count = 0
         self._actuators: list | None = None
-        self.recorder = FlightRecorder(self, config.record_hz) if config.record_hz > 0 else None
+        self.recorder = (
+            FlightRecorder(
+                self,
+                config.record_hz,
+                None if config.out_dir is None else config.out_dir / "truth.csv",
+            )
+            if config.record_hz > 0
+            else None
+        )
         self._closed = False
         self.phase_seconds: dict[str, float] | None = None
         """Wall seconds per phase of ``step`` once ``time_phases()`` was called."""

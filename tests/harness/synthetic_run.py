@@ -73,6 +73,10 @@ def keyframe_track(
         "landed_state": np.where(airborne, IN_AIR, ON_GROUND).astype(float),
         "thrust": np.where(airborne, 0.5, 0.0),
         "wall_s": EPOCH_S + t,
+        "quat_x": np.zeros_like(t),  # upright, facing east (tilt is not modelled here)
+        "quat_y": np.zeros_like(t),
+        "quat_z": np.zeros_like(t),
+        "quat_w": np.ones_like(t),
     }
     for name, value in overrides.items():
         assert name in cols, name

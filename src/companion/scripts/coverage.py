@@ -100,6 +100,16 @@ class CoverageParams:
     """Detections closer than this are one spill, m."""
     dark_max: int = 28
     """Brightest channel of an oil pixel, 0..255."""
+    altitude_step_m: float = 4.0
+    """Vehicle k of the role (``ROLE_INDEX``) flies ``altitude_m + k * altitude_step_m`` above
+    its launch point, so that vehicles crossing each other's way to and from their strips pass
+    at different heights; the lanes are spaced for ``altitude_m``, the lowest footprint."""
+
+    def own(self, role_index: int) -> CoverageParams:
+        """These parameters with the flight height of vehicle ``role_index`` of the role."""
+        return dataclasses.replace(
+            self, altitude_m=self.altitude_m + role_index * self.altitude_step_m
+        )
 
     def __post_init__(self) -> None:
         positive = ("altitude_m", "speed_m_s", "climb_m_s", "descent_m_s")
@@ -107,6 +117,9 @@ class CoverageParams:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"PARAMS {name} must be a positive number, got {value!r}")
+        step = self.altitude_step_m
+        if not (isinstance(step, (int, float)) and math.isfinite(step) and step >= 0):
+            raise ValueError(f"PARAMS altitude_step_m must be a number >= 0, got {step!r}")
         if not 0.0 < self.mean_speed_fraction <= 1.0:
             raise ValueError(
                 f"PARAMS mean_speed_fraction must be in (0, 1], got {self.mean_speed_fraction!r}"
@@ -451,6 +464,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             dtype=float,
         )
         now = vehicle_clock.now_s
+        shared, params = params, params.own(env.role_index)
         climb_s, land_s = climb_and_landing_s(params)
         budget = duration - now - climb_s - land_s - params.reserve_s
         if budget <= 0:
@@ -458,7 +472,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
                 f"no time to fly: {duration - now:.0f} s left of the run, "
                 f"{climb_s + land_s + params.reserve_s:.0f} s needed for take-off and landing"
             )
-        path = plan(env, params, world, home_enu, budget if math.isfinite(budget) else None)
+        path = plan(env, shared, world, home_enu, budget if math.isfinite(budget) else None)
         # The mission ends above home (around obstacles at the flight altitude) and lands there;
         # an early return (time up, failure) is RTL, straight, at an altitude clearing them.
         rtl_alt = return_altitude_m(world, home_enu, path.waypoints_enu_m, params.altitude_m)
@@ -508,7 +522,8 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             watcher.start()
         await drone.action.arm()
         flying = True
-        _log("armed", vehicle_time_s=vehicle_clock.now_s)
+        armed_at = vehicle_clock.now_s
+        _log("armed", vehicle_time_s=armed_at)
         await drone.action.takeoff()
         await wait_for(
             drone.telemetry.position(),
@@ -518,6 +533,13 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             vehicle_clock,
         )
         _log("took_off", vehicle_time_s=vehicle_clock.now_s)
+        # Nobody leaves before the whole role is up, each at its own height: the way to the
+        # strips then crosses the others' only at altitude_step_m apart, never a climbing one.
+        highest = shared.own(env.role_count - 1)
+        all_up_s = armed_at + climb_and_landing_s(highest)[0]
+        wait_s = all_up_s - vehicle_clock.now_s
+        if wait_s > 0:
+            await vehicle_clock.sleep(wait_s, timeout_wall_s=60.0 + wait_s)
         await drone.mission.start_mission()
         surveying = True
         if watcher is not None:
