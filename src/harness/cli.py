@@ -25,6 +25,7 @@ from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun, parse_roles
 from harness.replay_cli import replay
 from harness.run_cli import run
+from harness.scenarios import scenario_path
 from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from harness.wind_options import (
@@ -684,6 +685,50 @@ def up(
 @app.command()
 def demo(
     out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
+    seed: Annotated[
+        int | None, typer.Option(min=0, help="seed of the run [default: the scenario's, 0]")
+    ] = None,
+    speed: Annotated[
+        float | None,
+        typer.Option(min=0.01, help="paced: simulated s per wall s [default: lockstep]"),
+    ] = None,
+    sdk_port: Annotated[
+        int, typer.Option(help="vehicle i's onboard link sends to this +i")
+    ] = 14540,
+    listen_port: Annotated[
+        int, typer.Option(help="vehicle i's onboard link listens here +i")
+    ] = 14580,
+    grpc_port: Annotated[
+        int, typer.Option(help="vehicle i's companion's mavsdk_server +i")
+    ] = 50051,
+    payload_port: Annotated[int, typer.Option(help="vehicle i's MAVLink camera +i")] = 14030,
+) -> None:
+    """Fly the offshore demo: three hexacopters survey the sea around an oil rig for spills.
+
+    Runs the shipped scenario src/harness/scenarios/offshore_demo.yaml (docs/scenarios.md):
+    three Typhoon H480s take off from the rig's helideck, each flies its strip of a zigzag
+    survey for two simulated minutes with its own companion process (plain MAVSDK-Python,
+    companion/scripts/coverage.py) counting the oil spills its camera sees, and lands back on
+    the deck. Headless; writes report.json (checks, per-vehicle metrics, spills seen),
+    plots/map.png (trajectories over the world), truth.csv, tlogs and camera samples.
+
+    Example:  swarmsitl demo --out runs/demo
+    """
+    run(
+        scenario_path("offshore_demo"),
+        out=out,
+        seed=seed,
+        speed=speed,
+        sdk_port=sdk_port,
+        listen_port=listen_port,
+        grpc_port=grpc_port,
+        payload_port=payload_port,
+    )
+
+
+@app.command("first-flight")
+def first_flight(
+    out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
     speed: Annotated[float, typer.Option(help="simulation seconds per wall second")] = 2.0,
     seed: Annotated[int, typer.Option(help="seed of every random draw")] = 0,
     sdk_port: Annotated[int, typer.Option(help="MAVSDK port")] = 14540,
@@ -698,7 +743,7 @@ def demo(
     arrival errors, max tilt, hover power and endurance, energy), trajectory.png, truth.csv
     and vehicle1.tlog.
 
-    Example:  swarmsitl demo --out runs/demo --speed 4
+    Example:  swarmsitl first-flight --out runs/first --speed 4
     """
     from harness.report import demo_metrics, plot_trajectory, write_report
 
@@ -719,7 +764,7 @@ def demo(
         str(events_path),
     ]
     env = os.environ | {"SWARMSITL_SPEED": str(speed)}
-    console.print(f"[bold]swarmsitl demo[/bold]: speed {speed:g}x, run dir {run_dir}")
+    console.print(f"[bold]swarmsitl first-flight[/bold]: speed {speed:g}x, run dir {run_dir}")
     log = (run_dir / "client.log").open("w")
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
     t0 = time.monotonic()
@@ -770,7 +815,7 @@ def demo(
             "units": "SI; keys carry their unit",
         },
     )
-    plot_trajectory(track, run_dir / "trajectory.png", "swarmsitl demo: takeoff, goto, RTL")
+    plot_trajectory(track, run_dir / "trajectory.png", "swarmsitl first-flight: takeoff, goto, RTL")
     table = Table(title="demo flight (from simulated ground truth)")
     table.add_column("metric")
     table.add_column("value", justify="right")

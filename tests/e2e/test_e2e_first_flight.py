@@ -1,6 +1,6 @@
-"""``swarmsitl demo`` end to end: the real CLI, its MAVSDK client, and the run report.
+"""``swarmsitl first-flight`` end to end: the real CLI, its MAVSDK client, and the run report.
 
-The demo runs paced at 4x real time; MAVSDK's wall-clock timeouts are unaffected because the
+The flight runs paced at 4x real time; MAVSDK's wall-clock timeouts are unaffected because the
 emulator ACKs commands at once. The metrics come from the simulated ground truth, not wall time.
 """
 
@@ -30,14 +30,14 @@ pytestmark = pytest.mark.e2e
 PORTS = module_ports(5)
 
 
-def test_demo_writes_a_good_report(tmp_path):
-    """demo exits 0; report.json has finite climb time, hover RMS < 0.5 m, arrival < 1.5 m,
+def test_first_flight_writes_a_good_report(tmp_path):
+    """first-flight exits 0; report.json has finite climb time, hover RMS < 0.5 m, arrival < 1.5 m,
     cruise within 10 % of MPC_XY_CRUISE; its phases are stamped with the vehicle's clock."""
     require_free_udp([PORTS.sdk, PORTS.listen])
     assert not mavsdk_servers(PORTS.grpc)
     out = tmp_path / "demo"
     cmd = cli_command(
-        "demo", "--out", out, "--speed", 4, "--sdk-port", PORTS.sdk,
+        "first-flight", "--out", out, "--speed", 4, "--sdk-port", PORTS.sdk,
         "--listen-port", PORTS.listen, "--grpc-port", PORTS.grpc, "--timeout", 240,
     )  # fmt: skip
     proc = subprocess.Popen(
@@ -55,12 +55,12 @@ def test_demo_writes_a_good_report(tmp_path):
         with contextlib.suppress(ProcessLookupError):
             os.killpg(proc.pid, signal.SIGKILL)
         output, _ = proc.communicate()
-        pytest.fail(f"swarmsitl demo did not finish in 300 s:\n{output}")
+        pytest.fail(f"swarmsitl first-flight did not finish in 300 s:\n{output}")
     finally:
         leftovers = kill_mavsdk_servers(PORTS.grpc)
     client_log = (out / "client.log").read_text() if (out / "client.log").exists() else ""
     assert proc.returncode == 0, f"{output}\n--- client.log ---\n{client_log}"
-    assert leftovers == [], f"demo left mavsdk_server processes {leftovers} running"
+    assert leftovers == [], f"first-flight left mavsdk_server processes {leftovers} running"
 
     report = json.loads((out / "report.json").read_text())
     metrics = report["metrics"]
