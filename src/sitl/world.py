@@ -29,11 +29,12 @@ from sitl.clock import SimClock, rate_divisor
 from sitl.physics.bullet import GROUND_TILE_M, BulletScene
 from sitl.physics.earth import isa_pressure_pa, isa_temperature_k
 from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
-from sitl.physics.ground_texture import ground_texture, tinted
+from sitl.physics.ground_texture import ground_texture
 from sitl.physics.moving_solids import MOVING_SOLIDS_HZ, MovingSolids
 from sitl.physics.obstacles import BoxObstacle, add_boxes, add_solids
 from sitl.physics.rotors import RotorModel
 from sitl.physics.spills import OilSpills, add_people
+from sitl.physics.surface_texture import surface_texture
 from sitl.physics.wind import WindConfig, WindField
 from sitl.power.loads import PayloadLoads
 from sitl.power.propulsion import load_power_spec
@@ -451,17 +452,19 @@ class World:
         if all(spec is None for spec in specs):
             return None
         scene = self._scene
-        texture = ground_texture(scenery_rng, tile_m=GROUND_TILE_M)
-        if config.scene is not None:
-            texture = tinted(texture, config.scene.surface.rgba)
+        if config.scene is None:
+            texture, tile_m = ground_texture(scenery_rng, tile_m=GROUND_TILE_M), GROUND_TILE_M
+        else:
+            texture, tile_m = surface_texture(scenery_rng, config.scene.surface)
         rig = CameraRig(
             scene.client_id,
             specs,
             config.physics_hz,
             texture,
-            GROUND_TILE_M,
+            tile_m,
             scene.ground_id,
             scene.body_ids,
+            filtered_ground=config.scene is not None,
         )
         if self._spills is not None:
             rig.bound_visuals(self._spills.visual_corners_local)

@@ -18,6 +18,12 @@ Conventions match what TinyRenderer drew for the former textured ground quad (wh
 - Its lighting scales the ground's texels by a constant ``GROUND_SHADE`` (light fixed in the
   world, flat ground; measured on a TinyRenderer render of the quad: 98 % of the pixels equal
   ``floor(0.94 * texel)`` exactly) and truncates to uint8.
+
+With ``filtered=True`` (the worlds' surfaces) the layer also keeps the tile box-filtered to half,
+a quarter, ... of its side (a mipmap) and reads, for each frame, the level whose texels are
+closest to the ground size of a pixel straight below the camera (height / focal length): seen
+from high up, fine texture detail averages out instead of aliasing into speckle. The lookup is
+the same single ``cv2.remap``, so a frame costs the same.
 """
 
 from __future__ import annotations
@@ -45,6 +51,8 @@ class GroundLayer:
         texture_rgb: one tile of ground, (S, S, 3) uint8 RGB, as ``ground_texture`` makes it.
         tile_m: side of the square of ground one tile covers, m.
         sky_rgb: colour of the pixels whose ray meets no ground within ``spec.far_m``.
+        filtered: pick a box-filtered level of the tile by the camera's height (see above);
+            False: always the tile itself, as TinyRenderer would draw it.
     """
 
     def __init__(
@@ -53,6 +61,7 @@ class GroundLayer:
         texture_rgb: np.ndarray,
         tile_m: float,
         sky_rgb: tuple[int, int, int],
+        filtered: bool = False,
     ) -> None:
         texture = np.asarray(texture_rgb)
         if texture.ndim != 3 or texture.shape[2] != 3 or texture.shape[0] != texture.shape[1]:
@@ -60,13 +69,15 @@ class GroundLayer:
         if not (math.isfinite(tile_m) and tile_m > 0.0):
             raise ValueError(f"tile_m must be positive, got {tile_m!r}")
         self.spec = spec
-        size = texture.shape[0]
-        # Lit once, and one wrapped row and column more: nearest-neighbour lookups at
-        # coordinates in [S - 0.5, S) round to S and read the tile's first row/column.
-        lit = (texture.astype(np.float32) * GROUND_SHADE).astype(np.uint8)
-        self._texture = np.pad(lit, ((0, 1), (0, 1), (0, 0)), mode="wrap")
-        self._size = float(size)
-        self._texels_per_m = size / tile_m
+        self._levels = [self._lit_level(texture.astype(np.float32), tile_m)]
+        """(lit texture, its side in texels, texels per metre) per mipmap level, finest first."""
+        level = texture.astype(np.float32)
+        while filtered and level.shape[0] % 2 == 0 and level.shape[0] >= 32:
+            # A 2 x 2 box average: within the tile, so every level tiles as the first does.
+            half = level.shape[0] // 2
+            level = cv2.resize(level, (half, half), interpolation=cv2.INTER_AREA)
+            self._levels.append(self._lit_level(level, tile_m))
+        self._texture, self._size, self._texels_per_m = self._levels[0]
         self._tile_m = tile_m
         self._sky = tuple(float(c) for c in sky_rgb)
         k = spec.intrinsics()
@@ -92,6 +103,27 @@ class GroundLayer:
         self._nearer = np.empty((h, w), dtype=bool)
         self.rgb = np.empty((h, w, 3), dtype=np.uint8)
         """The ground-and-sky image of the last frame, (H, W, 3) uint8 RGB (reused)."""
+        self._pixel_rad = 1.0 / k.fx_px
+        """Angle one pixel spans at the image centre, rad (its ground size over the height)."""
+
+    @staticmethod
+    def _lit_level(texture: np.ndarray, tile_m: float) -> tuple[np.ndarray, float, float]:
+        """A texture lit once, with one wrapped row and column more.
+
+        Nearest-neighbour lookups at coordinates in [S - 0.5, S) round to S and read the tile's
+        first row/column.
+        """
+        lit = (texture * np.float32(GROUND_SHADE)).astype(np.uint8)
+        size = texture.shape[0]
+        return np.pad(lit, ((0, 1), (0, 1), (0, 0)), mode="wrap"), float(size), size / tile_m
+
+    def _pick_level(self, height_m: float) -> None:
+        """Use the mipmap level whose texel best matches a pixel's ground size below the camera."""
+        if len(self._levels) == 1:
+            return
+        texels = max(height_m, 1e-3) * self._pixel_rad * self._levels[0][2]
+        level = min(max(round(math.log2(max(texels, 1.0))), 0), len(self._levels) - 1)
+        self._texture, self._size, self._texels_per_m = self._levels[level]
 
     def render(self, centre_enu_m: np.ndarray, optical_to_enu: np.ndarray) -> np.ndarray:
         """Ground and sky seen from a pose into ``rgb`` (returned), ground depth into ``depth_m``.
@@ -102,6 +134,7 @@ class GroundLayer:
         """
         spec = self.spec
         height = float(centre_enu_m[2])
+        self._pick_level(height)
         # cv2.transform, not np.matmul: a BLAS call on a (3, 3) matrix can wait for idle threads.
         cv2.transform(self._rays, optical_to_enu.astype(np.float32), dst=self._dirs)
         dx, dy, dz = (self._dirs[:, 0, k] for k in range(3))

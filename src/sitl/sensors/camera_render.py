@@ -211,6 +211,8 @@ class CameraRig:
         tile_m: the square of ground one tile covers, m.
         ground_id: PyBullet body id of the ground (its collision plane; never drawn).
         vehicle_ids: PyBullet body id of each vehicle, in vehicle order.
+        filtered_ground: draw the ground from a mipmap of the tile, its level picked per frame
+            by the camera's height (``camera_ground.GroundLayer``'s ``filtered``).
     """
 
     def __init__(
@@ -222,6 +224,7 @@ class CameraRig:
         tile_m: float,
         ground_id: int,
         vehicle_ids: Sequence[int],
+        filtered_ground: bool = False,
     ) -> None:
         self.client_id = client_id
         self.specs: tuple[CameraSpec | None, ...] = tuple(specs)
@@ -240,7 +243,7 @@ class CameraRig:
         self.tile_m = tile_m
         """Side of the square of ground one tile covers, m."""
         self._layers = {
-            i: GroundLayer(spec, ground_texture_rgb, tile_m, SKY_RGB)
+            i: GroundLayer(spec, ground_texture_rgb, tile_m, SKY_RGB, filtered_ground)
             for i, spec, _ in self._cameras
         }
         self._ground_id = ground_id
