@@ -1,9 +1,9 @@
 """Oil spills in camera frames: dark patches on the sea -> points on the sea in the world frame.
 
 An oil film on the sea is near-black (the offshore world's spills are RGBA (0.06, 0.05, 0.05),
-about (14, 12, 12) as rendered) while the sea, even in the troughs of its texture, keeps a
-brighter green-blue channel (about (11, 52, 83) on average; fewer than 0.1 % of its pixels have
-every channel below 28, and those are scattered single pixels). So a pixel is "oil" when its
+about (10, 8, 8) as rendered) while the sea, even in the troughs of its waves, keeps a
+brighter green-blue channel (about (12, 52, 83) on average; the simulator's sea texture never
+takes its brightest channel below about 45). So a pixel is "oil" when its
 brightest channel is at most ``dark_max``; a morphological opening removes isolated pixels;
 connected components of at least ``min_area_px`` pixels are the spills seen. Each component's
 centroid is projected onto the sea (plane z = 0) with the camera's pose

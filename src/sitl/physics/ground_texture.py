@@ -1,13 +1,12 @@
-"""A procedural ground texture for the cameras: seeded grass-like noise with a metre grid.
+"""The cameras' ground in a world without a scene: seeded grass-like noise with a metre grid.
 
 The texture tiles seamlessly (the noise is periodic: filtered in the Fourier domain), so one
 small image repeats over the whole ground plane; the grid lines make motion and scale visible in
-the camera images. World generation proper (terrain, targets, spills) belongs to ``worlds/``.
+the camera images. A scene's own surface (sea, asphalt, grass, concrete) is drawn by
+``surface_texture``; world generation proper (terrain, targets, spills) belongs to ``worlds/``.
 """
 
 from __future__ import annotations
-
-from collections.abc import Sequence
 
 import numpy as np
 
@@ -54,16 +53,3 @@ def ground_texture(
     rgb[on_line, :] = GRID_RGB
     rgb[:, on_line] = GRID_RGB
     return np.clip(rgb, 0.0, 255.0).astype(np.uint8)
-
-
-def tinted(texture_rgb: np.ndarray, mean_rgba: Sequence[float]) -> np.ndarray:
-    """``texture_rgb`` recoloured so its mean colour is ``mean_rgba``'s RGB (channels 0..1).
-
-    A ``worlds`` surface (sea, asphalt, floor) is seen as the seeded grass tile scaled channel by
-    channel to the surface's colour: its pattern and grid keep showing motion and scale. The
-    surface's own procedural textures (waves, asphalt) are not drawn yet.
-    """
-    target = 255.0 * np.clip(np.asarray(mean_rgba, dtype=float)[:3], 0.0, 1.0)
-    rgb = texture_rgb.astype(float)
-    mean = np.maximum(rgb.reshape(-1, 3).mean(axis=0), 1.0)
-    return np.clip(rgb * (target / mean), 0.0, 255.0).astype(np.uint8)

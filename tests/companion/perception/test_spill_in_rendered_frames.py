@@ -1,7 +1,7 @@
 """The detector on frames the simulator renders: a spill-coloured slab on the offshore sea.
 
 Tests may import ``sitl`` (the companion code may not): the frame comes from the simulator's own
-camera rig over the offshore world's tinted sea, the pose from the same numbers handed to the
+camera rig over the offshore world's textured sea, the pose from the same numbers handed to the
 companion's camera model, so this checks the two camera models agree and the thresholds suit
 the colours the camera really renders.
 """
