@@ -28,7 +28,8 @@ TEXTURE_PX = 512
 SEA_TILE_WAVES = 8
 """Dominant wave lengths across one sea tile (at least ``SEA_MIN_TILE_M``)."""
 SEA_MIN_TILE_M = 64.0
-"""Smallest side of a sea tile, m: 12.5 cm texels, and a repeat hard to spot from 30 m."""
+"""Smallest side of a sea tile, m: 12.5 cm texels (ripples still show from 10 m); a larger tile
+would blur the sea seen from low, and its repeat is hard to spot from 30 m."""
 ASPHALT_TILE_M = 32.0
 """Side of an asphalt tile, m (6 cm texels: the grain of the surface from 10 m up)."""
 GRASS_TILE_M = 40.0
@@ -140,7 +141,7 @@ def _finish(rgb: np.ndarray, surface: Surface) -> np.ndarray:
     (glints, seams and stains included), then each channel so its mean is the surface's.
     """
     target = 255.0 * np.clip(np.asarray(surface.rgba, dtype=float)[:3], 0.0, 1.0)
-    for _ in range(3):  # later passes correct what clipping and rounding moved
+    for _ in range(2):  # the second pass corrects what clipping moved
         mean = np.maximum(rgb.reshape(-1, 3).mean(axis=0), 1e-6)
         rgb = rgb * (target / mean)
         spread = contrast_of(rgb)
@@ -162,8 +163,9 @@ def _sea(rng: np.random.Generator, surface: Surface, size_px: int) -> tuple[np.n
     """Sea: a long swell under shorter wind waves with directional crests, a little sun glint.
 
     The brightness is the slope of the water towards the sun (the sky's reflection changes with
-    it) plus a little of the height (crests thinner, lighter); colour shifts greener on crests
-    and over large, faint patches.
+    it) plus a little of the height (crests thinner, lighter) and of short ripples (seen from low
+    only: the camera's mipmap averages them out higher up); colour shifts greener on crests and
+    over faint patches a few wave lengths wide. The tile holds ``SEA_TILE_WAVES`` wave lengths.
     """
     wave_m = surface.texture_scale_m
     tile_m = max(SEA_MIN_TILE_M, SEA_TILE_WAVES * wave_m)
@@ -184,7 +186,7 @@ def _sea(rng: np.random.Generator, surface: Surface, size_px: int) -> tuple[np.n
     waves = _filtered(rng, size_px, spectrum(wave_m, wind, 0.3, 3))
     swell = _filtered(rng, size_px, spectrum(3.0 * wave_m, swell_dir, 0.15, 10))
     chop = _filtered(rng, size_px, spectrum(0.4 * wave_m, wind + 0.4, 0.4, 1))
-    patches = _filtered(rng, size_px, _band(size_px, tile_m, tile_m / 2.0, 0.5))
+    patches = _filtered(rng, size_px, _band(size_px, tile_m, 3.0 * wave_m, 0.5))
     height = waves + 1.2 * swell + 0.05 * chop
     # Slope towards the sun, exact on the periodic tile (spectral derivative).
     spec_h = np.fft.rfft2(height)
@@ -192,7 +194,8 @@ def _sea(rng: np.random.Generator, surface: Surface, size_px: int) -> tuple[np.n
         spec_h * 2j * np.pi * (math.cos(sun) * fx + math.sin(sun) * fy), s=(size_px, size_px)
     )
     slope /= slope.std()
-    brightness = _spread(0.7 * slope + 0.6 * height / height.std() + 0.4 * patches)
+    ripples = _filtered(rng, size_px, spectrum(0.12 * wave_m, wind, 0.5, 1))
+    brightness = _spread(0.7 * slope + 0.5 * height / height.std() + 0.3 * patches + 0.3 * ripples)
     shade = _shade(brightness, surface.texture_contrast, low=-SEA_FLOOR_SPREAD)
     base = np.asarray(surface.rgba, dtype=float)[:3] * 255.0
     tint = 0.6 * np.clip(brightness, -1.5, 1.5) + patches
