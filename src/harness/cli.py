@@ -41,6 +41,7 @@ from harness.world_setup import WorldSetup, world_setup
 from sitl.sensors.camera import MOUNT_PITCH_DEG, RENDER_S_PER_PIXEL, CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
 from sitl.vehicles.multirotor import airframe_yaml_path, load_airframe
+from worlds.examples import world_path
 
 app = typer.Typer(
     add_completion=False,
@@ -104,7 +105,7 @@ def world_options(
             raise typer.BadParameter("needs --world FILE", param_hint="--launch-area")
         return None
     try:
-        built = worlds.build(worlds.load_world(path))
+        built = worlds.build(worlds.load_world(world_path(path)))
         return world_setup(built, n_vehicles, launch_area, spacing_m)
     except (OSError, ValueError) as exc:  # WorldSpecError is a ValueError: file:line: field
         console.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
@@ -407,7 +408,7 @@ def up(
             metavar="FILE",
             help="fly in a world file (docs/worlds.md): its solids, spills, people, wind; "
             "vehicles start in its launch area; GPS-denied worlds fly on motion capture "
-            "(e.g. --world src/worlds/examples/offshore.yaml)",
+            "(e.g. --world my_world.yaml, or --world example:offshore for a shipped one)",
         ),
     ] = None,
     launch_area: Annotated[

@@ -251,6 +251,13 @@ class Fleet(_Checks):
 
     def stop(self, timeout_s: float = 60.0) -> FlightLog:
         """Stop the fleet (SIGINT, as Ctrl-C), wait for its recordings, return the flight log."""
+        self.terminate(timeout_s)
+        if self._log is None:
+            self._log = _load_log(self.run_dir)
+        return self._log
+
+    def terminate(self, timeout_s: float = 60.0) -> None:
+        """Stop the fleet (SIGINT, as Ctrl-C) and wait until its recordings are closed."""
         if self.process.poll() is None:
             self.process.send_signal(signal.SIGINT)
             try:
@@ -259,9 +266,6 @@ class Fleet(_Checks):
                 self.process.kill()
                 self.process.wait()
                 raise AssertionError(f"swarmsitl up ignored SIGINT:\n{self.output}") from None
-        if self._log is None:
-            self._log = _load_log(self.run_dir)
-        return self._log
 
     @property
     def log(self) -> FlightLog:
@@ -375,7 +379,7 @@ def swarmsitl_fleet(tmp_path: Path, swarmsitl_ports: RunPorts) -> Iterator[Calla
     yield start
     for fleet in fleets:
         with contextlib.suppress(AssertionError):
-            fleet.stop()
+            fleet.terminate()
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -24,11 +24,9 @@ from autopilot_emu.params import ParamStore
 from harness.link_options import check_link_model, links_config
 from harness.net_plan import VEHICLE_ROLES
 from sitl.vehicles.multirotor import airframe_yaml_path
-from worlds.examples import example_path
+from worlds.examples import EXAMPLE_PREFIX, world_path
 from worlds.yaml_source import node_at, validate_yaml
 
-EXAMPLE_PREFIX = "example:"
-"""``world: example:offshore`` names a world shipped in ``worlds/examples``."""
 DEFAULT_PARAMS: dict[str, float] = {"NAV_DLL_ACT": 2.0}
 """Autopilot parameters every scenario vehicle gets unless its role sets them: Return when the
 companion falls silent (PX4's data-link-loss failsafe after COM_DL_LOSS_T without a HEARTBEAT;
@@ -327,12 +325,12 @@ def _world_spec(spec: ScenarioSpec, base: Path, fail: Any) -> worlds.WorldSpec |
         if isinstance(spec.world, dict):
             return worlds.parse_world(yaml.safe_dump(spec.world), "world (inline)")
         if spec.world.startswith(EXAMPLE_PREFIX):
-            kind = spec.world[len(EXAMPLE_PREFIX) :]
             try:
-                path = example_path(kind)
+                return worlds.load_world(world_path(spec.world))
             except ValueError as exc:
+                if isinstance(exc, worlds.WorldSpecError):
+                    raise
                 raise fail(("world",), str(exc)) from exc
-            return worlds.load_world(path)
         path = base / spec.world
         if not path.is_file():
             raise fail(("world",), f"no such world file: {path}")

@@ -117,15 +117,25 @@ class Companion:
         return out
 
 
+TRACEBACK_HEAD = "Traceback (most recent call last):"
+
+
 def traceback_in(log_path: Path) -> str | None:
-    """The last Python traceback in a log (to its end), or the log's tail when there is none."""
+    """The first Python traceback in a companion's log, or its tail when there is none.
+
+    The first, because what a crashing program prints later (libraries failing while the
+    interpreter shuts down) follows from it.
+    """
     try:
         text = log_path.read_text(errors="replace")
     except OSError:
         return None
-    start = text.rfind("Traceback (most recent call last):")
-    body = text[start:] if start >= 0 else text[-2000:]
-    return body[-TRACEBACK_CHARS:] or None
+    start = text.find(TRACEBACK_HEAD)
+    if start < 0:
+        return text[-2000:] or None
+    end = text.find(TRACEBACK_HEAD, start + len(TRACEBACK_HEAD))
+    body = text[start:] if end < 0 else text[start:end]
+    return body[:TRACEBACK_CHARS]
 
 
 def versions() -> dict[str, str]:
@@ -234,6 +244,7 @@ class ScenarioRun:
             wind=wind,
             world_overrides=overrides,
             params=params,
+            vehicle_params=tuple(scenario.params_of(v) for v in self.vehicles),
             onboard_link=spec.links.onboard,
             gcs_link=spec.links.gcs,
             links_file=scenario.links_file,

@@ -190,6 +190,9 @@ class SimulationConfig:
     params: dict[str, float] = field(default_factory=dict)
     """Autopilot parameters set on every vehicle after its airframe's (e.g. a GPS-denied world's
     EKF2_EV_CTRL, ``harness.world_setup``); an unknown name raises ValueError naming it."""
+    vehicle_params: tuple[dict[str, float], ...] = ()
+    """Autopilot parameters per vehicle (one dict per vehicle, in vehicle order), set after
+    ``params`` (a scenario's roles: ``harness.scenario``); empty: none."""
     router: LinkRouter | Callable[[], LinkRouter] | None = None
     """The paced UDP router of node messaging, or a factory of it, polled with the MAVLink
     links on the simulation clock (the simulation closes it); None: no router."""
@@ -209,6 +212,15 @@ class SimulationConfig:
             raise ValueError("set the airframe with frames, not world_overrides")
         if self.params:
             object.__setattr__(self, "params", check_params(self.params))
+        if self.vehicle_params:
+            if len(self.vehicle_params) != self.n_vehicles:
+                raise ValueError(
+                    f"vehicle_params: one dict per vehicle ({self.n_vehicles}), got "
+                    f"{len(self.vehicle_params)}"
+                )
+            object.__setattr__(
+                self, "vehicle_params", tuple(check_params(p) for p in self.vehicle_params)
+            )
         ratio = self.physics_hz / self.mavlink_poll_hz
         if abs(ratio - round(ratio)) > 1e-9 or ratio < 1:
             raise ValueError(
@@ -291,11 +303,13 @@ class Simulation:
         stores = [ParamStore() for _ in range(n)]
         self.airframe_params_skipped: set[str] = set()
         """Parameters of the airframes' ``px4`` sections this autopilot does not know (skipped)."""
-        for store, spec in zip(stores, self.world.airframes, strict=True):
+        for i, (store, spec) in enumerate(zip(stores, self.world.airframes, strict=True)):
             self.airframe_params_skipped |= apply_airframe_params(store, spec)
             if self.world.config.rangefinders:
                 apply_rangefinder_params(store, spec)
             for name, value in config.params.items():
+                store.set(name, value)
+            for name, value in (config.vehicle_params[i] if config.vehicle_params else {}).items():
                 store.set(name, value)
         if self.airframe_params_skipped:
             log.warning(

@@ -142,3 +142,19 @@ def test_script_paths_resolve_against_the_scenario(tmp_path):
     assert scenario.program("survey") == [sys.executable, str(tmp_path / "mine.py")]
     with pytest.raises(ScenarioError, match=r"roles\.survey\.script: no such file"):
         load_scenario(write(tmp_path, text.replace("mine.py", "theirs.py")))
+
+
+def test_each_vehicle_gets_its_roles_autopilot_parameters(tmp_path):
+    """The runner's SimulationConfig carries DEFAULT_PARAMS + the role's, per vehicle."""
+    from harness.scenario_run import RunOptions, ScenarioRun
+    from harness.simulation import Simulation
+
+    text = GOOD.replace("  spare: {}\n", "  spare: {params: {NAV_DLL_ACT: 0}}\n")
+    run = ScenarioRun(load_scenario(write(tmp_path, text)), RunOptions(tmp_path / "run"))
+    cfg = run._simulation_config()
+    assert [p["NAV_DLL_ACT"] for p in cfg.vehicle_params] == [2, 2, 0]
+    assert [p.get("MPC_XY_CRUISE") for p in cfg.vehicle_params] == [6, 6, None]
+    cfg = type(cfg)(**{**cfg.__dict__, "mavlink": False, "out_dir": None, "router": None})
+    with Simulation(cfg) as sim:
+        assert [p.get("NAV_DLL_ACT") for p in sim.fleet.params] == [2, 2, 0]
+        assert sim.fleet.params[0].get("MPC_XY_CRUISE") == 6.0

@@ -59,6 +59,8 @@ from companion.scenario_env import ScenarioEnv
 from companion.telemetry_waits import FlightError, first, wait_for
 from companion.vehicle_clock import VehicleClock
 
+LAND_ACCURACY_M = 0.5
+"""Horizontal distance from home within which the vehicle starts its descent, m."""
 FOOTPRINT_PERIOD_S = 0.5
 """Simulated seconds between two camera footprints of the ground-truth track."""
 DEFAULT_ORIGIN = (47.397742, 8.545594, 488.0)
@@ -465,7 +467,9 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
         )
         now = vehicle_clock.now_s
         shared, params = params, params.own(env.role_index)
-        climb_s, land_s = climb_and_landing_s(params)
+        # Take-off lasts until the highest of the role is up (nobody leaves before: below).
+        climb_s = climb_and_landing_s(shared.own(env.role_count - 1))[0]
+        land_s = climb_and_landing_s(params)[1]
         budget = duration - now - climb_s - land_s - params.reserve_s
         if budget <= 0:
             raise FlightError(
@@ -546,6 +550,26 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             watcher.active.set()
         _log("mission_started", vehicle_time_s=vehicle_clock.now_s)
 
+        async def settle_and_land() -> None:
+            """Over home within LAND_ACCURACY_M, then land.
+
+            The mission's last item is accepted up to 2 m away, and the neighbours' homes are
+            a few metres off: descending there could put one vehicle on another.
+            """
+            alt_amsl = home.absolute_altitude_m + params.altitude_m
+            await drone.action.goto_location(
+                home.latitude_deg, home.longitude_deg, alt_amsl, math.nan
+            )
+
+            def over_home(p: Any) -> bool:
+                n, e, _ = pymap3d.geodetic2ned(
+                    p.latitude_deg, p.longitude_deg, 0.0, home.latitude_deg, home.longitude_deg, 0.0
+                )
+                return math.hypot(n, e) < LAND_ACCURACY_M
+
+            await wait_for(drone.telemetry.position(), over_home, 60.0, "over home", vehicle_clock)
+            await drone.action.land()
+
         async def go_home(here: np.ndarray) -> None:
             """Home now: around obstacles at the flight altitude, then land; else RTL."""
             router = Router(path.free_area) if path.free_area is not None else None
@@ -566,7 +590,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
                 await wait_for(
                     drone.telemetry.position(), arrived, 120.0, "way home", vehicle_clock
                 )
-            await drone.action.land()
+            await settle_and_land()
 
         # Follow the mission; if it cannot end above home and land before the run's end (the
         # vehicle is slower than budgeted), return to launch at once.
@@ -596,7 +620,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             await asyncio.sleep(0.1)
         else:
             _log("mission_done", vehicle_time_s=vehicle_clock.now_s)
-            await drone.action.land()  # above home: straight down
+            await settle_and_land()  # above home: straight down
         surveying = False
         if watcher is not None:
             watcher.active.clear()
