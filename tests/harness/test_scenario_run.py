@@ -1,0 +1,110 @@
+"""The runner's pure parts: metric bounds, fleet totals, tracebacks; `swarmsitl run` bad input."""
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from harness.cli import app
+from harness.scenario_run import fleet_totals, lookup, metric_checks, traceback_in
+
+REPORT = {
+    "vehicles": {
+        "vehicle1": {
+            "max_tilt": {"value": 12.5, "unit": "deg"},
+            "companion": {
+                "spills_seen": {"value": 3, "unit": "count"},
+                "coverage_fraction": {"value": 1.0, "unit": "1"},
+                "note": {"value": "fine", "unit": ""},
+            },
+        },
+        "vehicle2": {
+            "max_tilt": {"value": 20.0, "unit": "deg"},
+            "companion": {
+                "spills_seen": {"value": 4, "unit": "count"},
+                "coverage_fraction": {"value": 0.5, "unit": "1"},
+            },
+        },
+        "vehicle3": {"max_tilt": {"value": 1.0, "unit": "deg"}},
+    }
+}
+
+
+def test_fleet_totals_add_counts_and_average_shares():
+    totals = fleet_totals(REPORT)
+    assert totals["spills_seen"] == {
+        "value": 7, "unit": "count", "sum": 7, "mean": 3.5, "vehicles": 2
+    }  # fmt: skip
+    assert totals["coverage_fraction"]["value"] == pytest.approx(0.75)
+    assert "note" not in totals  # not a number
+
+
+def test_metric_bounds_pass_fail_and_missing():
+    report = REPORT | {"fleet": {"companions": fleet_totals(REPORT)}}
+    assert lookup(report, "vehicles.vehicle2.max_tilt") == 20.0
+    checks = metric_checks(
+        report,
+        {
+            "fleet.companions.spills_seen": (5, None),
+            "vehicles.vehicle2.max_tilt": (None, 15.0),
+            "vehicles.vehicle9.max_tilt": (None, 15.0),
+        },
+    )
+    assert checks["metric fleet.companions.spills_seen"]["ok"]
+    assert not checks["metric vehicles.vehicle2.max_tilt"]["ok"]
+    missing = checks["metric vehicles.vehicle9.max_tilt"]
+    assert not missing["ok"] and "not in report" in missing["message"]
+
+
+def test_the_first_traceback_is_the_crash(tmp_path):
+    log = tmp_path / "companion.log"
+    log.write_text(
+        "[coverage] connected\n"
+        'Traceback (most recent call last):\n  File "x.py", line 3, in fly\n'
+        "RuntimeError: deliberately broken\n"
+        "Exception ignored in atexit callback\n"
+        'Traceback (most recent call last):\n  File "system.py"\n'
+        "ImportError: sys.meta_path is None, Python is likely shutting down\n"
+    )
+    text = traceback_in(log)
+    assert "deliberately broken" in text and "shutting down" not in text
+    log.write_text("killed without a word\n")
+    assert traceback_in(log) == "killed without a word\n"
+    assert traceback_in(tmp_path / "absent.log") is None
+
+
+def test_run_rejects_a_bad_scenario_before_anything_starts(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nduration_s: 10\nfleet: [{role: a, colour: red}]\nroles: {a: {}}\n")
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["run", str(bad), "--out", str(out)])
+    assert result.exit_code == 2
+    assert "bad.yaml:3: fleet.0.colour: unknown key" in " ".join(result.output.split())
+    assert not out.exists()  # nothing started, nothing written
+
+
+def test_run_help_has_an_example():
+    for command in ("run", "demo", "first-flight"):
+        result = CliRunner().invoke(app, [command, "--help"], env={"COLUMNS": "200"})
+        assert result.exit_code == 0 and "Example:" in result.output
+
+
+def test_a_run_without_companions_runs_its_duration_and_reports(tmp_path):
+    """No companion: vehicles stand on the ground for the whole duration; the report is whole."""
+    scenario = tmp_path / "idle.yaml"
+    scenario.write_text(
+        "name: idle\nduration_s: 3\nworld: example:taskmap\nfleet: [{role: idle, count: 2}]\n"
+        "roles: {idle: {}}\nsensors: {cameras: false, rangefinders: false}\n"
+        "checks: {landed_and_disarmed: true, stay_inside_world: true}\n"
+    )
+    out = tmp_path / "run"
+    args = ["run", str(scenario), "--out", str(out), "--sdk-port", "0", "--listen-port", "0",
+            "--payload-port", "0"]  # fmt: skip
+    result = CliRunner().invoke(app, args, env={"COLUMNS": "200"})
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["complete"] and report["stop_reason"] == "duration"
+    assert report["sim_time_s"] == pytest.approx(3.0, abs=0.01)
+    assert report["checks"]["landed_and_disarmed"]["ok"]
+    assert report["companions"] == {}
+    assert (out / "plots" / "map.png").is_file() and (out / "world.yaml").is_file()
