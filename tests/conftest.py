@@ -16,6 +16,9 @@ from __future__ import annotations
 
 import pytest
 
+pytest_plugins = ["pytester"]
+"""pytester runs a user's test file in a subprocess (the swarmsitl pytest plugin's own tests)."""
+
 PACED_DIRS = ("tests/e2e/", "tests/conformance/")
 """Node-id prefixes (relative to the repository root) of the modules in the paced group."""
 PACED_GROUP = "paced"

@@ -1,8 +1,9 @@
 """``swarmsitl run`` end to end through the project's own pytest plugin (``harness.pytest_plugin``).
 
-Real processes: the runner, one MAVSDK-Python companion per vehicle (tests/e2e/scenarios/hop.py,
-written as a user would write one), mavsdk_server, UDP. Lockstep runs, so the outcomes depend
-on simulated time only; the fixtures pick free ports for each test.
+Real processes: the runner, one MAVSDK-Python companion per vehicle (tests/harness/scenarios/
+hop.py, written as a user would write one), mavsdk_server, UDP. Lockstep runs, so the outcomes
+depend on simulated time only (not on the machine's load: these tests are not in the paced
+group of tests/e2e); the fixtures pick free ports for each test.
 """
 
 from __future__ import annotations
