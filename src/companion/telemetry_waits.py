@@ -59,3 +59,16 @@ async def wait_for(
     finally:
         found.cancel()
         limit.cancel()
+
+
+async def wait_position_ok(
+    drone: Any, vehicle: VehicleClock | None, timeout_s: float = 60.0
+) -> Any:
+    """Wait until the vehicle has a global position and a home (what a mission or goto needs)."""
+    return await wait_for(
+        drone.telemetry.health(),
+        lambda h: h.is_global_position_ok and h.is_home_position_ok,
+        timeout_s,
+        "global position and home",
+        vehicle,
+    )

@@ -24,7 +24,7 @@ from harness.net_cli import attach, cloud, net_demo, node_table, role_process, s
 from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun, parse_roles
 from harness.replay_cli import replay
-from harness.run_cli import run
+from harness.run_cli import GrpcPort, ListenPort, Out, PayloadPort, SdkPort, Seed, Speed, run
 from harness.scenarios import scenario_path
 from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
@@ -685,24 +685,13 @@ def up(
 
 @app.command()
 def demo(
-    out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
-    seed: Annotated[
-        int | None, typer.Option(min=0, help="seed of the run [default: the scenario's, 0]")
-    ] = None,
-    speed: Annotated[
-        float | None,
-        typer.Option(min=0.01, help="paced: simulated s per wall s [default: lockstep]"),
-    ] = None,
-    sdk_port: Annotated[
-        int, typer.Option(help="vehicle i's onboard link sends to this +i")
-    ] = 14540,
-    listen_port: Annotated[
-        int, typer.Option(help="vehicle i's onboard link listens here +i")
-    ] = 14580,
-    grpc_port: Annotated[
-        int, typer.Option(help="vehicle i's companion's mavsdk_server +i")
-    ] = 50051,
-    payload_port: Annotated[int, typer.Option(help="vehicle i's MAVLink camera +i")] = 14030,
+    out: Out = None,
+    seed: Seed = None,
+    speed: Speed = None,
+    sdk_port: SdkPort = 14540,
+    listen_port: ListenPort = 14580,
+    grpc_port: GrpcPort = 50051,
+    payload_port: PayloadPort = 14030,
 ) -> None:
     """Fly the offshore demo: three hexacopters survey the sea around an oil rig for spills.
 

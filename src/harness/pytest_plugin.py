@@ -46,19 +46,12 @@ FLEET_READY_TIMEOUT_S = 60.0
 READY_MARKER = "Press Ctrl-C to stop."
 
 
-def _udp_free(port: int) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+def _free(port: int, kind: int = socket.SOCK_DGRAM) -> bool:
+    """Nobody holds ``port`` (UDP on 0.0.0.0, which MAVSDK binds; TCP on localhost, gRPC's)."""
+    host = "0.0.0.0" if kind == socket.SOCK_DGRAM else "127.0.0.1"
+    with socket.socket(socket.AF_INET, kind) as sock:
         try:
-            sock.bind(("0.0.0.0", port))
-        except OSError:
-            return False
-    return True
-
-
-def _tcp_free(port: int) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        try:
-            sock.bind(("127.0.0.1", port))
+            sock.bind((host, port))
         except OSError:
             return False
     return True
@@ -88,8 +81,8 @@ def free_ports(vehicles: int = 16, rng: random.Random | None = None) -> RunPorts
             *range(ports.payload, ports.payload + vehicles),
             *range(ports.mocap, ports.mocap + vehicles),
         ]
-        if all(_udp_free(p) for p in udp) and all(
-            _tcp_free(p) for p in range(ports.grpc, ports.grpc + vehicles)
+        if all(_free(p) for p in udp) and all(
+            _free(p, socket.SOCK_STREAM) for p in range(ports.grpc, ports.grpc + vehicles)
         ):
             return ports
     raise RuntimeError("no free block of ports in 20000-39999")

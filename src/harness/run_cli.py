@@ -15,6 +15,19 @@ from harness.launch import console, default_run_dir
 from harness.scenario import ScenarioError, load_scenario
 from harness.scenario_run import RunOptions, RunPorts, ScenarioRun
 
+SdkPort = Annotated[int, typer.Option(help="vehicle i's onboard link sends to this +i")]
+ListenPort = Annotated[int, typer.Option(help="vehicle i's onboard link listens here +i")]
+GrpcPort = Annotated[int, typer.Option(help="vehicle i's companion's mavsdk_server +i")]
+PayloadPort = Annotated[
+    int, typer.Option(help="vehicle i's MAVLink camera +i; 0: no MAVLink camera")
+]
+Seed = Annotated[int | None, typer.Option(min=0, help="seed of the run [default: the scenario's]")]
+Speed = Annotated[
+    float | None,
+    typer.Option(min=0.01, help="paced: simulated seconds per wall second (e.g. 2)"),
+]
+Out = Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")]
+
 EXIT_FAILED = 1
 """A check failed, a companion failed, or the run did not complete."""
 EXIT_BAD_INPUT = 2
@@ -59,14 +72,9 @@ def run(
     scenario: Annotated[
         Path, typer.Argument(exists=True, dir_okay=False, help="the scenario file (YAML)")
     ],
-    out: Annotated[Path | None, typer.Option(help="run directory [default: runs/<time>]")] = None,
-    seed: Annotated[
-        int | None, typer.Option(min=0, help="seed of the run [default: the scenario's]")
-    ] = None,
-    speed: Annotated[
-        float | None,
-        typer.Option(min=0.01, help="paced: simulated seconds per wall second (e.g. 2)"),
-    ] = None,
+    out: Out = None,
+    seed: Seed = None,
+    speed: Speed = None,
     lockstep: Annotated[
         bool,
         typer.Option(
@@ -75,18 +83,10 @@ def run(
             "without --speed)",
         ),
     ] = False,
-    sdk_port: Annotated[
-        int, typer.Option(help="vehicle i's onboard link sends to this +i")
-    ] = 14540,
-    listen_port: Annotated[
-        int, typer.Option(help="vehicle i's onboard link listens here +i")
-    ] = 14580,
-    grpc_port: Annotated[
-        int, typer.Option(help="vehicle i's companion's mavsdk_server +i")
-    ] = 50051,
-    payload_port: Annotated[
-        int, typer.Option(help="vehicle i's MAVLink camera +i; 0: no MAVLink camera")
-    ] = 14030,
+    sdk_port: SdkPort = 14540,
+    listen_port: ListenPort = 14580,
+    grpc_port: GrpcPort = 50051,
+    payload_port: PayloadPort = 14030,
     mocap_port: Annotated[
         int, typer.Option(help="vehicle i's motion-capture datagrams +i (GPS-denied worlds)")
     ] = 15400,

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -388,32 +389,43 @@ def plot_errors(
     path: Path, log: FlightLog, errors: dict[int, tuple[np.ndarray, np.ndarray]]
 ) -> None:
     """PNG: horizontal and vertical estimation error of each vehicle vs simulation time."""
-    fig, (top, bottom) = _figure((10.0, 6.0), rows=2)
-    for v in log.vehicles:
-        horizontal, vertical = errors[v.index]
-        top.plot(v.track.time_s, horizontal, lw=1.0, label=v.name)
-        bottom.plot(v.track.time_s, vertical, lw=1.0, label=v.name)
-    top.set_ylabel("horizontal error [m]")
-    bottom.set_ylabel("vertical error [m]")
-    bottom.set_xlabel("simulation time [s]")
-    top.set_title("position estimate (autopilot EKF) minus truth")
-    for ax in (top, bottom):
-        ax.grid(True, alpha=0.3)
-    if log.vehicles:
-        top.legend(fontsize=7)
-    _save(fig, path)
+    _plot_two(
+        path,
+        log,
+        lambda v: errors[v.index],
+        ("horizontal error [m]", "vertical error [m]"),
+        "position estimate (autopilot EKF) minus truth",
+    )
 
 
 def plot_battery(path: Path, log: FlightLog) -> None:
     """PNG: battery state of charge and voltage of each vehicle vs simulation time."""
+    _plot_two(
+        path,
+        log,
+        lambda v: (100.0 * v.track["battery_soc"], v.track["battery_voltage_v"]),
+        ("state of charge [%]", "voltage [V]"),
+        "battery",
+    )
+
+
+def _plot_two(
+    path: Path,
+    log: FlightLog,
+    series: Callable[[VehicleLog], tuple[np.ndarray, np.ndarray]],
+    ylabels: tuple[str, str],
+    title: str,
+) -> None:
+    """Two stacked panels of one quantity pair per vehicle against simulation time."""
     fig, (top, bottom) = _figure((10.0, 6.0), rows=2)
     for v in log.vehicles:
-        top.plot(v.track.time_s, 100.0 * v.track["battery_soc"], lw=1.0, label=v.name)
-        bottom.plot(v.track.time_s, v.track["battery_voltage_v"], lw=1.0, label=v.name)
-    top.set_ylabel("state of charge [%]")
-    bottom.set_ylabel("voltage [V]")
+        upper, lower = series(v)
+        top.plot(v.track.time_s, upper, lw=1.0, label=v.name)
+        bottom.plot(v.track.time_s, lower, lw=1.0, label=v.name)
+    top.set_ylabel(ylabels[0])
+    bottom.set_ylabel(ylabels[1])
     bottom.set_xlabel("simulation time [s]")
-    top.set_title("battery")
+    top.set_title(title)
     for ax in (top, bottom):
         ax.grid(True, alpha=0.3)
     if log.vehicles:

@@ -592,21 +592,37 @@ FRACTION_UNITS = ("1", "fraction", "ratio", "%")
 
 
 def fleet_totals(report: dict[str, Any]) -> dict[str, Any]:
-    """Each numeric companion result over the vehicles that reported it.
+    """Each companion result over the vehicles that reported it.
 
-    ``sum`` and ``mean`` for every result; ``value`` is the mean for shares (unit ``1``,
-    ``fraction``, ``%``) and the sum for everything else (counts, metres, joules).
+    Numbers: ``sum`` and ``mean``; ``value`` is the mean for shares (unit ``1``, ``fraction``,
+    ``%``) and the sum for everything else (counts, metres, joules). Lists (e.g. the names of the
+    targets a vehicle found): ``items``, their union, and ``value``, how many distinct items,
+    which is what a fleet found when several vehicles found the same thing.
     """
     values: dict[str, list[float]] = {}
+    lists: dict[str, set] = {}
+    counts: dict[str, int] = {}
     units: dict[str, Any] = {}
     for metrics in report.get("vehicles", {}).values():
         for name, q in (metrics.get("companion") or {}).items():
             value = q.get("value") if isinstance(q, dict) else None
+            if isinstance(value, list):
+                lists.setdefault(name, set()).update(map(str, value))
+                counts[name] = counts.get(name, 0) + 1
+                continue
             if isinstance(value, bool) or not isinstance(value, int | float):
                 continue
             values.setdefault(name, []).append(value)
             units.setdefault(name, q.get("unit"))
-    totals = {}
+    totals: dict[str, Any] = {
+        name: {
+            "value": len(items),
+            "unit": "distinct",
+            "items": sorted(items),
+            "vehicles": counts[name],
+        }
+        for name, items in lists.items()
+    }
     for name, vs in values.items():
         total, mean = sum(vs), sum(vs) / len(vs)
         totals[name] = {

@@ -16,6 +16,7 @@ REPORT = {
                 "spills_seen": {"value": 3, "unit": "count"},
                 "coverage_fraction": {"value": 1.0, "unit": "1"},
                 "note": {"value": "fine", "unit": ""},
+                "found": {"value": ["spill_3", "spill_1"], "unit": "names"},
             },
         },
         "vehicle2": {
@@ -23,6 +24,7 @@ REPORT = {
             "companion": {
                 "spills_seen": {"value": 4, "unit": "count"},
                 "coverage_fraction": {"value": 0.5, "unit": "1"},
+                "found": {"value": ["spill_1", "spill_2"], "unit": "names"},
             },
         },
         "vehicle3": {"max_tilt": {"value": 1.0, "unit": "deg"}},
@@ -37,6 +39,10 @@ def test_fleet_totals_add_counts_and_average_shares():
     }  # fmt: skip
     assert totals["coverage_fraction"]["value"] == pytest.approx(0.75)
     assert "note" not in totals  # not a number
+    # lists: what the fleet found, each thing once however many vehicles found it
+    assert totals["found"] == {
+        "value": 3, "unit": "distinct", "items": ["spill_1", "spill_2", "spill_3"], "vehicles": 2
+    }  # fmt: skip
 
 
 def test_metric_bounds_pass_fail_and_missing():

@@ -56,7 +56,7 @@ from companion.planning.coverage import (
     reachable_area,
 )
 from companion.scenario_env import ScenarioEnv
-from companion.telemetry_waits import FlightError, first, wait_for
+from companion.telemetry_waits import FlightError, first, wait_for, wait_position_ok
 from companion.vehicle_clock import VehicleClock
 
 LAND_ACCURACY_M = 0.5
@@ -445,13 +445,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
         await vehicle_clock.wait_started(60.0)
         tasks += [asyncio.create_task(positions()), asyncio.create_task(armed_state())]
         _log("connected", vehicle_time_s=vehicle_clock.now_s)
-        await wait_for(
-            drone.telemetry.health(),
-            lambda h: h.is_global_position_ok and h.is_home_position_ok,
-            60,
-            "global position and home",
-            vehicle_clock,
-        )
+        await wait_position_ok(drone, vehicle_clock)
         # RTL flies home at MPC_XY_CRUISE: the lanes' speed, so the budgeted return holds.
         top_speed = await drone.param.get_param_float("MPC_XY_VEL_MAX")
         if params.speed_m_s > top_speed:
@@ -656,23 +650,51 @@ def _metrics(
 ) -> dict[str, tuple[Any, str]]:
     """The result's metrics: spills seen and in the footprint, distance, coverage of the strip."""
     footprints = track.footprints or []
-    in_footprint = 0
+    in_footprint: list[str] = []
+    seen_names: list[str] = []
     if world is not None:
-        for spill in world.targets_of(_oil_spill_class()):
+        spills = world.targets_of(_oil_spill_class())
+        for spill in spills:
             outline = spill.polygon
             if any(t >= spill.appear_s and f.intersects(outline) for t, f in footprints):
-                in_footprint += 1
+                in_footprint.append(spill.name)
+        if watcher is not None:
+            seen_names = matched_spills(spills, [s.position_enu_m for s in watcher.counter.spills])
     covered = shapely.union_all([f for _, f in footprints]) if footprints else None
     strip = path.part.polygon
     fraction = covered.intersection(strip).area / strip.area if covered is not None else 0.0
     metrics: dict[str, tuple[Any, str]] = {
         "spills_seen": (watcher.counter.count if watcher is not None else 0, "count"),
-        "spills_in_footprint": (in_footprint, "count"),
+        "spills_in_footprint": (len(in_footprint), "count"),
+        # which of the world's spills: the fleet's distinct count is the union of these lists
+        "spills_seen_names": (sorted(seen_names), "names"),
+        "spills_in_footprint_names": (sorted(in_footprint), "names"),
         "distance_flown_m": (round(track.distance_m, 2), "m"),
         "coverage_fraction": (round(float(fraction), 4), "1"),
         "camera_frames_used": (watcher.frames_used if watcher is not None else 0, "count"),
     }
     return metrics
+
+
+MATCH_MARGIN_M = 5.0
+"""A detection counts as a world spill when it lies within its outline grown by this, m."""
+
+
+def matched_spills(spills: list[Any], detections_enu_m: list[np.ndarray]) -> list[str]:
+    """Names of the world's spills the camera's distinct detections fall on (ground truth).
+
+    For the report only (which spills were found, so that the fleet's count is of distinct
+    spills); the detection itself never looks at the world.
+    """
+    names = set()
+    for point in detections_enu_m:
+        p = shapely.Point(float(point[0]), float(point[1]))
+        near = [(s.polygon.distance(p), s.name) for s in spills]
+        if near:
+            distance, name = min(near)
+            if distance <= MATCH_MARGIN_M:
+                names.add(name)
+    return sorted(names)
 
 
 def _oil_spill_class() -> type:

@@ -27,7 +27,7 @@ from typing import Any
 import pymap3d
 
 from companion import clock
-from companion.telemetry_waits import first, wait_for
+from companion.telemetry_waits import first, wait_for, wait_position_ok
 from companion.vehicle_clock import VehicleClock
 
 
@@ -58,13 +58,7 @@ async def fly(args: argparse.Namespace, events: list[dict[str, Any]]) -> None:
         follower = asyncio.create_task(vehicle_clock.follow(timestamps()))
         await vehicle_clock.wait_started(wall_limit(10.0))
         event("connected")
-        await wait_for(
-            drone.telemetry.health(),
-            lambda h: h.is_global_position_ok and h.is_home_position_ok,
-            60,
-            "global position and home",
-            vehicle_clock,
-        )
+        await wait_position_ok(drone, vehicle_clock)
         home = await first(drone.telemetry.home())
         event(
             "health_ok",
