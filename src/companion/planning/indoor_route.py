@@ -3,8 +3,8 @@
 Pure geometry on a :class:`worlds.World` (no I/O, no simulator): the rooms are the holes of the
 walls once their doorways are closed; the free space is the world's boundary minus every solid
 reaching below the flight height, both kept ``margin_m`` away; paths are shortest paths on a
-grid of that free space (8-connected, no corner cutting), shortened where a straight segment
-stays in it. The rooms are split among K vehicles so that the longest closed tour from the
+grid of that free space (8-connected, no corner cutting; scipy's Dijkstra), shortened where a
+straight segment stays in it. The rooms are split among K vehicles so that the longest closed tour from the
 shared reference point (the launch area's centre) is shortest; every vehicle computes the same
 split from the same inputs, so the parts fit together without talking to each other.
 """
@@ -17,9 +17,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
-import networkx as nx
 import numpy as np
 import shapely
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import nearest_points
@@ -124,25 +125,29 @@ class IndoorPlanner:
         """Where the vehicle's centre may be, the margin kept."""
         self._tolerant = self.free.buffer(1e-6)
         shapely.prepare(self._tolerant)
-        self._graph, self._origin = self._grid()
-        self._nodes = np.array(sorted(self._graph.nodes), dtype=int).reshape(-1, 2)
-        self._node_xy = self._xy(self._nodes)
+        self._graph, self._origin, self._shape = self._grid()
+        self._cells = np.flatnonzero(self._free_cells.ravel())
+        """Flat grid index of each graph node (node k is cell ``_cells[k]``)."""
+        self._node_xy = self._xy(self._cells)
+        self._paths: dict[tuple, np.ndarray] = {}
+        self._trees: dict[int, np.ndarray] = {}
 
     # -- grid ----------------------------------------------------------------------------------
-    def _grid(self) -> tuple[nx.Graph, tuple[float, float]]:
+    def _grid(self) -> tuple[csr_matrix, tuple[float, float], tuple[int, int]]:
+        """Free cells as a sparse graph: 8-connected, edge weights in m, no corner cutting."""
         res = self.spec.resolution_m
         x0, y0, x1, y1 = self.world.bounds_xy_m
         nx_cells = max(1, math.ceil((x1 - x0) / res - 1e-9))
         ny_cells = max(1, math.ceil((y1 - y0) / res - 1e-9))
-        gx, gy = np.meshgrid(
-            x0 + (np.arange(nx_cells) + 0.5) * res, y0 + (np.arange(ny_cells) + 0.5) * res
-        )
-        prepared = self.free
-        shapely.prepare(prepared)
-        free = shapely.contains_xy(prepared, gx, gy)
-        graph = nx.Graph()
-        rows, cols = np.nonzero(free)
-        graph.add_nodes_from(zip(rows.tolist(), cols.tolist(), strict=True))
+        xs = x0 + (np.arange(nx_cells) + 0.5) * res
+        ys = y0 + (np.arange(ny_cells) + 0.5) * res
+        gx, gy = np.meshgrid(xs, ys)
+        shapely.prepare(self.free)
+        free = shapely.contains_xy(self.free, gx, gy)
+        self._free_cells = free
+        node_of = np.full(free.shape, -1, dtype=np.int64)
+        node_of[free] = np.arange(int(free.sum()))
+        rows, cols, weights = [], [], []
         ny, nxc = free.shape
         for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
             c_lo, c_hi = max(0, -dc), nxc - max(0, dc)
@@ -151,29 +156,29 @@ class IndoorPlanner:
                 ok &= free[0 : ny - dr, c_lo + dc : c_hi + dc] & free[dr:ny, c_lo:c_hi]
             r, c = np.nonzero(ok)
             c = c + c_lo
-            w = res * math.hypot(dr, dc)
-            graph.add_weighted_edges_from(
-                ((int(i), int(j)), (int(i) + dr, int(j) + dc), w) for i, j in zip(r, c, strict=True)
-            )
-        return graph, (x0, y0)
+            rows.append(node_of[r, c])
+            cols.append(node_of[r + dr, c + dc])
+            weights.append(np.full(len(r), res * math.hypot(dr, dc)))
+        n = int(free.sum())
+        graph = csr_matrix(
+            (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)
+        )
+        return graph, (x0, y0), free.shape
 
-    def _xy(self, nodes: np.ndarray) -> np.ndarray:
+    def _xy(self, flat_cells: np.ndarray) -> np.ndarray:
+        """Centres (K, 2) of grid cells given by flat index, m."""
         res = self.spec.resolution_m
-        nodes = np.asarray(nodes).reshape(-1, 2)
+        r, c = np.divmod(np.asarray(flat_cells, dtype=np.int64), self._shape[1])
         return np.column_stack(
-            (
-                self._origin[0] + (nodes[:, 1] + 0.5) * res,
-                self._origin[1] + (nodes[:, 0] + 0.5) * res,
-            )
+            (self._origin[0] + (c + 0.5) * res, self._origin[1] + (r + 0.5) * res)
         )
 
-    def _node_near(self, xy: Sequence[float]) -> tuple[int, int]:
-        """The free cell nearest to ``xy`` (ties: the first in row-major order)."""
-        if len(self._nodes) == 0:
+    def _node_near(self, xy: Sequence[float]) -> int:
+        """The graph node of the free cell nearest to ``xy`` (ties: the lowest index)."""
+        if len(self._cells) == 0:
             raise ValueError("the world has no free space at this height and margin")
         d = np.hypot(*(self._node_xy - np.asarray(xy, dtype=float)[:2]).T)
-        r, c = self._nodes[int(np.argmin(d))]
-        return int(r), int(c)
+        return int(np.argmin(d))
 
     def is_free(self, xy: Sequence[float]) -> bool:
         """Whether a point keeps the margin from every obstacle."""
@@ -194,29 +199,34 @@ class IndoorPlanner:
         Raises:
             ValueError: no path connects them.
         """
+        key = (tuple(map(float, start_xy[:2])), tuple(map(float, goal_xy[:2])))
+        if key not in self._paths:
+            self._paths[key] = self._plan_path(start_xy, goal_xy)
+        return self._paths[key].copy()
+
+    def _plan_path(self, start_xy: Sequence[float], goal_xy: Sequence[float]) -> np.ndarray:
         a, b = self._node_near(start_xy), self._node_near(goal_xy)
-        res = self.spec.resolution_m
-
-        def h(u: tuple[int, int], v: tuple[int, int]) -> float:
-            return res * math.hypot(u[0] - v[0], u[1] - v[1])
-
-        try:
-            cells = nx.astar_path(self._graph, a, b, heuristic=h, weight="weight")
-        except nx.NetworkXNoPath as exc:
-            raise ValueError(
-                f"no clear path from {tuple(start_xy[:2])} to {tuple(goal_xy[:2])}"
-            ) from exc
+        if a not in self._trees:
+            _, pred = dijkstra(self._graph, directed=False, indices=a, return_predecessors=True)
+            self._trees[a] = pred
+        pred = self._trees[a]
+        if a != b and pred[b] < 0:
+            raise ValueError(f"no clear path from {tuple(start_xy[:2])} to {tuple(goal_xy[:2])}")
+        nodes = [b]
+        while nodes[-1] != a:
+            nodes.append(int(pred[nodes[-1]]))
+        cells = self._cells[np.array(nodes[::-1])]
         pts = np.vstack(
-            [
-                np.asarray(start_xy[:2], float),
-                self._xy(np.array(cells)),
-                np.asarray(goal_xy[:2], float),
-            ]
+            [np.asarray(start_xy[:2], float), self._xy(cells), np.asarray(goal_xy[:2], float)]
         )
         return self._shortcut(pts)
 
     def _shortcut(self, pts: np.ndarray) -> np.ndarray:
         """Drop the points a straight clear segment can skip (greedy, farthest first)."""
+        if len(pts) > 2:  # first the cells inside straight runs of the grid path
+            a, b = pts[1:-1] - pts[:-2], pts[2:] - pts[1:-1]
+            turn = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]) > 1e-9
+            pts = np.vstack([pts[:1], pts[1:-1][turn], pts[-1:]])
         out = [pts[0]]
         i, n = 0, len(pts)
         while i < n - 1:

@@ -107,6 +107,9 @@ class SearchParams:
     min_detections: int = 3
     """A person counts as found once seen in this many frames (a blob in one frame whose pose
     lags the turning vehicle lands elsewhere)."""
+    spin_deg_s: float = 60.0
+    """At each room's centre the vehicle turns once around at this yaw rate, so that its forward
+    camera sees the whole room, deg/s; 0: no turn."""
     local_origin_enu_m: tuple[float, float] | None = None
     """World ENU (east, north) of the local frame's origin; None: the world's origin (the
     motion-capture frame, docs/indoor_positioning.md)."""
@@ -126,7 +129,7 @@ class SearchParams:
             raise ValueError(
                 f"PARAMS min_detections must be an int >= 1, got {self.min_detections!r}"
             )
-        for name in ("altitude_step_m", "depart_step_s", "reserve_s"):
+        for name in ("altitude_step_m", "depart_step_s", "reserve_s", "spin_deg_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"PARAMS {name} must be a number >= 0, got {value!r}")
@@ -159,6 +162,11 @@ class SearchParams:
         if unknown:
             raise ValueError(f"PARAMS: unknown key(s) {unknown}; known: {sorted(known)}")
         return cls(**params)  # type: ignore[arg-type]
+
+    @property
+    def spin_s(self) -> float:
+        """Simulated seconds of one turn around at a room's centre."""
+        return 360.0 / self.spin_deg_s if self.spin_deg_s > 0 else 0.0
 
     def height_m(self, role_index: int) -> float:
         """Flight height of vehicle ``role_index`` of the role, m."""
@@ -264,6 +272,13 @@ def plan_route(
     parts = planner.split(reference_xy, role_count)
     mine = parts[role_index] if role_index < len(parts) else ()
     return truncate_rooms(planner, start_xy, mine, budget_m), mine
+
+
+def room_arcs(route: Route) -> dict[int, float]:
+    """Arc length along the route's waypoints at which each visited room's goal lies, m."""
+    legs = np.hypot(*np.diff(route.waypoints_xy_m, axis=0).T)
+    arc = np.concatenate(([0.0], np.cumsum(legs)))
+    return {room: float(arc[k]) for room, k in zip(route.rooms, route.room_waypoint, strict=True)}
 
 
 def launch_reference(world: Any, start_xy: np.ndarray) -> tuple[np.ndarray, float]:
@@ -508,10 +523,18 @@ async def fly(env: ScenarioEnv, params: SearchParams) -> dict[str, tuple[Any, st
         land_s = height / 0.5 + 10.0
         depart_s = env.role_index * params.depart_step_s
         budget_s = duration - now - climb_s - depart_s - land_s - params.reserve_s
-        budget_m = budget_s * params.speed_m_s * params.mean_speed_fraction
-        route, assigned = plan_route(
-            planner, tuple(reference), tuple(start), env.role_index, env.role_count, budget_m
-        )
+        route, assigned = plan_route(planner, tuple(reference), tuple(start), env.role_index,
+                                     env.role_count, math.inf)  # fmt: skip
+        budget_m = (budget_s - len(assigned) * params.spin_s) * params.speed_m_s
+        budget_m *= params.mean_speed_fraction
+        if budget_m < route.length_m:
+            # fewer rooms, fewer turns: budget again with the turns of the rooms kept
+            for count in range(len(assigned), -1, -1):
+                budget_m = (budget_s - count * params.spin_s) * params.speed_m_s
+                budget_m *= params.mean_speed_fraction
+                route = truncate_rooms(planner, tuple(start), assigned[:count], budget_m)
+                if len(route.rooms) >= count:
+                    break
         trajectory = Trajectory(route.waypoints_xy_m, params)
         _log(
             "planned",
@@ -622,6 +645,9 @@ async def follow(
             velocity_type(float(u[1] * speed), float(u[0] * speed), 0.0, yaw),
         )
 
+    arcs = sorted((arc, room) for room, arc in room_arcs(route).items())
+    spin: tuple[float, float] | None = None
+    """(start time, yaw at the start) of the turn at a room's centre, while turning."""
     s = 0.0
     pos, vel = setpoint(0.0, 0.0)
     await drone.offboard.set_position_velocity_ned(pos, velocity_type(0.0, 0.0, 0.0, pos.yaw_deg))
@@ -639,21 +665,35 @@ async def follow(
         carrot, _ = trajectory.point(s)
         lag = float(np.hypot(*(carrot - here[:2]))) if here is not None else 0.0
         speed = trajectory.speed(s)
-        if lag < 1.5:
-            s = min(s + speed * step, trajectory.length_m)
+        vt = vehicle_clock.now_s
+        if spin is not None and vt - spin[0] >= params.spin_s:
+            spin = None
+        if spin is None and lag < 1.5:
+            s_next = min(s + speed * step, trajectory.length_m)
+            if not turned_back and arcs and arcs[0][0] <= s_next and params.spin_s > 0:
+                s_next = arcs.pop(0)[0]
+                spin = (vt, setpoint(max(s_next - 1.0, 0.0), 0.0)[0].yaw_deg)
+            s = s_next
         if here is not None:
             for room, goal in goals.items():
                 if room not in tally.rooms_visited and np.hypot(*(goal - here[:2])) < 1.0:
                     tally.rooms_visited.add(room)
                     _log("room_visited", room=room, vehicle_time_s=vehicle_clock.now_s)
-        vt = vehicle_clock.now_s
-        if not turned_back and vt + trajectory.time_s(s) > land_by_s:
+        rest_s = trajectory.time_s(s) + params.spin_s * (len(arcs) + (spin is not None))
+        if not turned_back and vt + rest_s > land_by_s:
             home = trajectory.points[-1]
             back = planner.path(carrot, home)
             trajectory = Trajectory(back, params)
-            s, turned_back = 0.0, True
+            s, turned_back, spin = 0.0, True, None
             _log("time_up", vehicle_time_s=vt, back_m=round(polyline_length(back), 1))
-        pos, vel = setpoint(s, speed if s < trajectory.length_m else 0.0)
+        if spin is not None:
+            pos, _ = setpoint(s, 0.0)
+            yaw = spin[1] + params.spin_deg_s * (vt - spin[0])
+            yaw = (yaw + 180.0) % 360.0 - 180.0
+            pos = position_type(pos.north_m, pos.east_m, pos.down_m, yaw)
+            vel = velocity_type(0.0, 0.0, 0.0, yaw)
+        else:
+            pos, vel = setpoint(s, speed if s < trajectory.length_m else 0.0)
         await drone.offboard.set_position_velocity_ned(pos, vel)
         if s >= trajectory.length_m and here is not None:
             if float(np.hypot(*(trajectory.points[-1] - here[:2]))) < 0.3:

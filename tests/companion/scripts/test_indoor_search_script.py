@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -21,7 +22,7 @@ from worlds.shapes import centred_rectangle
 def test_params_from_mapping_and_errors_naming_the_key() -> None:
     p = SearchParams.from_mapping({"altitude_m": 2.0, "altitude_step_m": 1.0})
     assert p.height_m(0) == 2.0 and p.height_m(2) == 4.0
-    with pytest.raises(ValueError, match="unknown key.*altitude"):
+    with pytest.raises(ValueError, match=r"unknown key.*altitud"):
         SearchParams.from_mapping({"altitud": 2.0})
     with pytest.raises(ValueError, match="speed_m_s"):
         SearchParams(speed_m_s=-1.0)
@@ -63,7 +64,7 @@ def test_trajectory_slows_at_corners_and_stops_at_the_end() -> None:
     # flying it takes longer than cruising it, and the remaining time falls along the path
     assert traj.time_s() > traj.length_m / params.speed_m_s
     times = [traj.time_s(s) for s in np.linspace(0.0, 20.0, 9)]
-    assert all(a > b for a, b in zip(times, times[1:], strict=False)) and times[-1] == 0.0
+    assert all(a > b for a, b in itertools.pairwise(times)) and times[-1] == 0.0
 
 
 def test_trajectory_of_one_point_hovers() -> None:
