@@ -4,9 +4,10 @@ Pure geometry on a :class:`worlds.World` (no I/O, no simulator): the rooms are t
 walls once their doorways are closed; the free space is the world's boundary minus every solid
 reaching below the flight height, both kept ``margin_m`` away; paths are shortest paths on a
 grid of that free space (8-connected, no corner cutting; scipy's Dijkstra), shortened where a
-straight segment stays in it. The rooms are split among K vehicles so that the longest closed tour from the
-shared reference point (the launch area's centre) is shortest; every vehicle computes the same
-split from the same inputs, so the parts fit together without talking to each other.
+straight segment stays in it. The rooms are split among K vehicles so that the longest closed
+tour from the shared reference point (the launch area's centre) is shortest; every vehicle
+computes the same split from the same inputs, so the parts fit together without talking to
+each other.
 """
 
 from __future__ import annotations
