@@ -16,7 +16,7 @@ from harness.scenarios import scenario_path
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
-DURATION_S = 90.0
+DURATION_S = 100.0
 """Simulated seconds: take-off, a room or two each, the way back, landing."""
 
 

@@ -390,9 +390,26 @@ def _split_greedy(dist: np.ndarray, k: int) -> list[tuple[int, ...]]:
 def truncate_rooms(
     planner: IndoorPlanner, start_xy: Sequence[float], rooms: Sequence[int], budget_m: float
 ) -> Route:
-    """The route through the longest prefix of ``rooms`` whose closed route fits ``budget_m``."""
-    for count in range(len(rooms), -1, -1):
-        route = planner.route(start_xy, rooms[:count])
-        if route.length_m <= budget_m or count == 0:
-            return route
-    raise AssertionError("unreachable")
+    """The route through the most of ``rooms`` whose closed route fits ``budget_m``.
+
+    All of them in the given order when that fits; else, among the largest subsets whose
+    shortest closed tour from ``start_xy`` fits, the shortest tour (exact up to
+    :data:`EXACT_SPLIT_MAX_ROOMS` rooms, else the longest prefix that fits). A route visiting
+    no room stays at the start.
+    """
+    full = planner.route(start_xy, rooms)
+    if full.length_m <= budget_m or not rooms:
+        return full
+    if len(rooms) > EXACT_SPLIT_MAX_ROOMS:
+        for count in range(len(rooms) - 1, -1, -1):
+            route = planner.route(start_xy, rooms[:count])
+            if route.length_m <= budget_m or count == 0:
+                return route
+    goals = {r.index: r.goal_xy_m for r in planner.rooms}
+    dist = planner.distances([tuple(start_xy[:2]), *(goals[i] for i in rooms)])
+    costs, orders = tour_costs(dist)
+    fits = [m for m in range(1, len(costs)) if costs[m] <= budget_m]
+    if not fits:
+        return planner.route(start_xy, ())
+    best = max(fits, key=lambda m: (bin(m).count("1"), -round(costs[m], 6), -m))
+    return planner.route(start_xy, [rooms[p - 1] for p in orders[best]])

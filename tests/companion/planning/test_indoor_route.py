@@ -162,14 +162,24 @@ def test_split_tours_is_optimal_on_points_on_a_line() -> None:
     assert longest(many) == pytest.approx(10.0)  # the point at 5 alone: 2 x 5 m
 
 
-def test_truncate_keeps_the_prefix_that_fits(plant: World, planner: IndoorPlanner) -> None:
+def test_truncate_keeps_the_most_rooms_that_fit(plant: World, planner: IndoorPlanner) -> None:
     start = _safe_point(plant)
     rooms = planner.split(start, 1)[0]
     full = planner.route(start, rooms)
     assert truncate_rooms(planner, start, rooms, full.length_m + 1.0).rooms == rooms
-    shorter = truncate_rooms(planner, start, rooms, full.length_m - 1.0)
-    assert shorter.rooms == rooms[: len(shorter.rooms)] and len(shorter.rooms) < len(rooms)
-    assert shorter.length_m <= full.length_m - 1.0
+    for budget in (full.length_m - 1.0, 0.6 * full.length_m, 0.3 * full.length_m):
+        cut = truncate_rooms(planner, start, rooms, budget)
+        assert set(cut.rooms) <= set(rooms) and len(cut.rooms) < len(rooms)
+        assert cut.length_m <= budget
+        # no room left out would have fitted as well
+        for extra in set(rooms) - set(cut.rooms):
+            more = [*cut.rooms, extra]
+            best = min(
+                planner.route(start, order).length_m for order in itertools.permutations(more)
+            )
+            assert best > budget - 1e-6
+    nearest = truncate_rooms(planner, start, rooms, 0.3 * full.length_m)
+    assert len(nearest.rooms) >= 1  # the room next to the yard fits in 30 %
     none = truncate_rooms(planner, start, rooms, 0.0)
     assert none.rooms == () and none.length_m == 0.0
 
