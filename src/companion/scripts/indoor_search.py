@@ -274,6 +274,28 @@ def plan_route(
     return truncate_rooms(planner, start_xy, mine, budget_m), mine
 
 
+def fitting_route(
+    planner: IndoorPlanner,
+    start_xy: tuple[float, float],
+    rooms: tuple[int, ...],
+    budget_s: float,
+    params: SearchParams,
+) -> Route:
+    """The route through the most of ``rooms`` that fits ``budget_s`` with a turn at each.
+
+    The distance a budget allows depends on how many turns it must also hold: for each number
+    of turns n the most rooms whose tour fits the rest are found, and kept if they are at most
+    n (their turns fit); the largest such route wins.
+    """
+    best = planner.route(start_xy, ())
+    for count in range(len(rooms), 0, -1):
+        budget_m = (budget_s - count * params.spin_s) * params.speed_m_s
+        route = truncate_rooms(planner, start_xy, rooms, budget_m * params.mean_speed_fraction)
+        if count >= len(route.rooms) > len(best.rooms):
+            best = route
+    return best
+
+
 def room_arcs(route: Route) -> dict[int, float]:
     """Arc length along the route's waypoints at which each visited room's goal lies, m."""
     legs = np.hypot(*np.diff(route.waypoints_xy_m, axis=0).T)
@@ -528,13 +550,8 @@ async def fly(env: ScenarioEnv, params: SearchParams) -> dict[str, tuple[Any, st
         budget_m = (budget_s - len(assigned) * params.spin_s) * params.speed_m_s
         budget_m *= params.mean_speed_fraction
         if budget_m < route.length_m:
-            # fewer rooms, fewer turns: budget again with the turns of the rooms kept
-            for count in range(len(assigned), -1, -1):
-                budget_m = (budget_s - count * params.spin_s) * params.speed_m_s
-                budget_m *= params.mean_speed_fraction
-                route = truncate_rooms(planner, tuple(start), assigned[:count], budget_m)
-                if len(route.rooms) >= count:
-                    break
+            route = fitting_route(planner, tuple(start), assigned, budget_s, params)
+            budget_m = route.length_m
         trajectory = Trajectory(route.waypoints_xy_m, params)
         _log(
             "planned",

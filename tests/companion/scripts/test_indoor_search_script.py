@@ -90,3 +90,25 @@ def test_launch_reference_is_the_area_centre_shared_by_every_vehicle() -> None:
     far, d = launch_reference(world, np.array([0.0, 10.0]))
     assert math.isinf(d)
     np.testing.assert_allclose(far, [0.0, 10.0])
+
+
+@pytest.mark.parametrize("budget_s", [30.0, 62.0, 90.0, 400.0])
+def test_fitting_route_holds_its_flight_and_turns_in_the_budget(budget_s: float) -> None:
+    import worlds
+    from companion.planning.indoor_route import IndoorPlanner, RouteSpec
+    from companion.scripts.indoor_search import fitting_route
+    from worlds.examples import example_path
+
+    world = worlds.build(worlds.load_world(example_path("indoor")))
+    params = SearchParams()
+    planner = IndoorPlanner(world, RouteSpec(params.altitude_m, params.margin_m))
+    start = (26.95, -23.0)
+    rooms = planner.split(start, 2)[0]
+    route = fitting_route(planner, start, rooms, budget_s, params)
+    assert set(route.rooms) <= set(rooms)
+    flight_s = route.length_m / (params.speed_m_s * params.mean_speed_fraction)
+    assert flight_s + len(route.rooms) * params.spin_s <= budget_s
+    if budget_s == 400.0:
+        assert route.rooms == rooms
+    if budget_s == 62.0:  # the room next to the yard, not the first of the full tour
+        assert len(route.rooms) == 1
