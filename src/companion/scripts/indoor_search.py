@@ -512,7 +512,13 @@ async def fly(env: ScenarioEnv, params: SearchParams) -> dict[str, tuple[Any, st
     route: Route | None = None
     assigned: tuple[int, ...] = ()
     try:
-        await drone.connect(system_address=env.mavlink_url)
+        _log("connecting", url=env.mavlink_url, grpc_port=env.grpc_port, rooms=len(planner.rooms))
+        try:  # mavsdk_grpc waits for its mavsdk_server without a limit
+            await asyncio.wait_for(drone.connect(system_address=env.mavlink_url), 60.0)
+        except TimeoutError as exc:
+            raise FlightError(
+                f"mavsdk_server on gRPC port {env.grpc_port} did not answer within 60 s"
+            ) from exc
         await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
         tasks.append(asyncio.create_task(attitudes()))
         await vehicle_clock.wait_started(60.0)
