@@ -461,7 +461,7 @@ async def fly(env: ScenarioEnv, params: SearchParams) -> dict[str, tuple[Any, st
     watcher = (
         CameraWatcher(env.video_uri, params, pose, lock) if env.video_uri is not None else None
     )
-    vfov = vertical_fov_deg(params.hfov_deg, 320, 240)
+    vfov = vertical_fov_deg(params.hfov_deg, 4, 3)  # ground truth assumes a 4:3 frame
 
     async def attitudes() -> None:
         async for q in drone.telemetry.attitude_quaternion():
