@@ -72,3 +72,20 @@ async def wait_position_ok(
         "global position and home",
         vehicle,
     )
+
+
+async def connect(drone: Any, url: str, grpc_port: int, timeout_wall_s: float = 60.0) -> None:
+    """``drone.connect(url)`` and wait for the vehicle, each within ``timeout_wall_s``.
+
+    mavsdk_grpc waits for its mavsdk_server without a limit: a server that cannot start (its
+    gRPC port taken) would hang the program instead of failing it.
+    """
+    try:
+        await asyncio.wait_for(drone.connect(system_address=url), timeout_wall_s)
+    except TimeoutError as exc:
+        raise FlightError(
+            f"mavsdk_server on gRPC port {grpc_port} did not answer within {timeout_wall_s:g} s"
+        ) from exc
+    await wait_for(
+        drone.core.connection_state(), lambda s: s.is_connected, timeout_wall_s, "connection"
+    )

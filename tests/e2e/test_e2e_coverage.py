@@ -132,6 +132,7 @@ def _events(stdout: str) -> dict[str, dict]:
     return out
 
 
+@pytest.mark.slow  # the demo's test (tests/harness/test_demo_e2e.py) flies it in the default run
 def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
     """It plans the rectangle's lanes, flies them with the camera on, returns, lands, disarms
     and writes result.json: the whole rectangle under the footprint, a flown distance at least
@@ -167,6 +168,7 @@ def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
     assert max(flight["east"]) - min(flight["east"]) >= 30.0
 
 
+@pytest.mark.slow  # the demo's test checks the spills found against the world's in the default run
 def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
     """Two spill-coloured slabs in the rectangle (simulation in this process, paced): the camera
     thread finds exactly two spills, each within 3 m of a slab's centre (frames, poses, the

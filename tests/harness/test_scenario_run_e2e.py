@@ -164,7 +164,7 @@ def test_a_user_test_written_with_the_plugin_passes_and_fails_when_the_companion
 
 def test_a_lockstep_fleet_for_your_own_client(swarmsitl_fleet):
     fleet = swarmsitl_fleet(vehicles=1, world="example:city", lockstep=True)
-    client = Path(__file__).parent / "clients" / "classic_takeoff.py"
+    client = Path(__file__).parents[1] / "e2e" / "clients" / "classic_takeoff.py"
     proc = subprocess.run(
         [sys.executable, str(client), "--url", fleet.url(0), "--grpc-port",
          str(fleet.grpc_port(0)), "--alt", "5"],

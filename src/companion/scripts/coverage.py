@@ -56,7 +56,7 @@ from companion.planning.coverage import (
     reachable_area,
 )
 from companion.scenario_env import ScenarioEnv
-from companion.telemetry_waits import FlightError, first, wait_for, wait_position_ok
+from companion.telemetry_waits import FlightError, connect, first, wait_for, wait_position_ok
 from companion.vehicle_clock import VehicleClock
 
 LAND_ACCURACY_M = 0.5
@@ -439,8 +439,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
     tasks: list[asyncio.Task] = []
     flying = False
     try:
-        await drone.connect(system_address=env.mavlink_url)
-        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
+        await connect(drone, env.mavlink_url, env.grpc_port)
         tasks.append(asyncio.create_task(attitudes()))
         await vehicle_clock.wait_started(60.0)
         tasks += [asyncio.create_task(positions()), asyncio.create_task(armed_state())]

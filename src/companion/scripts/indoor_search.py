@@ -61,7 +61,7 @@ from companion.planning.indoor_route import (
     truncate_rooms,
 )
 from companion.scenario_env import ScenarioEnv
-from companion.telemetry_waits import FlightError, wait_for
+from companion.telemetry_waits import FlightError, connect, wait_for
 from companion.vehicle_clock import VehicleClock
 
 TRUTH_PERIOD_S = 0.2
@@ -513,13 +513,7 @@ async def fly(env: ScenarioEnv, params: SearchParams) -> dict[str, tuple[Any, st
     assigned: tuple[int, ...] = ()
     try:
         _log("connecting", url=env.mavlink_url, grpc_port=env.grpc_port, rooms=len(planner.rooms))
-        try:  # mavsdk_grpc waits for its mavsdk_server without a limit
-            await asyncio.wait_for(drone.connect(system_address=env.mavlink_url), 60.0)
-        except TimeoutError as exc:
-            raise FlightError(
-                f"mavsdk_server on gRPC port {env.grpc_port} did not answer within 60 s"
-            ) from exc
-        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
+        await connect(drone, env.mavlink_url, env.grpc_port)
         tasks.append(asyncio.create_task(attitudes()))
         await vehicle_clock.wait_started(60.0)
         tasks += [asyncio.create_task(positions()), asyncio.create_task(armed_state())]
@@ -616,8 +610,11 @@ async def fly(env: ScenarioEnv, params: SearchParams) -> dict[str, tuple[Any, st
         if watcher is not None:
             watcher.close()
         drone._stop_mavsdk_server()
+    in_view_names = sorted(people[k].name for k in tally.in_view)
     metrics: dict[str, tuple[Any, str]] = {
         "people_in_view": (len(tally.in_view), "count"),
+        # which people: the run report's fleet.companions gives the union (each person once)
+        "people_in_view_names": (in_view_names, "names"),
         "rooms_visited": (len(tally.rooms_visited), "count"),
         "rooms_assigned": (len(assigned), "count"),
         "distance_flown_m": (round(tally.distance_m, 2), "m"),
@@ -625,9 +622,33 @@ async def fly(env: ScenarioEnv, params: SearchParams) -> dict[str, tuple[Any, st
     if watcher is not None:
         metrics["people_found"] = (watcher.count, "count")
         metrics["camera_frames_used"] = (watcher.frames_used, "count")
+        found = [
+            s.position_enu_m
+            for s in watcher.counter.spills
+            if s.detections >= params.min_detections
+        ]
+        metrics["people_found_names"] = (matched_people(people, found), "names")
     else:
         metrics["people_found"] = (len(tally.in_view), "count")
+        metrics["people_found_names"] = (in_view_names, "names")
     return metrics
+
+
+MATCH_RADIUS_M = 2.5
+"""A camera finding names the person standing within this of where it was placed, m."""
+
+
+def matched_people(people: list[Any], found_enu_m: list[np.ndarray]) -> list[str]:
+    """Names of the world's people the camera's findings stand on (ground truth, report only)."""
+    names = set()
+    for point in found_enu_m:
+        near = [
+            (math.hypot(p.position_enu_m[0] - point[0], p.position_enu_m[1] - point[1]), p.name)
+            for p in people
+        ]
+        if near and min(near)[0] <= MATCH_RADIUS_M:
+            names.add(min(near)[1])
+    return sorted(names)
 
 
 async def follow(
