@@ -111,9 +111,8 @@ def _load_log(run_dir: Path) -> FlightLog:
 class _Checks:
     """Assertion helpers over a flight log (shared by RunResult and a stopped Fleet)."""
 
-    @property
-    def log(self) -> FlightLog:  # pragma: no cover - overridden
-        raise NotImplementedError
+    log: FlightLog
+    """The run's flight log (each subclass loads it its way)."""
 
     def assert_waypoints_reached(
         self,

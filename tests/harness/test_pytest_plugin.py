@@ -1,0 +1,68 @@
+"""The pytest plugin's parts that need no flight: ports, the report's verdict, the entry point."""
+
+import json
+import random
+import socket
+from importlib import metadata
+
+import pytest
+
+from harness.pytest_plugin import RunResult, free_ports
+
+
+def test_the_plugin_is_registered_for_every_pytest_session():
+    entry = [e for e in metadata.entry_points(group="pytest11") if e.name == "swarmsitl"]
+    assert [e.value for e in entry] == ["harness.pytest_plugin"]
+
+
+def test_free_ports_skips_a_block_someone_holds():
+    rng = random.Random(3)
+    first = free_ports(vehicles=4, rng=random.Random(3))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        held.bind(("0.0.0.0", first.listen + 2))  # one port of the block is taken
+        again = free_ports(vehicles=4, rng=rng)
+    assert again.sdk != first.sdk
+    assert len({again.sdk, again.listen, again.grpc, again.payload, again.mocap, again.net}) == 6
+
+
+def write_report(tmp_path, **report):
+    (tmp_path / "report.json").write_text(json.dumps(report))
+    return RunResult(tmp_path, 1, "the run's output")
+
+
+def test_assert_passed_names_every_failure_and_the_traceback(tmp_path):
+    result = write_report(
+        tmp_path,
+        passed=False,
+        complete=False,
+        stop_reason="timeout",
+        checks={
+            "max_tilt": {"ok": False, "message": "max tilt 52 deg (vehicle2 at t = 31.0 s)"},
+            "landed_and_disarmed": {"ok": True, "message": "all landed"},
+        },
+        companions={
+            "vehicle2": {"exit_code": 1, "role": "survey", "traceback": "RuntimeError: boom"}
+        },
+    )
+    with pytest.raises(AssertionError) as info:
+        result.assert_passed()
+    text = str(info.value)
+    assert "incomplete: timeout" in text and "max tilt 52 deg" in text and "boom" in text
+    assert "all landed" not in text
+    with pytest.raises(AssertionError, match="vehicle2 \\(survey\\) exited 1"):
+        result.assert_companions_succeeded()
+
+
+def test_a_passed_report_passes_and_metrics_read_by_name(tmp_path):
+    result = write_report(
+        tmp_path, passed=True, complete=True, companions={},
+        vehicles={"vehicle1": {"max_tilt": {"value": 12.0, "unit": "deg"}}},
+    )  # fmt: skip
+    result.assert_passed()
+    result.assert_companions_succeeded()
+    assert result.metric("vehicles.vehicle1.max_tilt") == 12.0
+
+
+def test_a_run_without_a_report_says_so_with_its_output(tmp_path):
+    with pytest.raises(AssertionError, match=r"(?s)the run wrote no report.*the run's output"):
+        _ = RunResult(tmp_path, 2, "the run's output").report
