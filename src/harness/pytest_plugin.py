@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from harness.run_ports import RunPorts
+from harness.run_ports import RunPorts, port_free
 
 if TYPE_CHECKING:
     from harness.flight_log import FlightLog
@@ -44,17 +44,6 @@ RUN_TIMEOUT_WALL_S = 900.0
 FLEET_READY_TIMEOUT_S = 60.0
 """Wall seconds ``swarmsitl up`` gets to print its endpoint table."""
 READY_MARKER = "Press Ctrl-C to stop."
-
-
-def _free(port: int, kind: int = socket.SOCK_DGRAM) -> bool:
-    """Nobody holds ``port`` (UDP on 0.0.0.0, which MAVSDK binds; TCP on localhost, gRPC's)."""
-    host = "0.0.0.0" if kind == socket.SOCK_DGRAM else "127.0.0.1"
-    with socket.socket(socket.AF_INET, kind) as sock:
-        try:
-            sock.bind((host, port))
-        except OSError:
-            return False
-    return True
 
 
 def free_ports(vehicles: int = 16, rng: random.Random | None = None) -> RunPorts:
@@ -81,8 +70,8 @@ def free_ports(vehicles: int = 16, rng: random.Random | None = None) -> RunPorts
             *range(ports.payload, ports.payload + vehicles),
             *range(ports.mocap, ports.mocap + vehicles),
         ]
-        if all(_free(p) for p in udp) and all(
-            _free(p, socket.SOCK_STREAM) for p in range(ports.grpc, ports.grpc + vehicles)
+        if all(port_free(p) for p in udp) and all(
+            port_free(p, socket.SOCK_STREAM) for p in range(ports.grpc, ports.grpc + vehicles)
         ):
             return ports
     raise RuntimeError("no free block of ports in 20000-39999")

@@ -47,7 +47,7 @@ from harness.net_cli import attach, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun
 from harness.run_manifest import RunManifest, write_manifest
-from harness.run_ports import RunPorts
+from harness.run_ports import RunPorts, free_tcp_ports
 from harness.run_report import write_run_report
 from harness.scenario import Scenario
 from harness.sim_clock import ClockFile
@@ -167,6 +167,8 @@ class ScenarioRun:
         self._clock: ClockFile | None = None
         self.sim: Simulation | None = None
         self.manifest: RunManifest | None = None
+        self._grpc_ports: list[int] = []
+        """Each vehicle's companion's mavsdk_server port (the base's, or the next free ones)."""
         self.net_run: NetRun | None = None
         self.needs_bridge = False
         """GPS-denied world: each vehicle's position reaches it only through a mocap bridge."""
@@ -298,7 +300,7 @@ class ScenarioRun:
         role = self.scenario.spec.roles[v.group.role]
         senv = ScenarioEnv(
             mavlink_url=f"udpin://0.0.0.0:{sim.config.ports.sdk_port(v.index)}",
-            grpc_port=self.options.ports.grpc + v.index,
+            grpc_port=self._grpc_ports[v.index],
             vehicle=v.index + 1,
             vehicles=len(self.vehicles),
             role=v.group.role,
@@ -324,6 +326,7 @@ class ScenarioRun:
         return env
 
     def _start_companions(self) -> None:
+        self._grpc_ports = free_tcp_ports(self.options.ports.grpc, len(self.vehicles))
         node_of = {}
         if self.net_run is not None:
             node_of = {n.vehicle: n.node_id for n in self.net_run.nodes if n.vehicle is not None}

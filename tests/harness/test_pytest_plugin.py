@@ -66,3 +66,15 @@ def test_a_passed_report_passes_and_metrics_read_by_name(tmp_path):
 def test_a_run_without_a_report_says_so_with_its_output(tmp_path):
     with pytest.raises(AssertionError, match=r"(?s)the run wrote no report.*the run's output"):
         _ = RunResult(tmp_path, 2, "the run's output").report
+
+
+def test_a_taken_grpc_port_is_skipped_for_the_next_free_one():
+    """A leftover mavsdk_server on a companion's port would hang it: the runner skips the port."""
+    from harness.run_ports import free_tcp_ports
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as held:
+        held.bind(("127.0.0.1", 0))
+        held.listen()
+        taken = held.getsockname()[1]
+        ports = free_tcp_ports(taken, 2)
+    assert taken not in ports and len(set(ports)) == 2 and min(ports) > taken
