@@ -26,7 +26,6 @@ Parameters (``SWARMSITL_PARAMS`` JSON, the scenario's ``args``), all optional: s
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import dataclasses
 import json
@@ -38,7 +37,6 @@ import time
 import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -56,6 +54,7 @@ from companion.planning.coverage import (
     reachable_area,
 )
 from companion.scenario_env import ScenarioEnv
+from companion.scripts.program import finish, parser, scenario_env
 from companion.telemetry_waits import FlightError, connect, first, wait_for, wait_position_ok
 from companion.vehicle_clock import VehicleClock
 
@@ -702,59 +701,16 @@ def _oil_spill_class() -> type:
     return OilSpill
 
 
-def scenario_env(args: argparse.Namespace, environ: Mapping[str, str]) -> ScenarioEnv:
-    """The ``SWARMSITL_*`` variables, overridden by the options given on the command line."""
-    merged = dict(environ)
-    overrides = {
-        "MAVLINK_URL": args.url,
-        "GRPC_PORT": args.grpc_port,
-        "VEHICLE": args.vehicle,
-        "ROLE_INDEX": args.role_index,
-        "ROLE_COUNT": args.role_count,
-        "OUT": args.out,
-        "WORLD": args.world,
-        "ORIGIN": args.origin,
-        "VIDEO_URI": args.video_uri,
-        "DURATION_S": args.duration,
-        "PARAMS": args.params,
-    }
-    for name, value in overrides.items():
-        if value is not None:
-            merged["SWARMSITL_" + name] = str(value)
-    merged.setdefault("SWARMSITL_MAVLINK_URL", "udpin://0.0.0.0:14540")
-    merged.setdefault("SWARMSITL_VEHICLE", "1")
-    return ScenarioEnv.from_env(merged)
-
-
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> None:
     """Read the environment and options, fly, write result.json; exit 0, or 1 on a failure."""
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--url", help="MAVSDK connection URL, e.g. udpin://0.0.0.0:14540")
-    ap.add_argument("--grpc-port", type=int, help="port of this mavsdk_server, e.g. 50051")
-    ap.add_argument("--vehicle", type=int, help="MAVLink system id, e.g. 1")
-    ap.add_argument("--role-index", type=int, help="this vehicle's part, 0-based, e.g. 0")
-    ap.add_argument("--role-count", type=int, help="vehicles sharing the area, e.g. 3")
-    ap.add_argument("--out", type=Path, help="where result.json goes, e.g. runs/me")
-    ap.add_argument("--world", type=Path, help="world YAML, e.g. src/worlds/examples/offshore.yaml")
-    ap.add_argument("--origin", help="LAT,LON,ALT_AMSL of world ENU 0,0,0, e.g. 47.3977,8.5456,488")
-    ap.add_argument("--video-uri", help="camera stream, e.g. http://127.0.0.1:5600/video.mjpg")
-    ap.add_argument("--duration", type=float, help="simulated s the run lasts, e.g. 120")
-    ap.add_argument("--params", help="JSON of the role args, e.g. '{\"altitude_m\": 20}'")
-    args = ap.parse_args(argv)
-    rc = 0
-    try:
-        env = scenario_env(args, os.environ)
-        params = CoverageParams.from_mapping(env.params)
-        metrics = asyncio.run(fly(env, params))
-        path = env.write_result(metrics)
-        _log("result", path=str(path), **{k: v[0] for k, v in metrics.items()})
-    except Exception:  # any failure: the traceback for the runner's report, exit 1
-        traceback.print_exc(file=sys.stderr)
-        rc = 1
-    sys.stdout.flush()
-    sys.stderr.flush()
-    # mavsdk_grpc leaves a non-daemon log thread behind; leave without waiting for it.
-    os._exit(rc)
+    args = parser(__doc__, "src/worlds/examples/offshore.yaml", '{"altitude_m": 20}').parse_args(
+        argv
+    )
+
+    def fly_with_params(env: ScenarioEnv) -> Mapping[str, tuple[Any, str]]:
+        return asyncio.run(fly(env, CoverageParams.from_mapping(env.params)))
+
+    finish(fly_with_params, lambda: scenario_env(args, os.environ), _log)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,89 @@
+"""How a scenario's companion program starts and ends: its options, its environment, its exit.
+
+A companion started by ``swarmsitl run`` learns everything from ``SWARMSITL_*`` variables
+(:class:`~companion.scenario_env.ScenarioEnv`); run by hand, command-line options override them.
+It ends by writing ``result.json`` and exiting 0, or printing its traceback (for the run's report)
+and exiting 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, NoReturn
+
+from companion.scenario_env import ScenarioEnv
+
+OPTIONS = {
+    "url": "MAVLINK_URL",
+    "grpc_port": "GRPC_PORT",
+    "vehicle": "VEHICLE",
+    "role_index": "ROLE_INDEX",
+    "role_count": "ROLE_COUNT",
+    "out": "OUT",
+    "world": "WORLD",
+    "origin": "ORIGIN",
+    "video_uri": "VIDEO_URI",
+    "duration": "DURATION_S",
+    "params": "PARAMS",
+}
+"""Command-line option (``--grpc-port``) -> the variable it overrides (``SWARMSITL_GRPC_PORT``)."""
+
+
+def parser(description: str, world_example: str, params_example: str) -> argparse.ArgumentParser:
+    """The options of a companion program (each overrides its ``SWARMSITL_*`` variable)."""
+    ap = argparse.ArgumentParser(
+        description=description, formatter_class=argparse.RawTextHelpFormatter
+    )
+    ap.add_argument("--url", help="MAVSDK connection URL, e.g. udpin://0.0.0.0:14540")
+    ap.add_argument("--grpc-port", type=int, help="port of this mavsdk_server, e.g. 50051")
+    ap.add_argument("--vehicle", type=int, help="MAVLink system id, e.g. 1")
+    ap.add_argument("--role-index", type=int, help="this vehicle's share, 0-based, e.g. 0")
+    ap.add_argument("--role-count", type=int, help="vehicles of the role, e.g. 3")
+    ap.add_argument("--out", type=Path, help="where result.json goes, e.g. runs/me")
+    ap.add_argument("--world", type=Path, help=f"world YAML, e.g. {world_example}")
+    ap.add_argument("--origin", help="LAT,LON,ALT_AMSL of world ENU 0,0,0, e.g. 47.3977,8.5456,488")
+    ap.add_argument("--video-uri", help="camera stream, e.g. http://127.0.0.1:5600/video.mjpg")
+    ap.add_argument("--duration", type=float, help="simulated s the run lasts, e.g. 120")
+    ap.add_argument("--params", help=f"JSON of the role args, e.g. '{params_example}'")
+    return ap
+
+
+def scenario_env(args: argparse.Namespace, environ: Mapping[str, str]) -> ScenarioEnv:
+    """The ``SWARMSITL_*`` variables, overridden by the options given on the command line."""
+    merged = dict(environ)
+    for option, name in OPTIONS.items():
+        value = getattr(args, option, None)
+        if value is not None:
+            merged["SWARMSITL_" + name] = str(value)
+    merged.setdefault("SWARMSITL_MAVLINK_URL", "udpin://0.0.0.0:14540")
+    merged.setdefault("SWARMSITL_VEHICLE", "1")
+    return ScenarioEnv.from_env(merged)
+
+
+def finish(
+    fly: Callable[[ScenarioEnv], Mapping[str, tuple[Any, str]]],
+    env_of: Callable[[], ScenarioEnv],
+    log: Callable[..., None],
+) -> NoReturn:
+    """Fly, write result.json and exit 0; on any failure print the traceback and exit 1.
+
+    ``os._exit``: mavsdk_grpc leaves a non-daemon log thread behind, which would keep the
+    process alive after the flight.
+    """
+    rc = 0
+    try:
+        env = env_of()
+        metrics = fly(env)
+        path = env.write_result(metrics)
+        log("result", path=str(path), **{k: v[0] for k, v in metrics.items()})
+    except Exception:  # any failure: the traceback for the runner's report, exit 1
+        traceback.print_exc(file=sys.stderr)
+        rc = 1
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(rc)
