@@ -125,7 +125,11 @@ def run(
         net=net_port,
         net_proxy=net_proxy_port,
     )
-    runner = ScenarioRun(scenario, RunOptions(run_dir, seed, speed, ports, timeout))
+    try:
+        runner = ScenarioRun(scenario, RunOptions(run_dir, seed, speed, ports, timeout))
+    except ValueError as exc:  # e.g. more vehicles than a launch area holds
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(EXIT_BAD_INPUT) from exc
     spec = scenario.spec
     mode = "lockstep" if speed is None else f"paced at {speed:g}x"
     console.print(

@@ -52,7 +52,7 @@ from harness.run_report import write_run_report
 from harness.scenario import Scenario
 from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
-from harness.world_setup import world_setup
+from harness.world_setup import WorldSetup, world_setup
 from sitl.sensors.camera import CameraFrame, with_mount
 from sitl.vehicles.multirotor import load_airframe
 from worlds.launch import default_area, spawn_points
@@ -170,26 +170,39 @@ class ScenarioRun:
         self._grpc_ports: list[int] = []
         """Each vehicle's companion's mavsdk_server port (the base's, or the next free ones)."""
         self.net_run: NetRun | None = None
-        self.needs_bridge = False
-        """GPS-denied world: each vehicle's position reaches it only through a mocap bridge."""
-        self.spawn_enu_m = self._spawn_points()
+        own = self._own_spawn_points()
+        world = scenario.world
+        self.setup: WorldSetup | None = (
+            None
+            if world is None
+            else world_setup(
+                world,
+                spec.n_vehicles,
+                spec.launch_area,
+                spec.spacing_m,
+                None if own is None else tuple(tuple(p) for p in own),
+            )
+        )
+        """What the world asks of the simulation (scene, spawn points, wind, mocap, params)."""
+        self.spawn_enu_m = (
+            np.array(self.setup.spawn_enu_m, dtype=float) if self.setup is not None else own
+        )
+        """Start point (east, north, surface height) of every vehicle, m."""
 
     # ---- setup -------------------------------------------------------------------------------
 
-    def _spawn_points(self) -> np.ndarray:
-        """Start point (east, north, surface height) of every vehicle, m.
+    def _own_spawn_points(self) -> np.ndarray | None:
+        """Start points the scenario sets itself, m; None: ``world_setup`` places the fleet.
 
-        The fleet starts as ``world_setup`` places it (the scenario's launch area, or the
-        world's default; one agent start per vehicle on task maps) unless groups name their own
-        launch area or start points; without a world, vehicles stand ``spacing_m`` apart along
-        east.
+        ``world_setup`` places the whole fleet in the scenario's launch area (or the world's
+        default; one agent start per vehicle on task maps) unless groups name their own launch
+        area or start points; without a world, vehicles stand ``spacing_m`` apart along east.
         """
         spec, world = self.scenario.spec, self.scenario.world
-        n = spec.n_vehicles
         own = any(g.start_enu_m is not None or g.launch_area is not None for g in spec.fleet)
         if world is not None and not own:
-            setup = world_setup(world, n, spec.launch_area, spec.spacing_m)
-            return np.array(setup.spawn_enu_m, dtype=float)
+            return None
+        n = spec.n_vehicles
         points = np.array([(i * spec.spacing_m, 0.0, 0.0) for i in range(n)], dtype=float)
         by_area: dict[str, list[int]] = {}
         for v in self.vehicles:
@@ -213,12 +226,10 @@ class ScenarioRun:
         overrides: dict[str, Any] = {}
         wind = None
         params: dict[str, float] = {}
-        if scenario.world is not None:
-            setup = world_setup(scenario.world, spec.n_vehicles, spec.launch_area, spec.spacing_m)
-            overrides |= setup.world_overrides
-            wind = setup.wind
-            params |= setup.params
-            self.needs_bridge = setup.bridge
+        if self.setup is not None:
+            overrides |= self.setup.world_overrides
+            wind = self.setup.wind
+            params |= self.setup.params
         overrides["spawn_enu_m"] = tuple(tuple(p) for p in self.spawn_enu_m)
         sensors = spec.sensors
         if sensors.rangefinders:
@@ -350,7 +361,7 @@ class ScenarioRun:
 
     def _start_bridges(self) -> None:
         """GPS-denied worlds: the mocap bridge each vehicle's companion computer runs."""
-        if not self.needs_bridge:
+        if self.setup is None or not self.setup.bridge:
             return
         sim = self.sim
         assert sim is not None

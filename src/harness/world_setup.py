@@ -56,6 +56,7 @@ def world_setup(
     n_vehicles: int,
     launch_area: str | None = None,
     spacing_m: float = 5.0,
+    spawn_enu_m: tuple[XYZ, ...] | None = None,
 ) -> WorldSetup:
     """How to simulate ``world`` with ``n_vehicles``.
 
@@ -66,6 +67,8 @@ def world_setup(
             the world has ``agent_start_0`` .. ``agent_start_<n-1>`` (task maps), else
             ``worlds.launch.default_area``.
         spacing_m: least distance between vehicles inside the launch area, m.
+        spawn_enu_m: the vehicles' start points when the caller placed them itself (a
+            scenario's groups in several launch areas); None: placed here.
 
     Raises:
         ValueError: an unknown launch area (naming those there are), or one too small for the
@@ -73,7 +76,13 @@ def world_setup(
     """
     if isinstance(n_vehicles, bool) or not isinstance(n_vehicles, int) or n_vehicles < 1:
         raise ValueError(f"n_vehicles must be an int >= 1, got {n_vehicles!r}")
-    spawn, area_name = _spawn(world, n_vehicles, launch_area, spacing_m)
+    if spawn_enu_m is None:
+        spawn, area_name = _spawn(world, n_vehicles, launch_area, spacing_m)
+    else:
+        if len(spawn_enu_m) != n_vehicles:
+            raise ValueError(f"spawn_enu_m: one point per vehicle ({n_vehicles})")
+        spawn = tuple(tuple(float(c) for c in p) for p in spawn_enu_m)
+        area_name = launch_area or ""
     overrides: dict = {"scene": world, "spawn_enu_m": spawn}
     params: dict[str, float] = {}
     mocap_hz = 0.0

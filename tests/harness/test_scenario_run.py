@@ -114,3 +114,30 @@ def test_a_run_without_companions_runs_its_duration_and_reports(tmp_path):
     assert report["checks"]["landed_and_disarmed"]["ok"]
     assert report["companions"] == {}
     assert (out / "plots" / "map.png").is_file() and (out / "world.yaml").is_file()
+
+
+def test_groups_start_in_their_own_launch_areas_and_a_full_area_is_refused(tmp_path):
+    from harness.scenario import load_scenario
+    from harness.scenario_run import RunOptions, ScenarioRun
+
+    scenario = tmp_path / "two_starts.yaml"
+    scenario.write_text(
+        "name: starts\nduration_s: 5\nworld: example:taskmap\n"
+        "fleet:\n  - {role: a, launch_area: agent_start_3}\n"
+        "  - {role: b, start_enu_m: [[1, 2, 0]]}\n"
+        "roles: {a: {}, b: {}}\n"
+    )
+    loaded = load_scenario(scenario)
+    run = ScenarioRun(loaded, RunOptions(tmp_path / "run"))
+    area = loaded.world.launch_area("agent_start_3").center_enu_m
+    assert run.spawn_enu_m.tolist() == [list(area), [1.0, 2.0, 0.0]]
+    assert run._simulation_config().world_overrides["spawn_enu_m"][1] == (1.0, 2.0, 0.0)
+
+    crowded = tmp_path / "crowded.yaml"
+    crowded.write_text(
+        "name: crowded\nduration_s: 5\nworld: example:offshore\nlaunch_area: helideck\n"
+        "fleet: [{role: a, count: 40}]\nroles: {a: {}}\n"
+    )
+    result = CliRunner().invoke(app, ["run", str(crowded), "--out", str(tmp_path / "c")])
+    assert result.exit_code == 2
+    assert "helideck" in result.output and "Traceback" not in result.output
