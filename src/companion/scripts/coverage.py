@@ -33,8 +33,6 @@ import math
 import os
 import sys
 import threading
-import time
-import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
@@ -46,6 +44,7 @@ from shapely.geometry import box
 
 from companion.perception.camera_model import CameraModel, rotation_flu_enu_from_quaternion
 from companion.perception.spill_detector import DetectorConfig, SpillCounter, detect_spills
+from companion.perception.stream_reader import PosedStreamReader
 from companion.planning.coverage import (
     CoverageSpec,
     Router,
@@ -290,82 +289,34 @@ class Pose:
     rotation_flu_enu: np.ndarray | None = None
 
 
-class CameraWatcher:
+class CameraWatcher(PosedStreamReader):
     """Reads the video stream in a thread; detects and counts spills on frames taken in flight."""
 
     def __init__(self, uri: str, params: CoverageParams, pose: Pose, lock: threading.Lock) -> None:
-        self.uri = uri
+        super().__init__(uri, pose, lock, "coverage-camera")
         self.params = params
-        self.pose = pose
-        self.lock = lock
         self.counter = SpillCounter(merge_radius_m=params.merge_radius_m)
         self.config = DetectorConfig(dark_max=params.dark_max)
-        self.frames = 0
-        self.frames_used = 0
-        self.active = threading.Event()
-        """Set while the vehicle surveys: frames are only used then."""
-        self.stop = threading.Event()
-        self.error: str | None = None
-        self.camera: CameraModel | None = None
-        """The camera model sized to the stream's frames (None before the first frame)."""
-        self._thread = threading.Thread(target=self._run, name="coverage-camera", daemon=True)
 
-    def start(self) -> None:
-        """Start reading."""
-        self._thread.start()
+    def camera_for(self, width_px: int, height_px: int) -> CameraModel:
+        """The down-looking camera of the params, sized to the frames."""
+        return CameraModel(
+            width_px=width_px,
+            height_px=height_px,
+            hfov_deg=self.params.hfov_deg,
+            pitch_deg=self.params.camera_pitch_deg,
+        )
 
-    def close(self) -> None:
-        """Stop reading (waits briefly for the thread)."""
-        self.stop.set()
-        if self._thread.ident is not None:
-            self._thread.join(timeout=5.0)
-
-    def _run(self) -> None:
-        import cv2
-
-        capture = None
-        try:
-            while not self.stop.is_set() and capture is None:
-                capture = cv2.VideoCapture(self.uri)
-                if not capture.isOpened():
-                    capture.release()
-                    capture = None
-                    time.sleep(0.5)
-            while capture is not None and not self.stop.is_set():
-                ok, bgr = capture.read()
-                if not ok:
-                    time.sleep(0.05)
-                    continue
-                self.frames += 1
-                with self.lock:
-                    position, rotation = self.pose.position_enu_m, self.pose.rotation_flu_enu
-                if not self.active.is_set() or position is None or rotation is None:
-                    continue
-                h, w = bgr.shape[:2]
-                camera = self.camera
-                if camera is None or (camera.width_px, camera.height_px) != (w, h):
-                    camera = self.camera = CameraModel(
-                        width_px=w,
-                        height_px=h,
-                        hfov_deg=self.params.hfov_deg,
-                        pitch_deg=self.params.camera_pitch_deg,
-                    )
-                rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
-                detections = detect_spills(rgb, camera, position, rotation, self.config)
-                with self.lock:
-                    new = self.counter.add(detections)
-                    latest = [
-                        s.position_enu_m.round(2).tolist() for s in self.counter.spills[-new:]
-                    ]
-                self.frames_used += 1
-                if new:
-                    _log("spill_seen", count=self.counter.count, new_at_enu_m=latest)
-        except Exception:  # the flight goes on without the camera; reported in the result
-            self.error = traceback.format_exc()
-            print(self.error, file=sys.stderr, flush=True)
-        finally:
-            if capture is not None:
-                capture.release()
+    def use(
+        self, rgb: np.ndarray, camera: CameraModel, position: np.ndarray, rotation: Any
+    ) -> None:
+        """Detect the spills in one frame and count the new ones."""
+        detections = detect_spills(rgb, camera, position, rotation, self.config)
+        with self.lock:
+            new = self.counter.add(detections)
+            latest = [s.position_enu_m.round(2).tolist() for s in self.counter.spills[-new:]]
+        if new:
+            _log("spill_seen", count=self.counter.count, new_at_enu_m=latest)
 
 
 @dataclass

@@ -32,8 +32,6 @@ import math
 import os
 import sys
 import threading
-import time
-import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from functools import cached_property
@@ -50,6 +48,7 @@ from companion.perception.person_detector import (
     vertical_fov_deg,
 )
 from companion.perception.spill_detector import SpillCounter
+from companion.perception.stream_reader import PosedStreamReader
 from companion.planning.indoor_route import (
     IndoorPlanner,
     Route,
@@ -340,94 +339,51 @@ def _log(name: str, **data: Any) -> None:
     print(f"[indoor_search] {name} {json.dumps(data, default=str) if data else ''}", flush=True)
 
 
-class CameraWatcher:
+class CameraWatcher(PosedStreamReader):
     """Reads the video stream in a thread and counts the orange people it finds while active."""
 
     def __init__(self, uri: str, params: SearchParams, pose: Pose, lock: threading.Lock) -> None:
-        self.uri = uri
+        super().__init__(uri, pose, lock, "indoor-camera")
         self.params = params
-        self.pose = pose
-        self.lock = lock
         self.counter = SpillCounter(merge_radius_m=params.merge_radius_m)
         self.colour = PersonColour()
-        self.frames = 0
-        self.frames_used = 0
-        self.active = threading.Event()
-        self.stop = threading.Event()
-        self.error: str | None = None
-        self._thread = threading.Thread(target=self._run, name="indoor-camera", daemon=True)
 
     @property
     def count(self) -> int:
         """People seen: places with at least ``min_detections`` sightings."""
         return sum(s.detections >= self.params.min_detections for s in self.counter.spills)
 
-    def start(self) -> None:
-        """Start reading."""
-        self._thread.start()
+    def camera_for(self, width_px: int, height_px: int) -> CameraModel:
+        """The forward camera of the params, sized to the frames."""
+        return CameraModel(
+            width_px=width_px,
+            height_px=height_px,
+            hfov_deg=self.params.hfov_deg,
+            pitch_deg=0.0,
+            position_frd_m=self.params.camera_position_frd_m,
+        )
 
-    def close(self) -> None:
-        """Stop reading (waits briefly for the thread)."""
-        self.stop.set()
-        if self._thread.ident is not None:
-            self._thread.join(timeout=5.0)
-
-    def _run(self) -> None:
-        import cv2
-
-        capture = None
-        camera: CameraModel | None = None
-        try:
-            while not self.stop.is_set() and capture is None:
-                capture = cv2.VideoCapture(self.uri)
-                if not capture.isOpened():
-                    capture.release()
-                    capture = None
-                    time.sleep(0.5)
-            while capture is not None and not self.stop.is_set():
-                ok, bgr = capture.read()
-                if not ok:
-                    time.sleep(0.05)
-                    continue
-                self.frames += 1
-                with self.lock:
-                    position, rotation = self.pose.position_enu_m, self.pose.rotation_flu_enu
-                if not self.active.is_set() or position is None or rotation is None:
-                    continue
-                h, w = bgr.shape[:2]
-                if camera is None or (camera.width_px, camera.height_px) != (w, h):
-                    camera = CameraModel(
-                        width_px=w,
-                        height_px=h,
-                        hfov_deg=self.params.hfov_deg,
-                        pitch_deg=0.0,
-                        position_frd_m=self.params.camera_position_frd_m,
-                    )
-                rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
-                detections = [
-                    d
-                    for d in find_people(rgb, camera, position, rotation, self.colour)
-                    if not d.blob.touches_border
-                    and np.hypot(*(np.subtract(d.position_enu_m[:2], position[:2])))
-                    <= self.params.detect_range_m
-                ]
-                with self.lock:
-                    before = self.count
-                    self.counter.add(detections)
-                    after = self.count
-                self.frames_used += 1
-                if after > before:
-                    _log(
-                        "person_seen",
-                        count=after,
-                        at_enu_m=[np.round(d.position_enu_m, 2).tolist() for d in detections],
-                    )
-        except Exception:  # the flight goes on without the camera; reported in the result
-            self.error = traceback.format_exc()
-            print(self.error, file=sys.stderr, flush=True)
-        finally:
-            if capture is not None:
-                capture.release()
+    def use(
+        self, rgb: np.ndarray, camera: CameraModel, position: np.ndarray, rotation: Any
+    ) -> None:
+        """Find the people in one frame within range, whole in view; count the new ones."""
+        detections = [
+            d
+            for d in find_people(rgb, camera, position, rotation, self.colour)
+            if not d.blob.touches_border
+            and np.hypot(*(np.subtract(d.position_enu_m[:2], position[:2])))
+            <= self.params.detect_range_m
+        ]
+        with self.lock:
+            before = self.count
+            self.counter.add(detections)
+            after = self.count
+        if after > before:
+            _log(
+                "person_seen",
+                count=after,
+                at_enu_m=[np.round(d.position_enu_m, 2).tolist() for d in detections],
+            )
 
 
 async def fly(env: ScenarioEnv, params: SearchParams) -> dict[str, tuple[Any, str]]:
