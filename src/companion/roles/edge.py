@@ -2,20 +2,32 @@
 
 Traffic (seed 000, Sec. 3: edge UAVs send camera images to their fog node and share state with
 their neighbours over WiFi): a ``status`` message to the coordinator every ``status_period_s``,
-an ``image`` of ``image_bytes`` every ``image_period_s`` (the size of a compressed camera frame;
-the autoencoder of issue 11 will produce real ones), a ``ping`` request to each neighbouring edge
-every ``ping_period_s``. It first asks the coordinator to ``join`` (request/reply, retried, and
-asked again until it answers: the coordinator may start later).
+a camera image every ``image_period_s``, a ``ping`` request to each neighbouring edge every
+``ping_period_s``. It first asks the coordinator to ``join`` (request/reply, retried, and asked
+again until it answers: the coordinator may start later).
+
+Images are real codec output (``companion.imaging``): the latest camera frame (or the next image
+of the given source), compressed at the level seed 000's T_compress policy picks from the WiFi
+link's bandwidth and the energy budget, sent as ``image_chunk`` messages.
 """
 
 from __future__ import annotations
 
 import asyncio
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from companion import clock
+from companion.imaging.image_source import ImageSource, SyntheticImages
+from companion.imaging.link_budget import WIFI_EDGE_FOG, LinkBudget
+from companion.imaging.relay import (
+    CodecApi,
+    ImageRecord,
+    ImageSender,
+    ImagingParams,
+    project_codec,
+)
 from companion.net import AsyncNode
 from companion.roles.asking import ask, ask_until_answered
 from companion.roles.cluster import coordinator_of, nodes_with_role
@@ -28,11 +40,13 @@ class EdgeParams:
 
     status_period_s: float = 1.0
     image_period_s: float = 5.0
-    image_bytes: int = 12_000
-    """A 320x240 JPEG frame is of this order (assumption; issue 11 brings real codec sizes)."""
     ping_period_s: float = 2.0
     request_timeout_s: float = 1.0
     retries: int = 3
+    imaging: ImagingParams = field(default_factory=ImagingParams)
+    """Level (or the policy), chunking, energy budget of the images."""
+    link: LinkBudget = WIFI_EDGE_FOG
+    """The edge-fog link as T_compress sees it (bandwidth, J per byte)."""
 
 
 async def run_edge(
@@ -41,18 +55,32 @@ async def run_edge(
     params: EdgeParams,
     rng: np.random.Generator,
     counts: dict[str, int] | None = None,
+    codec: CodecApi | None = None,
+    source: ImageSource | None = None,
+    images: list[ImageRecord] | None = None,
 ) -> dict[str, int]:
     """Run the edge role for ``duration_s`` simulated seconds; return its counters.
 
     ``counts`` (filled in place) lets a caller that cancels the role still read them.
+    ``codec``: default the project's learned codec (``compression``); ``source``: where images
+    come from (default synthetic textures drawn from ``rng``); ``images`` receives a record per
+    image sent (filled in place).
     """
     config = node.node.config
     fog = coordinator_of(config, node.node_id)
     peers = [e for e in nodes_with_role(config, "edge") if e != node.node_id]
     counts = {} if counts is None else counts
     counts.update(joined=0, status=0, images=0, pings_answered=0, timeouts=0)
+    counts.update(images_skipped=0, image_bytes=0, image_level=0, image_send_errors=0)
     node.on("ping", lambda env: {"from": node.node_id})
     end_s = clock.now_s() + duration_s
+    source = source or SyntheticImages(rng)
+    sender = None
+    if fog is not None:
+        codec = codec or project_codec()
+        sender = ImageSender(
+            node.node, fog, codec, params.link, params.image_period_s, params.imaging, end_s, images
+        )
 
     async def request(dst: str, topic: str, body: dict) -> bool:
         answered = await ask(node, dst, topic, body, params.request_timeout_s, params.retries)
@@ -64,10 +92,17 @@ async def run_edge(
         counts["status"] += 1
 
     async def image() -> None:
+        assert sender is not None
+        frame = source()
+        if frame is None:  # the camera has not delivered a frame yet
+            counts["images_skipped"] += 1
+            return
         with node.task("T_data"):
-            frame = rng.bytes(params.image_bytes)
-            node.send(fog, "image", {"seq": counts["images"], "jpeg": frame})
+            record = sender.send(frame, clock.now_s())
         counts["images"] += 1
+        counts["image_bytes"] += record.bytes
+        counts["image_level"] = record.level
+        counts["image_send_errors"] = sender.send_errors
 
     async def ping() -> None:
         answered = await asyncio.gather(*(request(p, "ping", {}) for p in peers))
