@@ -203,8 +203,9 @@ def net_demo(
     """Seed 000's edge-fog-cloud system: two edge UAVs, a fog UAV and the cloud, messaging.
 
     Three vehicles fly (their companions take off to 10 m over MAVLink); each companion is a
-    process running its role (python -m companion.roles: edges send status and camera-sized
-    images to the fog and ping each other over WiFi, the fog reports to the cloud over LTE),
+    process running its role (python -m companion.roles: edges send status and compressed
+    images to the fog and ping each other over WiFi, the fog decodes them and relays them
+    re-compressed to the cloud and reports to it over LTE),
     and the cloud is a process on the host. Every datagram crosses the link models in
     simulation time. The run directory gets net_report.json (per link class: latency, loss,
     availability, uptime, throughput, overhead; energy per node, component and task), net.yaml,

@@ -17,7 +17,8 @@ counters (with an ``images`` summary) as one JSON line.
 
 Images (docs/compression.md, "On the companion"): an edge sends the frames of its camera stream
 (``SWARMSITL_VIDEO_URI``), else the PNGs of ``--images DIR``, else synthetic textures, compressed
-with ``--codec`` (``learned``: the ``compression`` package; ``jpeg``: OpenCV JPEG) at the level
+with ``--codec`` (``learned``: the ``compression`` package; ``jpeg``: OpenCV JPEG; ``auto``, the
+default: learned if installed) at the level
 T_compress picks (or ``--image-level``).
 """
 
@@ -125,11 +126,17 @@ async def main_async(args: argparse.Namespace) -> int:
 
 
 def _codec(name: str) -> CodecApi:
-    """The codec called ``name`` (``learned`` or ``jpeg``)."""
-    if name == "jpeg":
-        from companion.imaging.jpeg_codec import jpeg_codec
+    """The codec called ``name``: ``learned``, ``jpeg``, or ``auto`` (learned if installed)."""
+    from companion.imaging.jpeg_codec import jpeg_codec
 
+    if name == "jpeg":
         return jpeg_codec()
+    if name == "auto":
+        try:
+            return project_codec()
+        except ImportError as exc:
+            print(f"images: {exc}; sending JPEG instead", file=sys.stderr)
+            return jpeg_codec()
     return project_codec()
 
 
@@ -161,10 +168,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--altitude-m", type=float, default=10.0, help="take-off height, m")
     parser.add_argument(
         "--codec",
-        choices=("learned", "jpeg"),
-        default="learned",
-        help="image codec: the learned autoencoder (compression package) or OpenCV JPEG, "
-        "e.g. --codec jpeg",
+        choices=("auto", "learned", "jpeg"),
+        default="auto",
+        help="image codec: the learned autoencoder (compression package), OpenCV JPEG, or auto "
+        "(learned if its model is installed, else JPEG), e.g. --codec jpeg",
     )
     parser.add_argument(
         "--images",

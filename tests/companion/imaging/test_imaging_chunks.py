@@ -17,8 +17,8 @@ def payload(size: int, seed: int = 0) -> bytes:
 
 def test_every_chunk_of_the_largest_size_fits_one_datagram():
     """A chunk of MAX_CHUNK_BYTES with its metadata and envelope stays under the UDP limit."""
-    meta = {"origin": "edge-with-a-long-name", "origin_frame": 2**40, "level": 5,
-            "capture_s": 1e9 / 3, "sent_s": 1e9 / 7, "width_px": 4096, "height_px": 4096}  # fmt: skip
+    meta = {"origin": "edge-with-a-long-name", "origin_frame": 2**40, "level": 5}
+    meta |= {"capture_s": 1e9 / 3, "sent_s": 1e9 / 7, "width_px": 4096, "height_px": 4096}
     bodies = split(2**40, payload(3 * MAX_CHUNK_BYTES + 5), meta, MAX_CHUNK_BYTES)
     assert [len(b["d"]) for b in bodies] == [MAX_CHUNK_BYTES] * 3 + [5]
     env = Envelope("edge-with-a-long-name", "fog-with-a-long-name", "msg", "image_chunk",
@@ -58,7 +58,9 @@ def test_a_frame_missing_a_chunk_is_dropped_and_counted_and_the_next_one_arrives
 def test_frames_of_different_senders_do_not_mix():
     reassembler = Reassembler()
     a, b = split(1, b"a" * 30, META, 10), split(1, b"b" * 30, META, 10)
-    out = [reassembler.add(src, body, 0.0) for pair in zip(a, b) for src, body in zip(("e1", "e2"), pair)]  # fmt: skip
+    out = []
+    for chunk_a, chunk_b in zip(a, b, strict=True):
+        out += [reassembler.add("e1", chunk_a, 0.0), reassembler.add("e2", chunk_b, 0.0)]
     assert [f.data for f in out if f is not None] == [b"a" * 30, b"b" * 30]
 
 

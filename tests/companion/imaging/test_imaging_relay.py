@@ -281,10 +281,10 @@ def test_directory_images_cycle_and_refuse_what_is_not_an_image(tmp_path):
     assert frames[0].shape == (8, 10, 3) and frames[2][0, 0, 0] == frames[0][0, 0, 0] == 10
     (tmp_path / "00002.png").write_bytes(b"not a png")
     source = DirectoryImages(tmp_path)
-    with pytest.raises(ValueError, match="00002.png"):
+    with pytest.raises(ValueError, match=r"00002\.png"):
         [source() for _ in range(3)]
     with pytest.raises(ValueError, match="not a directory"):
         DirectoryImages(tmp_path / "00000.png")
     (tmp_path / "empty").mkdir()
-    with pytest.raises(ValueError, match="no .png"):
+    with pytest.raises(ValueError, match=r"no \.png"):
         DirectoryImages(tmp_path / "empty")

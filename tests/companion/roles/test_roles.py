@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import subprocess
@@ -9,16 +10,17 @@ import sys
 
 import pytest
 
+from companion.imaging.relay import project_codec
 from companion.net import NetConfig, NetConfigError
 from companion.roles.cluster import clusters, coordinator_of, nodes_with_role
 
 NET = {
     "nodes": {
-        "cloud": {"role": "cloud", "address": "127.0.0.1:46610"},
-        "fog1": {"role": "fog", "address": "127.0.0.1:46611", "groups": ["c1"]},
-        "edge1": {"role": "edge", "address": "127.0.0.1:46612", "groups": ["c1"]},
-        "edge2": {"role": "edge", "address": "127.0.0.1:46613", "groups": ["c1"]},
-        "edge3": {"role": "edge", "address": "127.0.0.1:46614"},
+        "cloud": {"role": "cloud", "address": "127.0.0.1:47110"},
+        "fog1": {"role": "fog", "address": "127.0.0.1:47111", "groups": ["c1"]},
+        "edge1": {"role": "edge", "address": "127.0.0.1:47112", "groups": ["c1"]},
+        "edge2": {"role": "edge", "address": "127.0.0.1:47113", "groups": ["c1"]},
+        "edge3": {"role": "edge", "address": "127.0.0.1:47114"},
     }
 }
 
@@ -43,8 +45,21 @@ def test_a_fog_with_too_many_edges_is_refused():
         NetConfig.from_dict({"nodes": {"x": {"role": "satellite", "address": "1.2.3.4:5"}}})
 
 
+def codec_option() -> str:
+    """The learned codec when installed, else JPEG (the roles' ``--codec``)."""
+    try:
+        project_codec()
+    except ImportError:
+        return "jpeg"
+    return "learned"
+
+
 def test_roles_exchange_their_traffic(tmp_path):
-    """Every role runs as its own process: joins, registration, images and summaries arrive."""
+    """Every role runs as its own process: joins, registration, images and summaries arrive.
+
+    The images are real codec output: each edge's are decoded by the fog, which sends each on
+    to the cloud re-compressed; every hop writes a row per image to ``<node>_images.csv``.
+    """
     net = dict(NET)
     net["nodes"] = {k: v for k, v in NET["nodes"].items() if k != "edge3"}
     path = tmp_path / "net.yaml"
@@ -58,7 +73,15 @@ def test_roles_exchange_their_traffic(tmp_path):
     duration_s = {"cloud": 24, "fog1": 18, "edge1": 12, "edge2": 12}
     procs = {
         node: subprocess.Popen(
-            [sys.executable, "-m", "companion.roles", "--duration-s", str(duration_s[node])],
+            [
+                sys.executable,
+                "-m",
+                "companion.roles",
+                "--duration-s",
+                str(duration_s[node]),
+                "--codec",
+                codec_option(),
+            ],
             env=env | {"SWARMSITL_NODE": node},
             stdout=subprocess.PIPE,
             text=True,
@@ -78,7 +101,18 @@ def test_roles_exchange_their_traffic(tmp_path):
     assert out["fog1"]["summaries_acked"] >= 1
     sent_images = out["edge1"]["images"] + out["edge2"]["images"]
     assert sent_images >= 2 and out["fog1"]["images"] == sent_images  # loopback loses nothing
-    assert out["fog1"]["image_bytes"] == 12_000 * sent_images
+    assert out["fog1"]["image_bytes"] == out["edge1"]["image_bytes"] + out["edge2"]["image_bytes"]
+    assert out["fog1"]["images_relayed"] == sent_images
+    assert out["cloud"]["images"] == out["cloud"]["images_decoded"] == sent_images
+    assert out["fog1"]["frames_incomplete"] == out["cloud"]["frames_corrupt"] == 0
+    rows = {}
+    for node in net["nodes"]:
+        with (tmp_path / "records" / f"{node}_images.csv").open() as f:
+            rows[node] = list(csv.DictReader(f))
+    assert len(rows["edge1"]) == out["edge1"]["images"]
+    assert [r["event"] for r in rows["fog1"]].count("decoded") == sent_images
+    assert all(float(r["latency_s"]) > 0 for r in rows["cloud"])
+    assert out["edge1"]["images_summary"]["sent"]["bytes"] == out["edge1"]["image_bytes"]
     assert out["edge1"]["pings_answered"] >= 1
     records = json.loads((tmp_path / "records" / "fog1.json").read_text())
     assert records["peers"]["cloud"]["link_class"] == "fog-cloud"
