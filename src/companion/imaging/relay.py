@@ -62,7 +62,8 @@ def project_codec() -> CodecApi:
     """The project's learned codec (``compression``), imported on first use.
 
     Raises:
-        ImportError: ``compression`` has no codec (its public API is missing).
+        ImportError: ``compression`` has no codec (its public API is missing) or its model
+            cannot be loaded.
     """
     import compression
 
@@ -73,12 +74,16 @@ def project_codec() -> CodecApi:
     ]
     if missing:
         raise ImportError(f"compression lacks {', '.join(missing)}: no codec installed")
-    levels = tuple(int(lv) for lv in compression.LEVELS)
+    try:
+        levels = tuple(int(lv) for lv in compression.LEVELS)
+        bits_per_pixel = {lv: float(compression.level_bits_per_pixel(lv)) for lv in levels}
+    except (OSError, ValueError, RuntimeError) as exc:  # e.g. no trained model on disk
+        raise ImportError(f"compression codec not usable: {exc}") from exc
     return CodecApi(
         levels,
         compression.encode,
         compression.decode,
-        {lv: float(compression.level_bits_per_pixel(lv)) for lv in levels},
+        bits_per_pixel,
         (compression.CompressionError,),
     )
 

@@ -8,12 +8,14 @@ again until it answers: the coordinator may start later).
 
 Images are real codec output (``companion.imaging``): the latest camera frame (or the next image
 of the given source), compressed at the level seed 000's T_compress policy picks from the WiFi
-link's bandwidth and the energy budget, sent as ``image_chunk`` messages.
+link's bandwidth and the energy budget, sent as ``image_chunk`` messages. An image that cannot
+be read or encoded is counted (``image_errors``) and reported once on stderr; the role goes on.
 """
 
 from __future__ import annotations
 
 import asyncio
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -71,7 +73,8 @@ async def run_edge(
     peers = [e for e in nodes_with_role(config, "edge") if e != node.node_id]
     counts = {} if counts is None else counts
     counts.update(joined=0, status=0, images=0, pings_answered=0, timeouts=0)
-    counts.update(images_skipped=0, image_bytes=0, image_level=0, image_send_errors=0)
+    counts.update(images_skipped=0, image_errors=0, image_bytes=0, image_level=0)
+    counts.update(image_send_errors=0)
     node.on("ping", lambda env: {"from": node.node_id})
     end_s = clock.now_s() + duration_s
     source = source or SyntheticImages(rng)
@@ -93,12 +96,18 @@ async def run_edge(
 
     async def image() -> None:
         assert sender is not None
-        frame = source()
-        if frame is None:  # the camera has not delivered a frame yet
-            counts["images_skipped"] += 1
+        try:
+            frame = source()
+            if frame is None:  # the camera has not delivered a frame yet
+                counts["images_skipped"] += 1
+                return
+            with node.task("T_data"):
+                record = sender.send(frame, clock.now_s())
+        except ValueError as exc:  # an unreadable file, an image the codec refuses
+            counts["image_errors"] += 1
+            if counts["image_errors"] == 1:
+                print(f"{node.node_id}: image not sent: {exc}", file=sys.stderr, flush=True)
             return
-        with node.task("T_data"):
-            record = sender.send(frame, clock.now_s())
         counts["images"] += 1
         counts["image_bytes"] += record.bytes
         counts["image_level"] = record.level

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from companion.imaging.chunks import CHUNK_TOPIC, split
-from companion.imaging.image_source import DirectoryImages, SyntheticImages
+from companion.imaging.image_source import DirectoryImages, StreamImages, SyntheticImages
 from companion.imaging.jpeg_codec import jpeg_codec
 from companion.imaging.link_budget import LTE_UPLINK, WIFI_EDGE_FOG, LinkBudget
 from companion.imaging.relay import (
@@ -288,3 +288,28 @@ def test_directory_images_cycle_and_refuse_what_is_not_an_image(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match=r"no \.png"):
         DirectoryImages(tmp_path / "empty")
+
+
+def test_the_stream_source_hands_out_the_latest_frame_of_a_video(tmp_path):
+    """A real OpenCV capture (a video file stands in for the camera stream), read in a thread."""
+    import time
+
+    import cv2
+
+    path = tmp_path / "camera.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (32, 24))
+    for k in range(5):
+        writer.write(np.full((24, 32, 3), (0, 0, 40 * k + 40), np.uint8))  # BGR: red rising
+    writer.release()
+    source = StreamImages(str(path))
+    try:
+        for _ in range(200):  # the thread opens the file and reads all 5 frames (bounded wait)
+            if source.frames == 5:
+                break
+            time.sleep(0.02)
+        frame = source()
+        assert source.frames == 5 and source.error is None
+        assert frame.shape == (24, 32, 3) and frame.dtype == np.uint8
+        assert abs(int(frame[12, 16, 0]) - 200) <= 8 and frame[12, 16, 2] <= 8  # RGB, the last
+    finally:
+        source.close()

@@ -8,8 +8,11 @@ import os
 import subprocess
 import sys
 
+import cv2
+import numpy as np
 import pytest
 
+from companion.imaging.image_source import SyntheticImages
 from companion.imaging.relay import project_codec
 from companion.net import NetConfig, NetConfigError
 from companion.roles.cluster import clusters, coordinator_of, nodes_with_role
@@ -71,6 +74,13 @@ def test_roles_exchange_their_traffic(tmp_path):
     }
     # Receivers outlive senders (their processes may start a little apart under load).
     duration_s = {"cloud": 24, "fog1": 18, "edge1": 12, "edge2": 12}
+    pngs = tmp_path / "pngs"  # edge1 sends these; edge2 synthetic textures
+    pngs.mkdir()
+    for k, image in enumerate(
+        SyntheticImages(np.random.default_rng(0), 64, 48)() for _ in range(2)
+    ):
+        cv2.imwrite(str(pngs / f"{k:05d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+    images = {"edge1": ["--images", str(pngs)]}
     procs = {
         node: subprocess.Popen(
             [
@@ -81,6 +91,7 @@ def test_roles_exchange_their_traffic(tmp_path):
                 str(duration_s[node]),
                 "--codec",
                 codec_option(),
+                *images.get(node, []),
             ],
             env=env | {"SWARMSITL_NODE": node},
             stdout=subprocess.PIPE,
@@ -110,6 +121,8 @@ def test_roles_exchange_their_traffic(tmp_path):
         with (tmp_path / "records" / f"{node}_images.csv").open() as f:
             rows[node] = list(csv.DictReader(f))
     assert len(rows["edge1"]) == out["edge1"]["images"]
+    assert {(r["width_px"], r["height_px"]) for r in rows["edge1"]} == {("64", "48")}
+    assert {(r["width_px"], r["height_px"]) for r in rows["edge2"]} == {("320", "240")}
     assert [r["event"] for r in rows["fog1"]].count("decoded") == sent_images
     assert all(float(r["latency_s"]) > 0 for r in rows["cloud"])
     assert out["edge1"]["images_summary"]["sent"]["bytes"] == out["edge1"]["image_bytes"]
@@ -117,3 +130,25 @@ def test_roles_exchange_their_traffic(tmp_path):
     records = json.loads((tmp_path / "records" / "fog1.json").read_text())
     assert records["peers"]["cloud"]["link_class"] == "fog-cloud"
     assert {t["name"] for t in records["tasks"]} >= {"T_conn", "T_report"}
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--image-level", "9"], "--image-level 9 is not one of"),
+        (["--images", "/nonexistent/dir"], "is not a directory"),
+    ],
+)
+def test_bad_image_options_exit_2_with_a_message(tmp_path, args, message):
+    path = tmp_path / "net.yaml"
+    path.write_text(json.dumps({"nodes": {"edge1": NET["nodes"]["edge1"]}}))
+    env = os.environ | {"SWARMSITL_NET": str(path), "SWARMSITL_NODE": "edge1"}
+    proc = subprocess.run(
+        [sys.executable, "-m", "companion.roles", "--codec", "jpeg", "--duration-s", "1", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 2 and message in proc.stderr
+    assert "Traceback" not in proc.stderr
