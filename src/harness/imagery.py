@@ -36,7 +36,7 @@ from sitl.physics.obstacles import add_solids
 from sitl.physics.spills import OilSpills, add_people
 from sitl.physics.surface_texture import surface_texture
 from sitl.sensors.camera import CameraSpec, camera_pose_enu
-from sitl.sensors.camera_render import CameraRig
+from sitl.sensors.camera_render import CameraRig, TinyLight
 from worlds.examples import example_path
 
 SPLITS = ("train", "heldout")
@@ -51,17 +51,21 @@ FRAMES_PER_WORLD = 12
 """Images rendered from one world instance (one PyBullet client) before the next is built."""
 OFFSHORE_ALTITUDE_M = (10.0, 120.0)
 """Height range of the offshore camera above the sea, m."""
-SPILL_AIMED_SHARE = 0.7
-"""Share of the offshore frames aimed near a spill that has appeared (the rest anywhere)."""
+AIMED_SHARE = {"offshore": 0.7, "city": 0.8, "land": 0.0}
+"""Share of the frames aimed near something (offshore: a spill that has appeared by then; city:
+a building); the rest look anywhere in the world."""
 CITY_ALTITUDE_M = (25.0, 160.0)
 """Height range of the city camera above the street, m (at least ``ROOF_CLEARANCE_M`` above
 every roof in view)."""
 LAND_ALTITUDE_M = (8.0, 100.0)
-"""Height range of the land camera, m."""
+"""Height range of the land camera over grass, m."""
+CONCRETE_ALTITUDE_M = (2.0, 25.0)
+"""Height range of the land camera over the concrete yard (task map), m: its slabs are 1-3 m."""
 INDOOR_HEIGHT_M = (1.0, 3.0)
 """Height range of the indoor forward-looking camera above the floor, m."""
-ROOF_CLEARANCE_M = 8.0
-"""Least height of a down-looking camera above any solid under its footprint, m."""
+ROOF_CLEARANCE_M = 20.0
+"""Least height of a down-looking camera above any solid under its footprint, m (nearer, one
+roof fills the frame)."""
 INDOOR_CLEARANCE_M = 0.6
 """Least distance of the indoor camera from any solid, m."""
 INDOOR_VIEW_M = 2.5
@@ -76,6 +80,12 @@ GROUND_GAIN = (0.8, 1.15)
 """Range of the per-world brightness factor on the ground texture."""
 EXPOSURE_GAIN = (0.85, 1.15)
 """Range of the per-frame exposure factor on the whole image (sun and camera gain)."""
+SUN_ELEVATION_DEG = {"down": (25.0, 85.0), "forward": (50.0, 90.0)}
+"""Range of the elevation of TinyRenderer's light, outdoors (sun) and indoors (lamps), deg."""
+AMBIENT = (0.45, 0.7)
+"""Range of TinyRenderer's ambient coefficient (PyBullet's default 0.6)."""
+DIFFUSE = (0.25, 0.5)
+"""Range of TinyRenderer's diffuse coefficient (PyBullet's default 0.35)."""
 
 _SPLIT_BIT = {"train": 0, "heldout": 1}
 _WORLDS_PER_SEED = 100_000
@@ -192,6 +202,9 @@ def build_world(kind: str, seed: int, rng: np.random.Generator) -> worlds.World:
     if kind == "offshore":
         data["wave_length_m"] = float(rng.uniform(5.0, 12.0))
         data["spill_count"] = 40  # more spills per sea: more frames with oil in view
+    if kind == "taskmap":  # a yard of 1-3 m slabs instead of a 10 m map of 0.5 m ones
+        data["size_m"] = (40.0, 40.0)
+        data["grid_spacing_m"] = float(rng.uniform(1.0, 3.0))
     return worlds.build(type(spec).model_validate(data))
 
 
@@ -244,9 +257,12 @@ class _SceneCamera:
         if self._spills is not None:
             self._spills.update(t_s)
 
-    def render(self, position_enu_m: np.ndarray, rotation_flu_enu: np.ndarray) -> np.ndarray:
-        """The image (H, W, 3) uint8 RGB of the camera on a body at that pose."""
+    def render(
+        self, position_enu_m: np.ndarray, rotation_flu_enu: np.ndarray, light: TinyLight
+    ) -> np.ndarray:
+        """The image (H, W, 3) uint8 RGB of the camera on a body at that pose, bodies so lit."""
         centre, axes = camera_pose_enu(self.spec, position_enu_m, rotation_flu_enu)
+        self._rig.light = light
         return self._rig.render_camera(0, centre, axes)
 
     def close(self) -> None:
@@ -303,7 +319,7 @@ def _world_images(
                 alt = float(position[2])
             tilt = math.radians(TILT_DEG[mount])
             pitch, roll = rng.uniform(-tilt, tilt, 2)
-            rgb = camera.render(position, _rotation(heading, pitch, roll))
+            rgb = camera.render(position, _rotation(heading, pitch, roll), _light(rng, mount))
             exposure = float(rng.uniform(*EXPOSURE_GAIN))
             rgb = np.clip(rgb.astype(np.float32) * exposure + 0.5, 0.0, 255.0).astype(np.uint8)
             info = ImageInfo(
@@ -312,6 +328,18 @@ def _world_images(
             yield rgb, info
     finally:
         camera.close()
+
+
+def _light(rng: np.random.Generator, mount: str) -> TinyLight:
+    """A drawn TinyRenderer light: azimuth, elevation, ambient and diffuse."""
+    azimuth = rng.uniform(0.0, 2.0 * math.pi)
+    elevation = math.radians(rng.uniform(*SUN_ELEVATION_DEG[mount]))
+    direction = (
+        math.cos(elevation) * math.cos(azimuth),
+        math.cos(elevation) * math.sin(azimuth),
+        math.sin(elevation),
+    )
+    return TinyLight(direction, float(rng.uniform(*AMBIENT)), float(rng.uniform(*DIFFUSE)))
 
 
 def _down_pose(
@@ -327,17 +355,19 @@ def _down_pose(
     low, high = {
         "offshore": OFFSHORE_ALTITUDE_M,
         "city": CITY_ALTITUDE_M,
-        "land": LAND_ALTITUDE_M,
+        "land": CONCRETE_ALTITUDE_M if world.kind == "taskmap" else LAND_ALTITUDE_M,
     }[scene]
     x0, y0, x1, y1 = world.bounds_xy_m
     half_fov = math.tan(math.radians(spec.hfov_deg) / 2.0)
-    spills = world.spills_at(t_s) if scene == "offshore" else []
-    aimed = bool(spills) and rng.uniform() < SPILL_AIMED_SHARE
+    if scene == "offshore":
+        marks = [spill.polygon.centroid.coords[0] for spill in world.spills_at(t_s)]
+    else:
+        marks = [solid.center_enu_m[:2] for solid in world.solids]
+    aimed = bool(marks) and rng.uniform() < AIMED_SHARE[scene]
     for _ in range(100):
         alt = float(rng.uniform(low, high))
         if aimed:
-            spill = spills[int(rng.integers(len(spills)))]
-            cx, cy = spill.polygon.centroid.coords[0]
+            cx, cy = marks[int(rng.integers(len(marks)))]
             offset = rng.uniform(-0.35, 0.35, 2) * alt * half_fov
             xy = (float(cx + offset[0]), float(cy + offset[1]))
         else:
