@@ -22,6 +22,7 @@ harness.imagery --help`` (``harness.imagery_cli``); see docs/compression.md, "Tr
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -171,22 +172,9 @@ def render_images(
             if scene == "land":
                 land_turn += 1
             for rgb, info in _world_images(scene, kind, ws, frames, width, height, split):
-                yield rgb, _with_index(info, index)
+                yield rgb, dataclasses.replace(info, index=index)
                 index += 1
             done += frames
-
-
-def _with_index(info: ImageInfo, index: int) -> ImageInfo:
-    return ImageInfo(
-        index,
-        info.scene,
-        info.world,
-        info.altitude_m,
-        info.split,
-        info.seed,
-        info.time_s,
-        info.heading_deg,
-    )
 
 
 def build_world(kind: str, seed: int, rng: np.random.Generator) -> worlds.World:
@@ -211,9 +199,10 @@ def build_world(kind: str, seed: int, rng: np.random.Generator) -> worlds.World:
 class _SceneCamera:
     """One world's scene in its own PyBullet client, and one camera to put anywhere in it.
 
-    The scene is what ``sitl.world.World`` builds for a ``WorldConfig.scene`` (the ground's
-    collision plane, the solids, the people, the oil spills) without vehicles; the camera is a
-    ``CameraRig`` with a single camera, rendered at arbitrary poses.
+    The scene is what ``sitl.world.World`` adds for a ``WorldConfig.scene`` (the solids, the
+    people, the oil spills), without vehicles and without the ground's collision plane (the rig
+    draws the ground itself; nothing here collides or steps); the camera is a ``CameraRig``
+    with a single camera (no vehicle: ids -1), rendered at arbitrary poses.
     """
 
     def __init__(
@@ -221,7 +210,6 @@ class _SceneCamera:
     ) -> None:
         self.world = world
         self.spec = spec
-        # No ground body: the rig draws the ground itself, and nothing here collides.
         cid = self._cid = p.connect(p.DIRECT)
         if cid < 0:
             raise RuntimeError("could not start a PyBullet DIRECT client")
