@@ -292,8 +292,8 @@ class CameraRig:
         self.tiny_renders = 0
         """How many frames needed TinyRenderer (some body in view), for diagnostics."""
         self.light: TinyLight | None = None
-        """TinyRenderer's light on the bodies; None: PyBullet's default (harness.imagery varies
-        it for its training images)."""
+        """TinyRenderer's light on the bodies; None: PyBullet's default, or the light this
+        client last rendered with (PyBullet keeps it). ``harness.imagery`` sets one per frame."""
 
     def bound_visuals(self, corners_local: dict[int, np.ndarray]) -> None:
         """Known visual bounds of bodies PyBullet cannot bound (meshes): corners (K, 3) by body id.
