@@ -13,7 +13,10 @@ rule. This module is ours, a pure function of what a node knows:
   overhead (the codec's ``compression.level_bits_per_pixel(level)``, the mean over its held-out
   set; injected as a mapping so the policy is testable without the codec).
 
-The level is the highest whose expected size fits the smaller of the two budgets. Hysteresis
+The level is the highest whose expected size fits the smaller of the two budgets. The codec's
+mean bits per pixel are a forecast; :class:`LevelController` corrects it by the ratio of the sizes
+it measured to the sizes it expected (a moving average over the images sent), since a scene far
+from the codec's held-out set compresses to more or fewer bits at every level alike. Hysteresis
 keeps it from flapping: a level that no longer fits is left at once (down), but a higher level is
 taken only when it fits within ``up_headroom`` of the budget and the current level has been kept
 for ``min_hold_images`` images.
@@ -44,6 +47,9 @@ class LevelPolicyParams:
     """Images sent at a level before the policy may step up again."""
     overhead_bytes: int = 200
     """Per image: codec header, chunk and envelope headers, bytes."""
+    size_learning_rate: float = 0.3
+    """Weight of the newest image in the moving average of measured / expected size, 0..1
+    (0: trust the codec's bits per pixel as they are)."""
 
     def __post_init__(self) -> None:
         if not 0 < self.link_share <= 1:
@@ -54,6 +60,10 @@ class LevelPolicyParams:
             raise ValueError(f"min_hold_images: must be >= 0, got {self.min_hold_images}")
         if self.overhead_bytes < 0:
             raise ValueError(f"overhead_bytes: must be >= 0, got {self.overhead_bytes}")
+        if not 0 <= self.size_learning_rate <= 1:
+            raise ValueError(
+                f"size_learning_rate: must be within [0, 1], got {self.size_learning_rate}"
+            )
 
 
 def expected_bytes(
@@ -169,6 +179,8 @@ class LevelController:
         """Times the level changed (after the first choice)."""
         self.last_budget_bytes = math.inf
         """Budget of the last choice, bytes."""
+        self.size_ratio = 1.0
+        """Moving average of measured / expected image size (the forecast's correction)."""
 
     def next_level(
         self,
@@ -189,9 +201,8 @@ class LevelController:
             bandwidth_bytes_s, image_period_s, j_per_byte, energy_per_image_j, encode_j, self.params
         )
         self.last_budget_bytes = budget
-        level = choose_level(
-            self.level, self.held_images, budget, pixels, self.bits_per_pixel, self.params
-        )
+        forecast = {lv: bpp * self.size_ratio for lv, bpp in self.bits_per_pixel.items()}
+        level = choose_level(self.level, self.held_images, budget, pixels, forecast, self.params)
         if cap is not None:
             allowed = [lv for lv in self.bits_per_pixel if lv <= cap]
             level = min(level, max(allowed) if allowed else min(self.bits_per_pixel))
@@ -202,3 +213,12 @@ class LevelController:
             self.level = level
             self.held_images = 1
         return level
+
+    def observe(self, level: int, pixels: int, size_bytes: int) -> None:
+        """Learn from an encoded image's real size (its codec stream, without overhead)."""
+        expected = self.bits_per_pixel.get(level, 0.0) * pixels / 8.0
+        if expected <= 0 or size_bytes <= 0:
+            return
+        ratio = min(10.0, max(0.1, size_bytes / expected))
+        rate = self.params.size_learning_rate
+        self.size_ratio = (1 - rate) * self.size_ratio + rate * ratio

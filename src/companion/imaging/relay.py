@@ -303,6 +303,7 @@ class ImageSender:
         start = time.perf_counter()
         data = self.codec.encode(image, level)
         encode_wall_s = time.perf_counter() - start
+        self.controller.observe(level, pixels, len(data))
         codec_j = self.params.compute_power_w * encode_wall_s
         self._last_encode_j = codec_j
         frame_id = self._next_frame

@@ -129,3 +129,17 @@ def test_bad_parameters_name_the_field():
         choose_level(None, 0, 1e6, 0, BPP, NO_HOLD)
     with pytest.raises(ValueError, match="bits_per_pixel"):
         LevelController({})
+
+
+def test_images_larger_than_forecast_teach_the_controller_to_pick_lower():
+    """Scenes that compress to twice the codec's mean bits: the level drops once it has seen them."""
+    controller = LevelController(BPP, NO_HOLD)
+    budget_bandwidth = 2 * expected_bytes(4, PIXELS, BPP, 200)  # level 4 fits as forecast
+    assert controller.next_level(PIXELS, budget_bandwidth, 1.0, 0.0) == 4
+    for _ in range(10):
+        level = controller.next_level(PIXELS, budget_bandwidth, 1.0, 0.0)
+        controller.observe(level, PIXELS, int(2 * BPP[level] * PIXELS / 8))
+    assert controller.size_ratio == pytest.approx(2.0, rel=0.05)
+    assert controller.level == 3  # level 4 at twice its forecast no longer fits
+    with pytest.raises(ValueError, match="size_learning_rate"):
+        LevelPolicyParams(size_learning_rate=2.0)
