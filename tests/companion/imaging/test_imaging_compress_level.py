@@ -132,7 +132,7 @@ def test_bad_parameters_name_the_field():
 
 
 def test_images_larger_than_forecast_teach_the_controller_to_pick_lower():
-    """Scenes that compress to twice the codec's mean bits: the level drops once it has seen them."""
+    """Scenes that compress to twice the codec's mean bits: the level drops once seen."""
     controller = LevelController(BPP, NO_HOLD)
     budget_bandwidth = 2 * expected_bytes(4, PIXELS, BPP, 200)  # level 4 fits as forecast
     assert controller.next_level(PIXELS, budget_bandwidth, 1.0, 0.0) == 4
