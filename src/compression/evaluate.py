@@ -445,7 +445,10 @@ def plot_rd(summary: Sequence[RDSummary], out_dir: Path) -> list[Path]:
                 markersize=3,
                 color=_COLOURS.get(codec),
                 label=codec,
+                zorder=3 if codec == "learned" else 2,
             )
+        n_images = max(r.n_images for r in summary)
+        ax.set_title(f"{label} vs rate, {n_images} held-out images", fontsize=10)
         ax.set_xscale("log")
         ax.set_xlabel("bits per pixel (mean over images)")
         ax.set_ylabel(f"{label} (mean)")
@@ -671,24 +674,28 @@ def _evaluate(
 def result_line(report: Report, learned_name: str) -> str:
     """The ``RESULT key=value ...`` line (bits ratios, worst learned timing, per-level numbers)."""
 
-    def num(x: float) -> str:
-        return "nan" if not math.isfinite(x) else f"{x:.3g}"
+    def num(x: float, digits: int = 3) -> str:
+        return "nan" if not math.isfinite(x) else f"{x:.{digits}f}"
 
     learned_t = [t for t in report.timings if t.codec == learned_name]
     parts = [
         f"bits_vs_jpeg={num(median_ratio(report.ratios.get('jpeg', [])))}",
         f"bits_vs_webp={num(median_ratio(report.ratios.get('webp', [])))}",
-        f"encode_decode_ms_320x240={num(max(t.total_ms for t in learned_t))}",
+        f"encode_decode_ms_320x240={num(max(t.total_ms for t in learned_t), 2)}",
     ]
+    for name, ratios in report.ratios.items():
+        skipped = [str(r.level) for r in ratios if not math.isfinite(r.ratio)]
+        if skipped:
+            parts.append(f"levels_outside_{name}={','.join(skipped)}")
     for t in report.timings:
         if t.codec != learned_name:
-            parts.append(f"{t.codec}_ms_320x240={num(t.total_ms)}")
+            parts.append(f"{t.codec}_ms_320x240={num(t.total_ms, 2)}")
     for r in sorted(
         (r for r in report.summary if r.codec == learned_name), key=lambda r: r.setting
     ):
-        parts.append(f"L{r.setting}_bpp={num(r.bpp)}")
-        parts.append(f"L{r.setting}_psnr_db={num(r.psnr_db)}")
-        parts.append(f"L{r.setting}_ms_ssim={r.ms_ssim:.4f}")
+        parts.append(f"L{r.setting}_bpp={num(r.bpp, 4)}")
+        parts.append(f"L{r.setting}_psnr_db={num(r.psnr_db, 2)}")
+        parts.append(f"L{r.setting}_ms_ssim={num(r.ms_ssim, 4)}")
     return "RESULT " + " ".join(parts)
 
 

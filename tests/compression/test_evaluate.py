@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import csv
 import math
+import subprocess
+import sys
 from dataclasses import dataclass
 
 import pytest
@@ -135,3 +137,42 @@ def test_bad_options_exit_2_with_a_message(tmp_path, capsys):
     argv = ["--images", str(empty), "--levels", "7"]
     assert evaluate.main(argv, learned=StandIn()) == 2
     assert "levels [7]" in capsys.readouterr().err
+
+
+def test_missing_heldout_images_are_rendered_by_harness_imagery(tmp_path, monkeypatch):
+    """An empty folder triggers `python -m harness.imagery --split heldout` as a subprocess."""
+    calls = []
+
+    def fake_run(cmd, **kwargs):
+        calls.append(cmd)
+        write_synthetic_pngs(tmp_path / "held", 1)
+        return subprocess.CompletedProcess(cmd, 0, "", "")
+
+    monkeypatch.setattr(evaluate.subprocess, "run", fake_run)
+    evaluate.ensure_heldout_images(tmp_path / "held", 5)
+    assert calls == [
+        [
+            sys.executable,
+            "-m",
+            "harness.imagery",
+            "--split",
+            "heldout",
+            "--count",
+            "5",
+            "--out",
+            str(tmp_path / "held"),
+        ]
+    ]
+    evaluate.ensure_heldout_images(tmp_path / "held", 5)  # PNGs there now: no second render
+    assert len(calls) == 1
+
+
+def test_a_failed_render_is_a_runtime_error_with_its_stderr(tmp_path, monkeypatch):
+    """If the renderer fails, the error carries its exit code and last stderr lines."""
+    monkeypatch.setattr(
+        evaluate.subprocess,
+        "run",
+        lambda cmd, **kw: subprocess.CompletedProcess(cmd, 1, "", "boom: no such scene\n"),
+    )
+    with pytest.raises(RuntimeError, match=r"exit 1.*boom"):
+        evaluate.ensure_heldout_images(tmp_path / "none", 3)
