@@ -124,8 +124,12 @@ class SuccessiveRow:
     ssim_vs_raw: float
     ms_ssim_vs_raw: float
     psnr_db_vs_previous: float
+    """Mean over the images this stage changed (``nan`` if it changed none), dB."""
     ssim_vs_previous: float
     ms_ssim_vs_previous: float
+    unchanged_fraction: float
+    """Share of the images this stage's decode returned unchanged (re-encoding at the same
+    setting can be idempotent); their infinite PSNR is left out of ``psnr_db_vs_previous``."""
 
 
 @dataclass(frozen=True)
@@ -339,12 +343,21 @@ def successive_table(
                     psnr_db_vs_raw=mean("psnr_db_vs_raw"),
                     ssim_vs_raw=mean("ssim_vs_raw"),
                     ms_ssim_vs_raw=mean("ms_ssim_vs_raw"),
-                    psnr_db_vs_previous=mean("psnr_db_vs_previous"),
+                    psnr_db_vs_previous=_finite_mean([s.psnr_db_vs_previous for s in stages]),
                     ssim_vs_previous=mean("ssim_vs_previous"),
                     ms_ssim_vs_previous=mean("ms_ssim_vs_previous"),
+                    unchanged_fraction=float(
+                        np.mean([math.isinf(s.psnr_db_vs_previous) for s in stages])
+                    ),
                 )
             )
     return rows
+
+
+def _finite_mean(values: Sequence[float]) -> float:
+    """Mean of the finite values, ``nan`` if there are none."""
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.mean(finite)) if finite else math.nan
 
 
 # --- timing -------------------------------------------------------------------------------------
@@ -731,6 +744,7 @@ def format_report(report: Report, learned_name: str) -> str:
             f"  {r.chain:16} stage {r.stage} L{r.setting}: {r.bpp:.3f} bpp, "
             f"PSNR {r.psnr_db_vs_raw:.2f} / {r.psnr_db_vs_previous:.2f} dB, "
             f"MS-SSIM {r.ms_ssim_vs_raw:.4f} / {r.ms_ssim_vs_previous:.4f}"
+            + (f", {r.unchanged_fraction:.0%} unchanged" if r.unchanged_fraction else "")
         )
     lines.append("")
     lines.append(

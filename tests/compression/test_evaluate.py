@@ -8,6 +8,7 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
+import numpy as np
 import pytest
 from synthetic_images import write_synthetic_pngs
 
@@ -176,3 +177,32 @@ def test_a_failed_render_is_a_runtime_error_with_its_stderr(tmp_path, monkeypatc
     )
     with pytest.raises(RuntimeError, match=r"exit 1.*boom"):
         evaluate.ensure_heldout_images(tmp_path / "none", 3)
+
+
+@dataclass(frozen=True)
+class Posterise:
+    """An idempotent lossy "codec": keeps the top 3 bits of each channel, raw bytes."""
+
+    name: str = "posterise"
+    settings: tuple[int, ...] = (1,)
+    shape: tuple[int, int, int] = (176, 208, 3)
+
+    def encode(self, image, setting):
+        return (image & 0xE0).tobytes()
+
+    def decode(self, data):
+        return np.frombuffer(data, np.uint8).reshape(self.shape).copy()
+
+
+def test_successive_table_leaves_unchanged_images_out_of_the_psnr_mean(tmp_path):
+    """An idempotent stage changes nothing: unchanged_fraction 1, PSNR vs previous nan."""
+    images = [(f"{i}", img) for i, img in enumerate(write_synthetic_pngs(tmp_path, 2))]
+    rows = evaluate.successive_table(Posterise(), images, [(1, 1)])
+    first, second = rows
+    assert first.chain == "posterise 1>1"
+    assert first.unchanged_fraction == 0.0
+    assert math.isfinite(first.psnr_db_vs_previous)
+    assert second.unchanged_fraction == 1.0
+    assert math.isnan(second.psnr_db_vs_previous)
+    assert second.ms_ssim_vs_previous == pytest.approx(1.0, abs=1e-6)
+    assert second.psnr_db_vs_raw == pytest.approx(first.psnr_db_vs_raw)
