@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+import pytest
+import torch
 
 
 def synthetic_image(seed: int, height: int = 176, width: int = 208) -> np.ndarray:
@@ -31,3 +33,16 @@ def write_synthetic_pngs(directory, count: int = 3) -> list[np.ndarray]:
     for i, img in enumerate(images):
         cv2.imwrite(str(directory / f"{i:05d}.png"), cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
     return images
+
+
+@pytest.fixture(autouse=True)
+def one_torch_thread():
+    """One torch thread for the SSIM metrics, as the evaluation runs them (faster on a shared CPU).
+
+    Imported by each test module of this folder (the folder's conftest.py belongs to the codec's
+    tests).
+    """
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)

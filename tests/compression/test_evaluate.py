@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-from synthetic_images import write_synthetic_pngs
+from synthetic_images import one_torch_thread, write_synthetic_pngs  # noqa: F401 (autouse fixture)
 
 from compression import evaluate
 from compression.baselines import JpegCodec, WebpCodec

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 from skimage.metrics import peak_signal_noise_ratio, structural_similarity
-from synthetic_images import synthetic_image
+from synthetic_images import one_torch_thread, synthetic_image  # noqa: F401 (autouse fixture)
 
 from compression import metrics
 

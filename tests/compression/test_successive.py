@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from synthetic_images import synthetic_image
+from synthetic_images import one_torch_thread, synthetic_image  # noqa: F401 (autouse fixture)
 
 from compression import metrics
 from compression.baselines import JpegCodec, WebpCodec
