@@ -21,7 +21,7 @@ from sitl.sensors.camera import (
     optical_axes_frd,
     with_mount,
 )
-from sitl.sensors.camera_render import CameraRig, render
+from sitl.sensors.camera_render import CameraRig, TinyLight, render
 from sitl.vehicles.multirotor import AIRFRAME_DIR, load_airframe
 from sitl.world import World, WorldConfig
 
@@ -473,3 +473,41 @@ def test_a_tilted_camera_optical_axes_are_orthonormal():
 def test_the_rig_needs_one_body_id_per_vehicle():
     with pytest.raises(ValueError, match="vehicle ids"):
         CameraRig(0, [CameraSpec()], 500.0, np.zeros((16, 16, 3), np.uint8), 20.0, 0, [1, 2])
+
+
+def test_a_light_from_above_lights_a_roof_brighter_than_a_low_sun_and_not_the_ground():
+    """``CameraRig.light`` changes TinyRenderer's shading of the bodies, not the ground layer.
+
+    A white box seen from straight above: its roof (normal up) is brighter with the light
+    overhead than with the light 10 degrees above the horizon (Lambert: diffuse ~ sin of the
+    elevation); the ground pixels around it are the same in both frames.
+    """
+    box = BoxObstacle((0.0, 0.0, 2.0), (8.0, 8.0, 4.0), rgba=(1.0, 1.0, 1.0, 1.0))
+    spec = CameraSpec(width_px=160, height_px=120, hfov_deg=60.0)
+    config = WorldConfig(cameras=True, camera=spec, spawn_altitude_m=30.0, obstacles=(box,))
+    with World(config) as world:
+        rig = world._cameras
+        centre, axes = _pose(spec, (0.0, 0.0, 30.0))
+        rig.light = TinyLight((0.0, 0.0, 1.0), ambient=0.3, diffuse=0.6)
+        overhead = rig.render_camera(0, centre, axes).astype(int)
+        rig.light = TinyLight((1.0, 0.0, np.tan(np.radians(10.0))), ambient=0.3, diffuse=0.6)
+        low_sun = rig.render_camera(0, centre, axes).astype(int)
+    roof = np.zeros(overhead.shape[:2], bool)
+    roof[50:70, 70:90] = True  # the middle of the 8 m box at 26 m: about 36 px wide
+    edge = np.zeros_like(roof)
+    edge[:10] = True
+    assert overhead[roof].mean() > low_sun[roof].mean() + 50
+    np.testing.assert_array_equal(overhead[edge], low_sun[edge])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"direction_enu": (0.0, 0.0, 0.0)}, "direction_enu"),
+        ({"direction_enu": (1.0, float("nan"), 0.0)}, "direction_enu"),
+        ({"direction_enu": (0.0, 0.0, 1.0), "ambient": -0.1}, "ambient"),
+    ],
+)
+def test_a_bad_light_names_the_field(kwargs, field):
+    with pytest.raises(ValueError, match=field):
+        TinyLight(**kwargs)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -62,15 +63,53 @@ def projection_matrix(spec: CameraSpec) -> list[float]:
     return proj.flatten(order="F").tolist()
 
 
+@dataclass(frozen=True)
+class TinyLight:
+    """TinyRenderer's light on the bodies it draws (the ground's shade is ``GROUND_SHADE``).
+
+    Once a client has rendered with a light, PyBullet keeps its direction for later renders.
+    """
+
+    direction_enu: tuple[float, float, float]
+    """Direction towards the light, ENU (any length but zero)."""
+    ambient: float = 0.6
+    """Ambient coefficient (PyBullet's default 0.6)."""
+    diffuse: float = 0.35
+    """Diffuse coefficient (PyBullet's default 0.35)."""
+    specular: float = 0.05
+    """Specular coefficient (PyBullet's default 0.05)."""
+
+    def __post_init__(self) -> None:
+        direction = tuple(float(v) for v in self.direction_enu)
+        if len(direction) != 3 or not all(math.isfinite(v) for v in direction):
+            raise ValueError(f"light direction_enu needs 3 finite numbers: {self.direction_enu!r}")
+        if not any(direction):
+            raise ValueError("light direction_enu must not be zero")
+        object.__setattr__(self, "direction_enu", direction)
+        for name in ("ambient", "diffuse", "specular"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"light {name} must be >= 0, got {value!r}")
+
+
 def _tiny_render(
     client_id: int,
     spec: CameraSpec,
     centre_enu_m: np.ndarray,
     optical_to_enu: np.ndarray,
     segmentation: bool,
+    light: TinyLight | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """TinyRenderer's RGBA (H, W, 4) uint8, OpenGL depth (H, W) float32 and body ids if asked."""
     flags = 0 if segmentation else p.ER_NO_SEGMENTATION_MASK
+    lighting = {}
+    if light is not None:
+        lighting = {
+            "lightDirection": list(light.direction_enu),
+            "lightAmbientCoeff": light.ambient,
+            "lightDiffuseCoeff": light.diffuse,
+            "lightSpecularCoeff": light.specular,
+        }
     _, _, rgba, depth, seg = p.getCameraImage(
         spec.width_px,
         spec.height_px,
@@ -79,6 +118,7 @@ def _tiny_render(
         renderer=p.ER_TINY_RENDERER,
         flags=flags,
         physicsClientId=client_id,
+        **lighting,
     )
     shape = (spec.height_px, spec.width_px)
     return (
@@ -251,6 +291,9 @@ class CameraRig:
         self._visual_corners: dict[int, np.ndarray] = {}
         self.tiny_renders = 0
         """How many frames needed TinyRenderer (some body in view), for diagnostics."""
+        self.light: TinyLight | None = None
+        """TinyRenderer's light on the bodies; None: PyBullet's default, or the light this
+        client last rendered with (PyBullet keeps it). ``harness.imagery`` sets one per frame."""
 
     def bound_visuals(self, corners_local: dict[int, np.ndarray]) -> None:
         """Known visual bounds of bodies PyBullet cannot bound (meshes): corners (K, 3) by body id.
@@ -332,7 +375,9 @@ class CameraRig:
         ):
             return rgb
         self.tiny_renders += 1
-        rgba, depth, _ = _tiny_render(self.client_id, spec, centre_enu_m, optical_to_enu, False)
+        rgba, depth, _ = _tiny_render(
+            self.client_id, spec, centre_enu_m, optical_to_enu, False, self.light
+        )
         # A body's pixel shows where TinyRenderer drew it nearer than the ground (OpenGL depth
         # of the ground's distance along the axis; none: anything TinyRenderer drew).
         n, f = spec.near_m, spec.far_m
