@@ -825,6 +825,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--images",
+        metavar="DIR",
         type=Path,
         default=DEFAULT_IMAGES,
         help="folder of held-out PNG images, rendered with harness.imagery if it has none "
@@ -832,36 +833,42 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--count",
+        metavar="N",
         type=int,
         default=HELDOUT_COUNT,
         help="images to render when --images is empty (e.g. --count 48)",
     )
     parser.add_argument(
         "--out",
+        metavar="DIR",
         type=Path,
         default=DEFAULT_OUT,
         help="folder for the CSVs and PNG plots (e.g. --out /tmp/eval)",
     )
     parser.add_argument(
         "--levels",
+        metavar="LIST",
         type=_int_list,
         default=None,
         help="learned codec levels to evaluate, default all (e.g. --levels 1,3,5)",
     )
     parser.add_argument(
         "--jpeg-qualities",
+        metavar="LIST",
         type=_int_list,
         default=JpegCodec().settings,
         help="JPEG qualities 1..100 to sweep (e.g. --jpeg-qualities 5,25,50,75,95)",
     )
     parser.add_argument(
         "--webp-qualities",
+        metavar="LIST",
         type=_int_list,
         default=WebpCodec().settings,
         help="WebP qualities 1..100 to sweep (e.g. --webp-qualities 5,25,50,75,100)",
     )
     parser.add_argument(
         "--successive",
+        metavar="LIST",
         type=_int_list,
         action="append",
         default=None,
@@ -870,6 +877,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--timing-repeats",
+        metavar="N",
         type=int,
         default=30,
         help="encode+decode runs per timing, median reported (e.g. --timing-repeats 100)",
