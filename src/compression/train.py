@@ -44,7 +44,7 @@ class TrainConfig:
     entropy_lr_factor: float = 10.0
     """The gains and priors learn this much faster than the transforms (they start far off)."""
     seed: int = 0
-    threads: int = 2
+    threads: int = 1
     model: ModelConfig = field(default_factory=ModelConfig)
 
     def __post_init__(self) -> None:
@@ -155,7 +155,7 @@ def main(
     heldout_count: Annotated[int, typer.Option(help="Held-out images for the level rates.")] = 48,
     steps: Annotated[int, typer.Option(help="Optimisation steps (one level per step).")] = 5000,
     seed: Annotated[int, typer.Option(help="Seed of the crops, noise and initial weights.")] = 0,
-    threads: Annotated[int, typer.Option(help="torch CPU threads.")] = 2,
+    threads: Annotated[int, typer.Option(help="torch CPU threads (the result depends on it).")] = 1,
 ) -> None:
     """Train the default levels and write the model directory (ONNX + tables).
 

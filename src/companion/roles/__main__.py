@@ -17,8 +17,8 @@ counters (with an ``images`` summary) as one JSON line.
 
 Images (docs/compression.md, "On the companion"): an edge sends the frames of its camera stream
 (``SWARMSITL_VIDEO_URI``), else the PNGs of ``--images DIR``, else synthetic textures, compressed
-with ``--codec`` (``learned``: the ``compression`` package; ``jpeg``: OpenCV JPEG; ``auto``, the
-default: learned if installed) at the level
+with ``--codec`` (``learned``, the default: the ``compression`` package; ``jpeg``: OpenCV JPEG)
+at the level
 T_compress picks (or ``--image-level``).
 """
 
@@ -126,17 +126,11 @@ async def main_async(args: argparse.Namespace) -> int:
 
 
 def _codec(name: str) -> CodecApi:
-    """The codec called ``name``: ``learned``, ``jpeg``, or ``auto`` (learned if installed)."""
+    """The codec called ``name``: ``learned`` or ``jpeg``."""
     from companion.imaging.jpeg_codec import jpeg_codec
 
     if name == "jpeg":
         return jpeg_codec()
-    if name == "auto":
-        try:
-            return project_codec()
-        except ImportError as exc:
-            print(f"images: {exc}; sending JPEG instead", file=sys.stderr)
-            return jpeg_codec()
     return project_codec()
 
 
@@ -168,10 +162,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--altitude-m", type=float, default=10.0, help="take-off height, m")
     parser.add_argument(
         "--codec",
-        choices=("auto", "learned", "jpeg"),
-        default="auto",
-        help="image codec: the learned autoencoder (compression package), OpenCV JPEG, or auto "
-        "(learned if its model is installed, else JPEG), e.g. --codec jpeg",
+        choices=("learned", "jpeg"),
+        default="learned",
+        help="image codec: the learned autoencoder (compression package, the default) or "
+        "OpenCV JPEG (the baseline), e.g. --codec jpeg",
     )
     parser.add_argument(
         "--images",

@@ -49,11 +49,8 @@ def test_a_fog_with_too_many_edges_is_refused():
 
 
 def codec_option() -> str:
-    """The learned codec when installed, else JPEG (the roles' ``--codec``)."""
-    try:
-        project_codec()
-    except ImportError:
-        return "jpeg"
+    """The roles' ``--codec``: the learned codec, installed with the package."""
+    project_codec()  # raises if the shipped model cannot be loaded
     return "learned"
 
 
