@@ -17,29 +17,30 @@ import numpy as np
 DEFAULT_IMAGE_ROOT = Path("data") / "imagery"
 
 
-def ensure_images(directory: Path, split: str, count: int, seed: int = 0) -> list[Path]:
-    """The PNG files of a split in ``directory``, rendered first if fewer than ``count``."""
+def ensure_images(directory: Path, split: str, count: int) -> list[Path]:
+    """The PNG files of ``directory``, sorted; if none, ``count`` of ``split`` are rendered first.
+
+    A folder that already holds PNGs (a user's own images too) is used as it is.
+
+    Raises:
+        RuntimeError: the renderer failed (its exit code and last lines in the message).
+    """
     paths = sorted(directory.glob("*.png"))
-    if len(paths) < count:
-        print(f"rendering {count} {split} images into {directory} (python -m harness.imagery)")
-        command = [
-            sys.executable,
-            "-m",
-            "harness.imagery",
-            "--out",
-            str(directory),
-            "--split",
-            split,
-            "--count",
-            str(count),
-            "--seed",
-            str(seed),
-        ]
-        subprocess.run(command, check=True)
-        paths = sorted(directory.glob("*.png"))
-    if len(paths) < count:
-        raise FileNotFoundError(f"{directory}: {len(paths)} images after rendering, {count} asked")
-    return paths[:count]
+    if paths:
+        return paths
+    command = [sys.executable, "-m", "harness.imagery", "--split", split]
+    command += ["--count", str(count), "--out", str(directory)]
+    print(f"rendering {count} {split} images: {' '.join(command)}", flush=True)
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        tail = (done.stderr or done.stdout).strip().splitlines()[-5:]
+        raise RuntimeError(
+            f"rendering the {split} images failed (exit {done.returncode}): " + " | ".join(tail)
+        )
+    paths = sorted(directory.glob("*.png"))
+    if not paths:
+        raise RuntimeError(f"rendering the {split} images wrote no PNG into {directory}")
+    return paths
 
 
 def read_rgb(path: Path) -> np.ndarray:

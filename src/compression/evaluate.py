@@ -32,7 +32,6 @@ import dataclasses
 import math
 import os
 import platform
-import subprocess
 import sys
 import time
 from collections.abc import Sequence
@@ -45,6 +44,7 @@ import numpy as np
 import torch
 
 from compression.baselines import ImageCodec, JpegCodec, LearnedCodec, WebpCodec
+from compression.dataset import ensure_images
 from compression.metrics import (
     ms_ssim_batch,
     ms_ssim_defined,
@@ -178,17 +178,7 @@ class SettingsSubset:
 
 def ensure_heldout_images(directory: Path, count: int = HELDOUT_COUNT) -> None:
     """Render the held-out set into ``directory`` with ``harness.imagery`` if it has no PNG."""
-    if directory.is_dir() and any(directory.glob("*.png")):
-        return
-    cmd = [sys.executable, "-m", "harness.imagery", "--split", "heldout"]
-    cmd += ["--count", str(count), "--out", str(directory)]
-    print(f"rendering {count} held-out images: {' '.join(cmd)}", flush=True)
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
-    if proc.returncode != 0:
-        tail = (proc.stderr or proc.stdout).strip().splitlines()[-5:]
-        raise RuntimeError(
-            f"rendering the held-out images failed (exit {proc.returncode}): " + " | ".join(tail)
-        )
+    ensure_images(directory, "heldout", count)
 
 
 def load_images(directory: Path) -> list[tuple[str, np.ndarray]]:

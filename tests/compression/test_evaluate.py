@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from synthetic_images import one_torch_thread, write_synthetic_pngs  # noqa: F401 (autouse fixture)
 
-from compression import evaluate
+from compression import dataset, evaluate
 from compression.baselines import JpegCodec, WebpCodec
 from compression.evaluate import RDSummary, baseline_bpp_at, bits_ratios, median_ratio
 
@@ -149,7 +149,7 @@ def test_missing_heldout_images_are_rendered_by_harness_imagery(tmp_path, monkey
         write_synthetic_pngs(tmp_path / "held", 1)
         return subprocess.CompletedProcess(cmd, 0, "", "")
 
-    monkeypatch.setattr(evaluate.subprocess, "run", fake_run)
+    monkeypatch.setattr(dataset.subprocess, "run", fake_run)
     evaluate.ensure_heldout_images(tmp_path / "held", 5)
     assert calls == [
         [
@@ -171,7 +171,7 @@ def test_missing_heldout_images_are_rendered_by_harness_imagery(tmp_path, monkey
 def test_a_failed_render_is_a_runtime_error_with_its_stderr(tmp_path, monkeypatch):
     """If the renderer fails, the error carries its exit code and last stderr lines."""
     monkeypatch.setattr(
-        evaluate.subprocess,
+        dataset.subprocess,
         "run",
         lambda cmd, **kw: subprocess.CompletedProcess(cmd, 1, "", "boom: no such scene\n"),
     )
