@@ -70,3 +70,22 @@ def test_train_command_renders_trains_and_writes_a_loadable_model(tmp_path):
     codec = Codec.load(out)
     image = np.zeros((40, 50, 3), dtype=np.uint8)
     assert codec.decode(codec.encode(image, 5)).shape == image.shape
+
+
+@pytest.mark.slow
+def test_full_training_reproduces_the_shipped_rates(tmp_path):
+    """`python -m compression.train` with its defaults gives the shipped model's held-out rates.
+
+    Bit-identical weights on the machine that trained it; on another CPU the float reductions may
+    differ, so the rates are compared within 5 %.
+    """
+    from compression.bundle import DEFAULT_MODEL_DIR
+
+    out = tmp_path / "model"
+    command = [sys.executable, "-m", "compression.train", "--out", str(out)]
+    command += ["--images", str(tmp_path / "img")]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=3600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    shipped = json.loads((DEFAULT_MODEL_DIR / "meta.json").read_text())["heldout_bits_per_pixel"]
+    rates = json.loads((out / "meta.json").read_text())["heldout_bits_per_pixel"]
+    assert rates == pytest.approx(shipped, rel=0.05)

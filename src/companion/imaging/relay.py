@@ -10,11 +10,13 @@ the node's clock (simulated seconds under swarmsitl) and energy:
 
 - transmit energy = the link's J per byte (:class:`LinkBudget`: radio power x airtime, seed 000
   Table I) x the bytes on the wire (UDP payloads + ``wire_overhead_bytes`` per datagram);
-- codec energy = ``compute_power_w`` x the codec time a Pi would take, ``codec_s_per_megapixel``
-  x the image's megapixels. ASSUMPTIONS: the whole embedded computer's 27 W of seed 000 Table I
-  while the codec runs, an upper bound (a Raspberry Pi 5 draws about 5-10 W more under load than
-  idle); 0.3 s per megapixel for an encode or a decode, about five times the one-core x86 time
-  ``python -m compression.evaluate`` measures (a Cortex-A72/A76 core against a server core).
+- codec energy = ``compute_power_w`` x the codec time a Pi would take, the codec's
+  ``s_per_megapixel`` x the image's megapixels. ASSUMPTIONS: the whole embedded computer's
+  27 W of seed 000 Table I while the codec runs, an upper bound (a Raspberry Pi 5 draws about
+  5-10 W more under load than idle); per megapixel, 0.3 s for an encode or a decode of the
+  learned codec, about five times the one-core x86 time ``python -m compression.evaluate``
+  measures (a Cortex-A72/A76 core against a server core), and 0.02 s for OpenCV's JPEG
+  (libjpeg-turbo, same factor).
   A model rather than the measured time, so that the energy and the levels the policy chooses
   from it are the same in every run of a seed; the measured wall time is recorded beside it.
 
@@ -59,6 +61,10 @@ class CodecApi:
     """Expected bits per pixel of each level (what T_compress plans with)."""
     errors: tuple[type[BaseException], ...] = (ValueError,)
     """Exceptions of a stream that cannot be decoded (``compression.CompressionError``)."""
+    s_per_megapixel: float = 0.3
+    """Time of one encode or decode on the companion per megapixel, s (ASSUMPTION: for the
+    learned codec about five times the one-core x86 time ``python -m compression.evaluate``
+    measures, a Cortex-A72/A76 core against a server core)."""
 
 
 def project_codec() -> CodecApi:
@@ -106,9 +112,6 @@ class ImagingParams:
     compute_power_w: float = 27.0
     """Power charged while encoding or decoding, W (seed 000 Table I embedded computer; an
     upper bound, see the module docstring)."""
-    codec_s_per_megapixel: float = 0.3
-    """Time of one encode or decode on the companion per megapixel, s (ASSUMPTION, module
-    docstring)."""
     energy_budget_j: float | None = None
     """Energy this node may spend on sending images over the run (codec + radio), J; None: no
     limit (then only the bandwidth bounds the level)."""
@@ -124,18 +127,14 @@ class ImagingParams:
             raise ValueError(f"reassembly_timeout_s: must be > 0, got {self.reassembly_timeout_s}")
         if not (math.isfinite(self.compute_power_w) and self.compute_power_w >= 0):
             raise ValueError(f"compute_power_w: must be >= 0, got {self.compute_power_w}")
-        if not (math.isfinite(self.codec_s_per_megapixel) and self.codec_s_per_megapixel >= 0):
-            raise ValueError(
-                f"codec_s_per_megapixel: must be >= 0, got {self.codec_s_per_megapixel}"
-            )
         if self.energy_budget_j is not None and not self.energy_budget_j >= 0:
             raise ValueError(f"energy_budget_j: must be >= 0, got {self.energy_budget_j}")
         if self.wire_overhead_bytes < 0:
             raise ValueError(f"wire_overhead_bytes: must be >= 0, got {self.wire_overhead_bytes}")
 
-    def codec_energy_j(self, pixels: int) -> float:
+    def codec_energy_j(self, codec: CodecApi, pixels: int) -> float:
         """Energy of one encode or decode of an image of ``pixels`` on the companion, J."""
-        return self.compute_power_w * self.codec_s_per_megapixel * pixels / 1e6
+        return self.compute_power_w * codec.s_per_megapixel * pixels / 1e6
 
 
 @dataclass
@@ -179,7 +178,7 @@ class ImageRecord:
     codec_wall_s: float
     """Measured encode (sent) or decode (decoded) time here, wall s (information only)."""
     codec_j: float
-    """compute_power_w x codec_s_per_megapixel x megapixels, J."""
+    """compute_power_w x the codec's s_per_megapixel x megapixels, J."""
     tx_j: float
     """Radio energy of the wire bytes (sent), J."""
     budget_bytes: float
@@ -318,7 +317,7 @@ class ImageSender:
         data = self.codec.encode(image, level)
         encode_wall_s = time.perf_counter() - start
         self.controller.observe(level, pixels, len(data))
-        codec_j = self.params.codec_energy_j(pixels)
+        codec_j = self.params.codec_energy_j(self.codec, pixels)
         self._last_encode_j = codec_j
         frame_id = self._next_frame
         self._next_frame += 1
@@ -442,7 +441,7 @@ class ImageReceiver:
             width, height, len(frame.data), 0, frame.chunks,
             8.0 * len(frame.data) / max(1, width * height), capture_s, sent_s, decoded_s,
             decoded_s - sent_s, decoded_s - capture_s, decode_wall_s,
-            self.params.codec_energy_j(width * height), 0.0, math.nan,
+            self.params.codec_energy_j(self.codec, width * height), 0.0, math.nan,
         )  # fmt: skip
         self.records.append(record)
         self.decoded += 1

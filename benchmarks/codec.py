@@ -4,8 +4,8 @@ It is the evaluation of ``python -m compression.evaluate`` (docs/compression.md,
 written to a scratch folder instead of docs/images/compression/, so that running the benchmark
 leaves the committed curves alone:
 
-    python benchmarks/compression.py
-    python benchmarks/compression.py --timing-repeats 100 --levels 1,3,5
+    python benchmarks/codec.py
+    python benchmarks/codec.py --timing-repeats 100 --levels 1,3,5
 
 Arguments are passed through to ``compression.evaluate``. The last line is
 ``RESULT bits_vs_jpeg=... bits_vs_webp=... encode_decode_ms_320x240=...`` (bits ratios at equal
