@@ -36,34 +36,8 @@ def export_model(model: Autoencoder, directory: Path, levels: tuple[int, ...], m
     model = model.eval()
     image = torch.rand(1, 3, 64, 96)
     latent = torch.randn(1, model.config.latent_channels, 4, 6)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        torch.onnx.export(
-            model.g_a,
-            (image,),
-            str(directory / "encoder.onnx"),
-            input_names=["image"],
-            output_names=["latent"],
-            dynamic_axes={
-                "image": {0: "n", 2: "height", 3: "width"},
-                "latent": {0: "n", 2: "h", 3: "w"},
-            },
-            opset_version=17,
-            dynamo=False,
-        )
-        torch.onnx.export(
-            model.g_s,
-            (latent,),
-            str(directory / "decoder.onnx"),
-            input_names=["latent"],
-            output_names=["image"],
-            dynamic_axes={
-                "latent": {0: "n", 2: "h", 3: "w"},
-                "image": {0: "n", 2: "height", 3: "width"},
-            },
-            opset_version=17,
-            dynamo=False,
-        )
+    _to_onnx(model.g_a, image, directory / "encoder.onnx", ("image", "latent"))
+    _to_onnx(model.g_s, latent, directory / "decoder.onnx", ("latent", "image"))
     with torch.no_grad():
         gains = torch.exp(model.log_gains).numpy()
     save_tables(directory / "tables.npz", gains, level_tables(model))
@@ -76,3 +50,25 @@ def export_model(model: Autoencoder, directory: Path, levels: tuple[int, ...], m
         **meta,
     }
     (directory / "meta.json").write_text(json.dumps(record, indent=2) + "\n")
+
+
+def _to_onnx(
+    module: torch.nn.Module, example: torch.Tensor, path: Path, names: tuple[str, str]
+) -> None:
+    """Export one transform with free batch, height and width (TorchScript exporter, opset 17)."""
+    axes = {
+        "image": {0: "n", 2: "height", 3: "width"},
+        "latent": {0: "n", 2: "h", 3: "w"},
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        torch.onnx.export(
+            module,
+            (example,),
+            str(path),
+            input_names=[names[0]],
+            output_names=[names[1]],
+            dynamic_axes={name: axes[name] for name in names},
+            opset_version=17,
+            dynamo=False,
+        )
