@@ -15,7 +15,7 @@ from typing import Annotated
 import cv2
 import typer
 
-from harness.imagery import SPLITS, render_images
+from harness.imagery.render import SPLITS, render_images
 
 INDEX_FILE = "index.csv"
 """The table of the images, in the output folder."""
@@ -83,3 +83,7 @@ def imagery(
 def main() -> None:
     """Entry point of ``python -m harness.imagery``."""
     app()
+
+
+if __name__ == "__main__":
+    main()

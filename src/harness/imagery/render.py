@@ -17,7 +17,8 @@ a ground brightness and a little variation of its surface.
 The ``train`` and ``heldout`` splits never share a world instance: world seeds are even for
 train and odd for heldout (``world_seed``). Every draw comes from generators seeded by the
 arguments, so the same arguments give the same images, bit for bit. CLI: ``python -m
-harness.imagery --help`` (``harness.imagery_cli``); see docs/compression.md, "Training images".
+harness.imagery --help`` (``harness/imagery/__main__.py``); see docs/compression.md, "Training
+images".
 """
 
 from __future__ import annotations
@@ -385,9 +386,3 @@ def _indoor_pose(rng: np.random.Generator, footprints: np.ndarray) -> tuple[np.n
         if not shapely.intersects(footprints, shapely.LineString([xy, ahead])).any():
             break
     return np.array([xy[0], xy[1], rng.uniform(*INDOOR_HEIGHT_M)]), heading
-
-
-if __name__ == "__main__":
-    from harness.imagery_cli import main
-
-    main()
