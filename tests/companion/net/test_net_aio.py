@@ -153,9 +153,9 @@ def test_from_env_and_net_ping_between_two_processes(tmp_path):
                 "--interval-s",
                 "0.2",
                 "--timeout-s",
-                "1",
-                "--retries",
                 "2",
+                "--retries",
+                "5",  # 2.4 s of wall time at 5x for the peer process to start on a loaded machine
                 "--linger-s",
                 "3",
                 "--records",
