@@ -1,0 +1,134 @@
+"""A fixed seed's lockstep trajectory against a recording made before the kernels were compiled.
+
+Issue 12 compiles the per-tick kernels (estimator, controllers, mixer, rotors, sensors) and
+shortens the Python around them; it must not change behaviour. The recording in
+``data/lockstep_golden.npz`` was made with the uncompiled numpy code (commit before issue 12's
+first change). Compiled code may reassociate floating-point sums (fused multiply-adds, loop
+order), so the comparison allows a small tolerance instead of bit equality:
+
+* true position within 1 mm, true velocity within 1 mm/s, attitude within 1e-4 (quaternion
+  components), rotor speed within 0.1 rad/s (of ~600), estimated position within 1 mm;
+
+a behaviour change (a different control law, a dropped sensor sample, a reordered noise draw)
+moves these by orders of magnitude more within a second of flight.
+
+Regenerate (only when behaviour is meant to change, and say so in the commit):
+``python tests/harness/test_lockstep_golden.py --record``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pymap3d
+import pytest
+
+from harness.simulation import Simulation, SimulationConfig
+from sitl.physics.wind import WindConfig
+
+GOLDEN = Path(__file__).parent / "data" / "lockstep_golden.npz"
+SAMPLE_EVERY_S = 0.1
+TAKEOFF_AT_S = 2.0
+GOTO_AT_S = 8.0
+END_S = 14.0
+
+SCENARIOS: dict[str, dict] = {
+    # One airframe (the world's single-group fast path), calm air.
+    "typhoon_calm": {"n_vehicles": 2, "frames": ("typhoon_h480",), "wind": None},
+    # Two airframes (per-group path), steady wind with turbulence and gusts, rangefinders.
+    "mixed_wind": {
+        "n_vehicles": 3,
+        "frames": ("typhoon_h480", "x500", "typhoon_h480"),
+        "wind": WindConfig(speed_m_s=4.0, from_deg=60.0, turbulence_w20_m_s=2.0, gust_peak_m_s=2.0),
+        "world_overrides": {"rangefinders": True},
+    },
+}
+TOLERANCE = {
+    "position_enu_m": 1e-3,
+    "velocity_enu_m_s": 1e-3,
+    "quaternion_xyzw": 1e-4,
+    "rotor_speed_rad_s": 0.1,
+    "estimated_position_ned_m": 1e-3,
+}
+
+
+def fly(name: str) -> dict[str, np.ndarray]:
+    """Fly scenario ``name`` in lockstep; return its samples stacked over time."""
+    spec = SCENARIOS[name]
+    cfg = SimulationConfig(
+        n_vehicles=spec["n_vehicles"],
+        frames=spec["frames"],
+        seed=7,
+        mavlink=False,
+        record_hz=0.0,
+        wind=spec["wind"],
+        world_overrides=spec.get("world_overrides", {}),
+        mocap_port=0,
+    )
+    samples: dict[str, list[np.ndarray]] = {k: [] for k in TOLERANCE}
+    with Simulation(cfg) as sim:
+        vehicles = [sim.fleet.vehicle(i) for i in range(cfg.n_vehicles)]
+
+        def sample() -> None:
+            truth = sim.world.truth
+            samples["position_enu_m"].append(truth.position_enu_m)
+            samples["velocity_enu_m_s"].append(truth.velocity_enu_m_s)
+            samples["quaternion_xyzw"].append(truth.quaternion_xyzw)
+            samples["rotor_speed_rad_s"].append(truth.rotor_speed_rad_s)
+            samples["estimated_position_ned_m"].append(sim.fleet.estimator.position_ned_m.copy())
+
+        def run_until(t_s: float) -> None:
+            while sim.time_s < t_s - 1e-9:
+                sim.run_lockstep(SAMPLE_EVERY_S)
+                sample()
+
+        run_until(TAKEOFF_AT_S)
+        for v in vehicles:
+            v.arm(False)
+            v.takeoff(None)
+        run_until(GOTO_AT_S)
+        for v in vehicles:
+            tel = v.telemetry()
+            assert tel.home is not None
+            lat, lon, _ = pymap3d.ned2geodetic(
+                10.0, 5.0, 0.0, tel.home.lat_deg, tel.home.lon_deg, tel.home.alt_amsl_m
+            )
+            v.reposition(float(lat), float(lon), tel.alt_amsl_m, 0.0, math.nan)
+        run_until(END_S)
+    return {k: np.stack(v) for k, v in samples.items()}
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_lockstep_trajectory_matches_the_recording(name: str) -> None:
+    """Flying a fixed seed reproduces the recording made with the uncompiled code."""
+    recorded = np.load(GOLDEN)
+    flown = fly(name)
+    # The scenario really flew: it climbed and moved (else the comparison proves little).
+    pos = flown["position_enu_m"]
+    assert (pos[-1, :, 2] - pos[0, :, 2]).min() > 1.5
+    assert (pos[-1, :, 1] - pos[0, :, 1]).min() > 5.0
+    for key, tol in TOLERANCE.items():
+        want = recorded[f"{name}/{key}"]
+        got = flown[key]
+        assert got.shape == want.shape, key
+        worst = float(np.max(np.abs(got - want)))
+        assert worst <= tol, f"{name} {key}: differs from the recording by {worst:.3g} > {tol}"
+
+
+def _record() -> None:
+    GOLDEN.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {}
+    for name in SCENARIOS:
+        for key, values in fly(name).items():
+            arrays[f"{name}/{key}"] = values
+    np.savez_compressed(GOLDEN, **arrays)
+    print(f"wrote {GOLDEN}")
+
+
+if __name__ == "__main__":
+    if sys.argv[1:] != ["--record"]:
+        raise SystemExit("usage: python tests/harness/test_lockstep_golden.py --record")
+    _record()
