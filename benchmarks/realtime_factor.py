@@ -5,9 +5,14 @@ vehicles and measures simulated seconds per wall second; then runs PyFlyt (its o
 subprocess) with the same vehicle counts and simulated time for comparison.
 
     python benchmarks/realtime_factor.py --vehicles 1,3,10
+    python benchmarks/realtime_factor.py --vehicles 1,3,10,100     # PyFlyt is not run at 100
     python benchmarks/realtime_factor.py --vehicles 1 --profile      # where the time goes
 
-The last line is ``RESULT rtf_1=... rtf_3=... rtf_10=... pyflyt_rtf_10=...``.
+Before the runs it times the start-up of a fresh process (imports, world, one simulated
+second) twice: cold, with an empty numba cache (every compiled kernel compiles), and warm (the
+kernels load from that cache). The last line is
+``RESULT rtf_1=... rtf_3=... rtf_10=... [rtf_100=...] pyflyt_rtf_1=... ... startup_cold_s=...
+startup_warm_s=...``.
 """
 
 from __future__ import annotations
@@ -19,7 +24,9 @@ import math
 import os
 import platform
 import pstats
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -34,6 +41,41 @@ from harness.simulation import PortPlan, Simulation, SimulationConfig
 TAKEOFF_AT_S = 3.0
 GOTO_AT_S = 12.0
 GOTO_NORTH_M = 20.0
+MAX_VEHICLES = 200
+"""Port block size: vehicle counts up to this fit in 2 x MAX_VEHICLES ports from --port-base."""
+PYFLYT_MAX_VEHICLES = 10
+"""PyFlyt is compared up to this many vehicles (the issue's comparison; larger runs are ours)."""
+
+STARTUP_SCRIPT = """
+import time
+t0 = time.perf_counter()
+from harness.simulation import Simulation, SimulationConfig
+t1 = time.perf_counter()
+with Simulation(SimulationConfig(n_vehicles=1, mavlink=False, record_hz=0.0, mocap_port=0)) as sim:
+    t2 = time.perf_counter()
+    sim.run_lockstep(1.0)
+    t3 = time.perf_counter()
+print(f"{t1 - t0:.3f} {t2 - t1:.3f} {t3 - t2:.3f}")
+"""
+
+
+def startup_seconds(cache_dir: Path) -> tuple[float, float, float]:
+    """Import, world build and first simulated second of a fresh process, wall s each.
+
+    ``cache_dir`` is the numba cache the process uses (``NUMBA_CACHE_DIR``): an empty one makes
+    every kernel compile, a filled one makes them load.
+    """
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
+    out = subprocess.run(
+        [sys.executable, "-c", STARTUP_SCRIPT],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+    ).stdout.split()
+    imports, build, first = (float(x) for x in out[-3:])
+    return imports, build, first
 
 
 def machine() -> str:
@@ -63,13 +105,15 @@ def fly_scenario(
 
     ``world_overrides`` are extra WorldConfig fields (e.g. cameras, rangefinders).
     """
+    # One onboard link per vehicle (listening on listen_base + i, sending to sdk_base + i); no
+    # ground-station or payload link.
     ports = PortPlan(
         sdk_base=port_base,
-        listen_base=port_base + 40,
+        listen_base=port_base + MAX_VEHICLES,
         gcs_port=0,
         video_base=0,
         payload_listen_base=0,
-        payload_base=port_base + 80,
+        payload_base=0,
     )
     cfg = SimulationConfig(
         n_vehicles=n, ports=ports, record_hz=0.0, world_overrides=world_overrides or {}
@@ -124,6 +168,17 @@ def main() -> int:
         f"{GOTO_NORTH_M:g} m north at {GOTO_AT_S:g} s, until {args.sim_seconds:g} s; "
         f"500 Hz physics, lockstep, MAVLink endpoints open, no clients"
     )
+    if max(counts) > MAX_VEHICLES:
+        ap.error(f"at most {MAX_VEHICLES} vehicles")
+    with tempfile.TemporaryDirectory(prefix="swarmsitl-numba-") as cache:
+        cold = startup_seconds(Path(cache))
+        warm = startup_seconds(Path(cache))
+    for label, (imports, build, first) in (("cold", cold), ("warm", warm)):
+        print(
+            f"start-up {label} (numba cache {'empty' if label == 'cold' else 'filled'}): "
+            f"{imports + build + first:.2f} s = imports {imports:.2f} s + world {build:.2f} s "
+            f"+ first simulated second {first:.2f} s"
+        )
     results: dict[str, str] = {}
     for n in counts:
         prof = cProfile.Profile() if args.profile else None
@@ -158,7 +213,7 @@ def main() -> int:
     if not args.no_pyflyt:
         from pyflyt_runner import PeerUnavailable, run_pyflyt
 
-        for n in counts:
+        for n in (c for c in counts if c <= PYFLYT_MAX_VEHICLES):
             key = f"pyflyt_rtf_{n}"
             try:
                 peer = run_pyflyt(n, args.sim_seconds)
@@ -175,6 +230,8 @@ def main() -> int:
         if f"pyflyt_rtf_{n}" in results and results[f"pyflyt_rtf_{n}"] != "nan":
             ratio = float(results[f"rtf_{n}"]) / float(results[f"pyflyt_rtf_{n}"])
             print(f"ratio swarmsitl/PyFlyt at N={n}: {ratio:.2f}")
+    results["startup_cold_s"] = f"{sum(cold):.2f}"
+    results["startup_warm_s"] = f"{sum(warm):.2f}"
     print("RESULT " + " ".join(f"{k}={v}" for k, v in results.items()))
     return 0
 

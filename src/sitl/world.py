@@ -512,15 +512,12 @@ class World:
         velocity_flu = scene.velocity_flu_m_s if self._wind is None else self._airspeed_flu()
         single = self._single
         if single is not None:
-            scene.apply_body_wrench_and_step(single.rotors.body_wrench(velocity_flu))
-            single.rotors.advance()
+            scene.apply_body_wrench_and_step(single.rotors.step(velocity_flu))
         else:
             for group in self._groups:
                 rows = group.rows
-                self._wrench[rows] = group.rotors.body_wrench(velocity_flu[rows])
+                self._wrench[rows] = group.rotors.step(velocity_flu[rows])
             scene.apply_body_wrench_and_step(self._wrench)
-            for group in self._groups:
-                group.rotors.advance()
         self._clock.advance()
         if self._scene_updates and self._clock.tick % self._moving_div == 0:
             if self._moving_solids is not None:

@@ -30,6 +30,7 @@ import numpy as np
 
 from sitl import frames
 from sitl.physics.drag import AIR_DENSITY_KG_M3, FuselageDrag
+from sitl.physics.rotor_kernel import wrench_and_advance
 
 
 class Spin(StrEnum):
@@ -129,31 +130,18 @@ class RotorModel:
         parasite_rows[:, :3] = -np.diag(fuselage.coefficients_n_s2_m2(air_density_kg_m3))
         self._wrench_map = np.vstack([thrust_map, drag_rows, parasite_rows])
 
-        alpha_up = -np.expm1(-dt_s / motor.time_constant_up_s)
-        alpha_down = -np.expm1(-dt_s / motor.time_constant_down_s)
-        # Full-shape constants: same-shape ufuncs are cheaper than scalar/broadcast ones.
-        self._alpha_up = np.full((n_vehicles, n_rot), alpha_up)
-        self._alpha_down = np.full((n_vehicles, n_rot), alpha_down)
-        # max(a_up d, a_down d) picks a_up when speeding up iff a_up > a_down; else use min.
-        self._pick = np.maximum if alpha_up >= alpha_down else np.minimum
+        self._alpha_up = float(-np.expm1(-dt_s / motor.time_constant_up_s))
+        self._alpha_down = float(-np.expm1(-dt_s / motor.time_constant_down_s))
 
-        # State and scratch buffers, allocated once (none in the hot loop).
+        # State and output buffers, allocated once (none in the hot loop).
         self.speed_rad_s = np.zeros((n_vehicles, n_rot))
         """Rotor speeds, rad/s, (N, n_rotors)."""
-        self._speed_col = self.speed_rad_s[:, :, None]
         self.command_rad_s = np.zeros((n_vehicles, n_rot))
         """Commanded rotor speeds, rad/s, (N, n_rotors); write into it."""
-        self._features = np.zeros((n_vehicles, 4 * n_rot + 3))
-        self._features_sq = self._features[:, :n_rot]
-        self._features_drag = self._features[:, n_rot : 4 * n_rot].reshape(n_vehicles, n_rot, 3)
-        self._features_quad = self._features[:, 4 * n_rot :]
-        assert np.shares_memory(self._features_drag, self._features), "must be a view"
         self._wrench = np.zeros((n_vehicles, 6))
-        self._diff = np.zeros((n_vehicles, n_rot))
-        self._diff_up = np.zeros((n_vehicles, n_rot))
 
     def body_wrench(self, velocity_flu_m_s: np.ndarray) -> np.ndarray:
-        """Force and torque on each body, ``(N, 6)`` = [F_flu (N), tau_flu (N m)].
+        """Force and torque on each body at the current rotor speeds, ``(N, 6)`` = [F_flu, tau_flu].
 
         Args:
             velocity_flu_m_s: velocity of each centre of mass relative to the air, in its body FLU
@@ -162,17 +150,29 @@ class RotorModel:
         Returns:
             A buffer owned by this object, overwritten by the next call.
         """
-        np.multiply(self.speed_rad_s, self.speed_rad_s, self._features_sq)
-        np.multiply(self._speed_col, velocity_flu_m_s, self._features_drag)
-        v = velocity_flu_m_s[:, 0, :]
-        np.abs(v, self._features_quad)
-        np.multiply(self._features_quad, v, self._features_quad)
-        return self._features.dot(self._wrench_map, self._wrench)  # 2-D dot: cheapest product
+        wrench_and_advance(
+            self.speed_rad_s,
+            self.command_rad_s,
+            velocity_flu_m_s,
+            self._wrench_map,
+            0.0,
+            0.0,
+            self._wrench,
+        )
+        return self._wrench
 
-    def advance(self) -> None:
-        """Move the rotor speeds one physics step towards their commands (first-order lag)."""
-        d = np.subtract(self.command_rad_s, self.speed_rad_s, self._diff)
-        np.multiply(d, self._alpha_up, self._diff_up)
-        np.multiply(d, self._alpha_down, d)
-        self._pick(self._diff_up, d, out=d)
-        np.add(self.speed_rad_s, d, self.speed_rad_s)
+    def step(self, velocity_flu_m_s: np.ndarray) -> np.ndarray:
+        """``body_wrench`` of the current speeds, then advance them one step (one compiled call).
+
+        The speeds move towards their commands through the first-order motor lag.
+        """
+        wrench_and_advance(
+            self.speed_rad_s,
+            self.command_rad_s,
+            velocity_flu_m_s,
+            self._wrench_map,
+            self._alpha_up,
+            self._alpha_down,
+            self._wrench,
+        )
+        return self._wrench
