@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sitl import frames
 from sitl.physics.earth import GRAVITY_M_S2
 from sitl.sensors.noise import BiasedWhiteNoise
+from sitl.sensors.noise_kernel import imu_sample
 
 
 @dataclass(frozen=True)
@@ -70,11 +70,6 @@ class Imu:
         )
         self._last_velocity_enu = np.zeros((n_vehicles, 3))
         self._first = True
-        self._world = np.zeros((n_vehicles, 2, 3))
-        self._accel = self._world[:, 0]
-        self._rate = self._world[:, 1]
-        self._gravity_up = np.zeros((n_vehicles, 3))
-        self._gravity_up[:, 2] = GRAVITY_M_S2
 
     def sample(
         self,
@@ -93,15 +88,15 @@ class Imu:
             dt_s: time since the previous sample, s.
             out: ``(N, 2, 3)``: ``[:, 0]`` specific force, ``[:, 1]`` angular rate.
         """
-        accel = self._accel
-        if self._first:
-            accel.fill(0.0)
-            self._first = False
-        else:
-            np.subtract(velocity_enu_m_s, self._last_velocity_enu, accel)
-            np.multiply(accel, 1.0 / dt_s, accel)
-        np.copyto(self._last_velocity_enu, velocity_enu_m_s)
-        np.add(accel, self._gravity_up, accel)
-        np.copyto(self._rate, angular_velocity_enu_rad_s)
-        frames.world_enu_to_body_frd(rotation_flu_to_enu, self._world, out=out)
-        np.add(out, self.noise.sample(dt_s), out=out)
+        imu_sample(
+            rotation_flu_to_enu,
+            velocity_enu_m_s,
+            self._last_velocity_enu,
+            angular_velocity_enu_rad_s,
+            dt_s,
+            self._first,
+            GRAVITY_M_S2,
+            self.noise.sample(dt_s),
+            out,
+        )
+        self._first = False

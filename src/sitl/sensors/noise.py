@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sitl.sensors.noise_kernel import biased_white_noise
+
 
 class BiasedWhiteNoise:
     """White noise + Gauss-Markov bias + turn-on bias on an array of sensor channels.
@@ -48,6 +50,9 @@ class BiasedWhiteNoise:
         self._dt_s = -1.0
         self._phi = self._sigma_bias = self._sigma_white = np.zeros(shape)
         self._z = np.zeros((2, *shape))
+        self._error = np.zeros(shape)
+        # Flat views for the compiled kernel (same memory).
+        self._flat = (self._z.reshape(-1), self.bias.reshape(-1), self.turn_on_bias.reshape(-1))
 
     def sample(self, dt_s: float) -> np.ndarray:
         """Advance the bias by ``dt_s``; return the total error of one sample (reused buffer)."""
@@ -58,16 +63,18 @@ class BiasedWhiteNoise:
                 self._tau / 2.0 * -np.expm1(-2.0 * dt_s / self._tau)
             )
             self._sigma_white = self._density / np.sqrt(dt_s)
-        z = self._rng.standard_normal(out=self._z)
-        bias = self.bias
-        walk, error = z[0], z[1]
-        np.multiply(bias, self._phi, bias)
-        np.multiply(walk, self._sigma_bias, walk)
-        np.add(bias, walk, bias)
-        np.multiply(error, self._sigma_white, error)
-        np.add(error, bias, error)
-        np.add(error, self.turn_on_bias, error)
-        return error
+        self._rng.standard_normal(out=self._z)
+        z, bias, turn_on = self._flat
+        biased_white_noise(
+            z,
+            bias,
+            self._phi.reshape(-1),
+            self._sigma_bias.reshape(-1),
+            self._sigma_white.reshape(-1),
+            turn_on,
+            self._error.reshape(-1),
+        )
+        return self._error
 
 
 class GaussMarkov:
