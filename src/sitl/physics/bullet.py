@@ -15,6 +15,7 @@ import numpy as np
 import pybullet as p
 
 from sitl.physics.earth import GRAVITY_M_S2
+from sitl.physics.state_kernel import complete_state
 
 _STATE_WIDTH = 22  # position 3, quaternion 4, velocity 3, angular velocity 3, rotation matrix 9
 
@@ -127,12 +128,12 @@ class BulletScene:
         """Rotation matrices FLU->ENU (``v_enu = R @ v_flu``), (N, 3, 3) view."""
         assert np.shares_memory(self.rotation, s), "rotation must be a view of the state"
         self._rotation_t = self.rotation.transpose(0, 2, 1)
-        self._velocity_row = self.velocity_enu_m_s[:, None, :]
         self.velocity_flu_m_s = np.zeros((n, 1, 3))
         """Centre-of-mass velocities in body FLU axes, m/s, (N, 1, 3) (valid after read_state)."""
         self._wrench_world = np.zeros((n, 2, 3))
         self._wrench_shape = (n, 2, 3)
-        self._positions: list[tuple[float, float, float]] = []
+        self._read = np.zeros(13 * n)
+        """What PyBullet returned, 13 values per body (the kernel spreads them into the state)."""
         self.read_state()
 
     @property
@@ -145,17 +146,17 @@ class BulletScene:
         cid = self._cid
         get_pose = p.getBasePositionAndOrientation
         get_vel = p.getBaseVelocity
-        get_mat = p.getMatrixFromQuaternion
-        rows = []
-        positions = []
+        values: list[float] = []
+        extend = values.extend
         for body in self.body_ids:
             pos, orn = get_pose(body, cid)
             lin, ang = get_vel(body, cid)
-            rows.append(pos + orn + lin + ang + get_mat(orn))
-            positions.append(pos)
-        self._state[:] = rows
-        self._positions = positions
-        np.matmul(self._velocity_row, self.rotation, self.velocity_flu_m_s)
+            extend(pos)
+            extend(orn)
+            extend(lin)
+            extend(ang)
+        self._read[:] = values
+        complete_state(self._read, self._state, self.velocity_flu_m_s)
 
     def apply_body_wrench_and_step(self, wrench_flu: np.ndarray) -> None:
         """Apply [F_flu, tau_flu] ``(N, 6)`` at each centre of mass, step once, read the state."""
@@ -166,7 +167,7 @@ class BulletScene:
         apply_force = p.applyExternalForce
         apply_torque = p.applyExternalTorque
         for body, (force, torque), pos in zip(
-            self.body_ids, self._wrench_world.tolist(), self._positions, strict=True
+            self.body_ids, self._wrench_world.tolist(), self.position_enu_m.tolist(), strict=True
         ):
             apply_force(body, -1, force, pos, world, cid)
             apply_torque(body, -1, torque, world, cid)
