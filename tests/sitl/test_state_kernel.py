@@ -1,0 +1,28 @@
+"""The compiled state kernel against PyBullet's own rotation matrices."""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as p
+
+from sitl.physics.state_kernel import complete_state
+
+
+def test_rotation_and_body_velocity_match_pybullet() -> None:
+    """Rows are copied; R is getMatrixFromQuaternion (unnormalised input too); v_flu = R^T v."""
+    rng = np.random.default_rng(3)
+    n = 50
+    q = rng.normal(size=(n, 4))
+    q[5:] /= np.linalg.norm(q[5:], axis=1, keepdims=True)  # the first five stay unnormalised
+    read = np.concatenate(
+        [rng.normal(size=(n, 3)), q, rng.normal(size=(n, 3)), rng.normal(size=(n, 3))], axis=1
+    )
+    state = np.full((n, 22), np.nan)
+    v_flu = np.full((n, 1, 3), np.nan)
+    complete_state(read.ravel().copy(), state, v_flu)
+    np.testing.assert_array_equal(state[:, :13], read)
+    expected = np.array([p.getMatrixFromQuaternion(row.tolist()) for row in q]).reshape(n, 3, 3)
+    rotation = state[:, 13:22].reshape(n, 3, 3)
+    np.testing.assert_allclose(rotation, expected, atol=1e-12)
+    velocity = read[:, 7:10]
+    np.testing.assert_allclose(v_flu[:, 0], np.einsum("kij,ki->kj", rotation, velocity), atol=1e-12)
