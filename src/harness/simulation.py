@@ -11,6 +11,7 @@ drive the next step. The MAVLink endpoints are polled on the simulation clock. T
 from __future__ import annotations
 
 import errno
+import functools
 import logging
 import select
 import tempfile
@@ -396,7 +397,7 @@ class Simulation:
         ports = self.config.ports
         out = self.config.out_dir
         vehicle = self.fleet.vehicle(i)
-        hub = LinkHub(vehicle)
+        hub = LinkHub(vehicle, functools.partial(self.fleet.telemetry.lazy_snapshot, i))
         ftp_root = self._ftp_root(i)
         plan = [(StreamProfile.ONBOARD, ports.listen_port(i), ports.onboard_peers(i), "")]
         models = {"": (ONBOARD, self.config.onboard_link), "-gcs": (GCS, self.config.gcs_link)}

@@ -96,6 +96,11 @@ _MAX_FRAME_BYTES: dict[int, float] = {
 """Bytes of each stream's frame with its full payload (PX4's size before it has averages)."""
 
 
+_FAST_STREAMS: dict[int, tuple[messages.FieldsBuilder, framing.FieldsFormat]] = {
+    msg_id: (fields, framing.fields_format(msg_id)) for msg_id, fields in messages.FIELDS.items()
+}
+"""The hot streams: packed from their field values, without pymavlink objects."""
+
 STATUSTEXT_POLL_INTERVAL_US = 20_000
 """How often the vehicle's status-text queue is read, simulation microseconds."""
 TLOG_FLUSH_INTERVAL_US = 1_000_000
@@ -517,6 +522,29 @@ class MavlinkEndpoint:
         self._bytes_out += len(frame)
         self._transmit(frame)
 
+    def _send_fields(
+        self, msg_id: int, fields: messages.FieldsBuilder, fmt: framing.FieldsFormat
+    ) -> None:
+        """Build hot stream ``msg_id`` from this poll's snapshot as field values; frame, send.
+
+        The same frame as ``_send(_build(msg_id))``, without the pymavlink object.
+        """
+        config = self._config
+        snapshot = self._telemetry()
+        try:
+            values = fields(snapshot, self._context)
+            if values is None:
+                return
+            frame = framing.encode_fields(fmt, values, self._seq, config.sysid, config.compid)
+        except Exception:
+            self.stats.encode_errors += 1
+            logger.exception("cannot build message %d", msg_id)
+            return
+        self._seq = (self._seq + 1) & 0xFF
+        self.stats.frames_sent += 1
+        self._bytes_out += len(frame)
+        self._transmit(frame)
+
     def _relay(self, frame: bytes) -> None:
         """Send a frame another link of the vehicle received, unchanged (forwarding)."""
         self.stats.frames_relayed += 1
@@ -579,7 +607,10 @@ class MavlinkEndpoint:
 
     def _emit(self, msg_id: int) -> None:
         before = self._bytes_out
-        if msg_id == mavlink2.MAVLINK_MSG_ID_DISTANCE_SENSOR:
+        fast = _FAST_STREAMS.get(msg_id)
+        if fast is not None:
+            self._send_fields(msg_id, *fast)
+        elif msg_id == mavlink2.MAVLINK_MSG_ID_DISTANCE_SENSOR:
             for reading in self._distance_sensors.new_messages(self._telemetry().distance_sensors):
                 self._send(reading)
         else:
