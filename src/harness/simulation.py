@@ -585,7 +585,8 @@ class Simulation:
         """Poll every MAVLink link; only those whose socket has data read it."""
         ready = {fd for fd, _ in self._readiness.poll(0)}
         for ep, fd in self._link_fds:
-            ep.poll(now_s, fd in ready)
+            if fd in ready or not ep.quiet_from_s <= now_s < ep.quiet_until_s:
+                ep.poll(now_s, fd in ready)
         for camera, fd in self._camera_fds:
             camera.poll(now_s, fd in ready)
         if self.router is not None:

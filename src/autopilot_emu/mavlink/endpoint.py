@@ -332,6 +332,12 @@ class MavlinkEndpoint:
         self._now_us = 0
         self._last_poll_s = -_NEVER
         self._next_work_s = -_NEVER
+        self.quiet_from_s = _NEVER
+        """With :attr:`quiet_until_s`: ``poll(now_s, receive=False)`` at a time in
+        [quiet_from_s, quiet_until_s) would do nothing (nothing due, no modelled link, no tlog,
+        no FTP transfer under way), so a caller that knows no datagram arrived may skip it."""
+        self.quiet_until_s = -_NEVER
+        """See :attr:`quiet_from_s` (an empty interval whenever every poll has work)."""
         self._next_statustext_us = 0
         self._next_flush_us = TLOG_FLUSH_INTERVAL_US
         self._replies: list[mavlink2.MAVLink_message] = []
@@ -404,6 +410,7 @@ class MavlinkEndpoint:
         if self._sock is not None:
             self._sock.close()
             self._sock = None
+        self.quiet_until_s = -_NEVER
 
     def __enter__(self) -> MavlinkEndpoint:
         return self
@@ -460,6 +467,20 @@ class MavlinkEndpoint:
         if shaper is not None and shaper.next_due_s <= now_s:
             for frame in shaper.due_outbound(now_s):
                 self._sendto_peers(frame)
+        self._update_quiet()
+
+    def _update_quiet(self) -> None:
+        """Recompute :attr:`quiet_from_s` / :attr:`quiet_until_s` after the state changed."""
+        self.quiet_from_s = self._last_poll_s
+        if (
+            self._config.shaper is not None
+            or self._tlog is not None
+            or self._sock is None
+            or (self._ftp is not None and self._ftp.busy)
+        ):
+            self.quiet_until_s = -_NEVER
+        else:
+            self.quiet_until_s = self._next_work_s
 
     def _work(self, now_s: float) -> None:
         """Periodic part of poll: streams, status texts, parameter list, tlog flush."""
@@ -495,12 +516,14 @@ class MavlinkEndpoint:
         """Compute the earliest simulation time at which :meth:`_work` has something to do."""
         if self._params.list_pending or self._missions.busy:
             self._next_work_s = -_NEVER
+            self.quiet_until_s = -_NEVER
             return
         next_us = min(self._streams.next_due_us, self._next_statustext_us)
         if self._tlog is not None:
             next_us = min(next_us, self._next_flush_us)
         # Half a microsecond early so that float rounding never delays a due message a poll.
         self._next_work_s = (next_us - 0.5) / 1e6
+        self._update_quiet()
 
     def _telemetry(self) -> TelemetrySnapshot:
         """The vehicle's snapshot for this poll (read once per poll for all its links)."""
@@ -776,6 +799,7 @@ class MavlinkEndpoint:
         if self._targets_us(msg.target_system, msg.target_component):
             self._params.handle_request_list()
             self._next_work_s = -_NEVER
+            self.quiet_until_s = -_NEVER
 
     def _on_param_request_read(self, msg: mavlink2.MAVLink_message) -> None:
         if self._targets_us(msg.target_system, msg.target_component):
