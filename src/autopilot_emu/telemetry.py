@@ -210,8 +210,8 @@ class FleetTelemetry:
         """Vehicle i's snapshot whose groups of fields are read when first accessed.
 
         For a reader that uses it at once (the MAVLink links within one poll): what
-        commands change (armed, modes, thrust) is read now, the rest on first access, from
-        the fleet's state at that moment.
+        commands change (armed, modes, thrust) and the motion (position, velocity, attitude,
+        rates) are read now, the rest on first access, from the fleet's state at that moment.
         """
         self._sync()
         f = self._fleet
@@ -229,6 +229,7 @@ class FleetTelemetry:
         snap.throttle = float(f.thrust[i])
         snap.takeoff_alt_amsl_m = math.nan
         snap.distance_sensors = f.rangefinders.readings(i)
+        self._fill_motion(snap)  # what nearly every poll's streams need (ATTITUDE at 100 Hz)
         return snap
 
     # --- per-vehicle groups of a lazy snapshot -------------------------------------------------

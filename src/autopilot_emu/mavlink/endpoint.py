@@ -61,6 +61,7 @@ from autopilot_emu.mavlink.streams import (
     STREAMABLE,
     StreamProfile,
     StreamScheduler,
+    StreamSpec,
     profile_streams,
 )
 from autopilot_emu.mavlink.tlog import TlogWriter
@@ -493,8 +494,9 @@ class MavlinkEndpoint:
         if self._config.datarate_bytes_s > 0 and now_us >= self._next_rate_update_us:
             self._next_rate_update_us = now_us + RATE_MULT_UPDATE_US
             self._update_rate_mult(now_us)
-        for spec in self._streams.pop_due(now_us):
-            self._emit(spec.msg_id)
+        due = self._streams.pop_due(now_us)
+        if due:
+            self._emit_streams(due)
         if now_us >= self._next_statustext_us:
             self._next_statustext_us = now_us + STATUSTEXT_POLL_INTERVAL_US
             texts, reached = self._hub.announcements(self._cursor)
@@ -546,14 +548,17 @@ class MavlinkEndpoint:
         self._transmit(frame)
 
     def _send_fields(
-        self, msg_id: int, fields: messages.FieldsBuilder, fmt: framing.FieldsFormat
+        self,
+        msg_id: int,
+        snapshot: TelemetrySnapshot,
+        fields: messages.FieldsBuilder,
+        fmt: framing.FieldsFormat,
     ) -> None:
         """Build hot stream ``msg_id`` from this poll's snapshot as field values; frame, send.
 
         The same frame as ``_send(_build(msg_id))``, without the pymavlink object.
         """
         config = self._config
-        snapshot = self._telemetry()
         try:
             values = fields(snapshot, self._context)
             if values is None:
@@ -566,7 +571,15 @@ class MavlinkEndpoint:
         self._seq = (self._seq + 1) & 0xFF
         self.stats.frames_sent += 1
         self._bytes_out += len(frame)
-        self._transmit(frame)
+        sock = self._sock
+        if config.shaper is not None or self._tlog is not None or sock is None:
+            self._transmit(frame)
+            return
+        for peer in self._peers:  # _transmit's work on an unshaped link without a tlog
+            try:
+                sock.sendto(frame, peer)
+            except OSError:
+                self.stats.send_errors += 1
 
     def _relay(self, frame: bytes) -> None:
         """Send a frame another link of the vehicle received, unchanged (forwarding)."""
@@ -628,11 +641,28 @@ class MavlinkEndpoint:
             logger.exception("cannot build message %d", msg_id)
             return None
 
+    def _emit_streams(self, due: list[StreamSpec]) -> None:
+        """Send the due streams in order; the hot ones packed from one snapshot read for all."""
+        if self._config.datarate_bytes_s > 0:  # every emission's bytes are averaged
+            for spec in due:
+                self._emit(spec.msg_id)
+            return
+        snapshot = None
+        for spec in due:
+            msg_id = spec.msg_id
+            fast = _FAST_STREAMS.get(msg_id)
+            if fast is None:
+                self._emit(msg_id)
+                continue
+            if snapshot is None:
+                snapshot = self._telemetry()
+            self._send_fields(msg_id, snapshot, *fast)
+
     def _emit(self, msg_id: int) -> None:
         before = self._bytes_out
         fast = _FAST_STREAMS.get(msg_id)
         if fast is not None:
-            self._send_fields(msg_id, *fast)
+            self._send_fields(msg_id, self._telemetry(), *fast)
         elif msg_id == mavlink2.MAVLINK_MSG_ID_DISTANCE_SENSOR:
             for reading in self._distance_sensors.new_messages(self._telemetry().distance_sensors):
                 self._send(reading)
