@@ -127,9 +127,10 @@ def _flight_custom_version() -> tuple[int, ...]:
 def _scaled(value: float, scale: float, low: int, high: int, unknown: int) -> int:
     """round(value * scale) clamped to [low, high]; ``unknown`` for NaN or infinity."""
     value = float(value)
-    if not math.isfinite(value):
+    if value - value != 0.0:  # NaN or infinite (math.isfinite without the call)
         return unknown
-    return min(high, max(low, round(value * scale)))
+    scaled = round(value * scale)
+    return high if scaled > high else (low if scaled < low else scaled)
 
 
 def _degrees_cdeg(angle_rad: float) -> int:
