@@ -11,6 +11,7 @@ drive the next step. The MAVLink endpoints are polled on the simulation clock. T
 from __future__ import annotations
 
 import errno
+import functools
 import logging
 import select
 import tempfile
@@ -396,7 +397,7 @@ class Simulation:
         ports = self.config.ports
         out = self.config.out_dir
         vehicle = self.fleet.vehicle(i)
-        hub = LinkHub(vehicle)
+        hub = LinkHub(vehicle, functools.partial(self.fleet.telemetry.lazy_snapshot, i))
         ftp_root = self._ftp_root(i)
         plan = [(StreamProfile.ONBOARD, ports.listen_port(i), ports.onboard_peers(i), "")]
         models = {"": (ONBOARD, self.config.onboard_link), "-gcs": (GCS, self.config.gcs_link)}
@@ -584,7 +585,8 @@ class Simulation:
         """Poll every MAVLink link; only those whose socket has data read it."""
         ready = {fd for fd, _ in self._readiness.poll(0)}
         for ep, fd in self._link_fds:
-            ep.poll(now_s, fd in ready)
+            if fd in ready or not ep.quiet_from_s <= now_s < ep.quiet_until_s:
+                ep.poll(now_s, fd in ready)
         for camera, fd in self._camera_fds:
             camera.poll(now_s, fd in ready)
         if self.router is not None:

@@ -61,6 +61,7 @@ from autopilot_emu.mavlink.streams import (
     STREAMABLE,
     StreamProfile,
     StreamScheduler,
+    StreamSpec,
     profile_streams,
 )
 from autopilot_emu.mavlink.tlog import TlogWriter
@@ -95,6 +96,11 @@ _MAX_FRAME_BYTES: dict[int, float] = {
 }
 """Bytes of each stream's frame with its full payload (PX4's size before it has averages)."""
 
+
+_FAST_STREAMS: dict[int, tuple[messages.FieldsBuilder, framing.FieldsFormat]] = {
+    msg_id: (fields, framing.fields_format(msg_id)) for msg_id, fields in messages.FIELDS.items()
+}
+"""The hot streams: packed from their field values, without pymavlink objects."""
 
 STATUSTEXT_POLL_INTERVAL_US = 20_000
 """How often the vehicle's status-text queue is read, simulation microseconds."""
@@ -327,6 +333,12 @@ class MavlinkEndpoint:
         self._now_us = 0
         self._last_poll_s = -_NEVER
         self._next_work_s = -_NEVER
+        self.quiet_from_s = _NEVER
+        """With :attr:`quiet_until_s`: ``poll(now_s, receive=False)`` at a time in
+        [quiet_from_s, quiet_until_s) would do nothing (nothing due, no modelled link, no tlog,
+        no FTP transfer under way), so a caller that knows no datagram arrived may skip it."""
+        self.quiet_until_s = -_NEVER
+        """See :attr:`quiet_from_s` (an empty interval whenever every poll has work)."""
         self._next_statustext_us = 0
         self._next_flush_us = TLOG_FLUSH_INTERVAL_US
         self._replies: list[mavlink2.MAVLink_message] = []
@@ -399,6 +411,7 @@ class MavlinkEndpoint:
         if self._sock is not None:
             self._sock.close()
             self._sock = None
+        self.quiet_until_s = -_NEVER
 
     def __enter__(self) -> MavlinkEndpoint:
         return self
@@ -455,6 +468,20 @@ class MavlinkEndpoint:
         if shaper is not None and shaper.next_due_s <= now_s:
             for frame in shaper.due_outbound(now_s):
                 self._sendto_peers(frame)
+        self._update_quiet()
+
+    def _update_quiet(self) -> None:
+        """Recompute :attr:`quiet_from_s` / :attr:`quiet_until_s` after the state changed."""
+        self.quiet_from_s = self._last_poll_s
+        if (
+            self._config.shaper is not None
+            or self._tlog is not None
+            or self._sock is None
+            or (self._ftp is not None and self._ftp.busy)
+        ):
+            self.quiet_until_s = -_NEVER
+        else:
+            self.quiet_until_s = self._next_work_s
 
     def _work(self, now_s: float) -> None:
         """Periodic part of poll: streams, status texts, parameter list, tlog flush."""
@@ -467,8 +494,9 @@ class MavlinkEndpoint:
         if self._config.datarate_bytes_s > 0 and now_us >= self._next_rate_update_us:
             self._next_rate_update_us = now_us + RATE_MULT_UPDATE_US
             self._update_rate_mult(now_us)
-        for spec in self._streams.pop_due(now_us):
-            self._emit(spec.msg_id)
+        due = self._streams.pop_due(now_us)
+        if due:
+            self._emit_streams(due)
         if now_us >= self._next_statustext_us:
             self._next_statustext_us = now_us + STATUSTEXT_POLL_INTERVAL_US
             texts, reached = self._hub.announcements(self._cursor)
@@ -490,12 +518,14 @@ class MavlinkEndpoint:
         """Compute the earliest simulation time at which :meth:`_work` has something to do."""
         if self._params.list_pending or self._missions.busy:
             self._next_work_s = -_NEVER
+            self.quiet_until_s = -_NEVER
             return
         next_us = min(self._streams.next_due_us, self._next_statustext_us)
         if self._tlog is not None:
             next_us = min(next_us, self._next_flush_us)
         # Half a microsecond early so that float rounding never delays a due message a poll.
         self._next_work_s = (next_us - 0.5) / 1e6
+        self._update_quiet()
 
     def _telemetry(self) -> TelemetrySnapshot:
         """The vehicle's snapshot for this poll (read once per poll for all its links)."""
@@ -516,6 +546,40 @@ class MavlinkEndpoint:
         self.stats.frames_sent += 1
         self._bytes_out += len(frame)
         self._transmit(frame)
+
+    def _send_fields(
+        self,
+        msg_id: int,
+        snapshot: TelemetrySnapshot,
+        fields: messages.FieldsBuilder,
+        fmt: framing.FieldsFormat,
+    ) -> None:
+        """Build hot stream ``msg_id`` from this poll's snapshot as field values; frame, send.
+
+        The same frame as ``_send(_build(msg_id))``, without the pymavlink object.
+        """
+        config = self._config
+        try:
+            values = fields(snapshot, self._context)
+            if values is None:
+                return
+            frame = framing.encode_fields(fmt, values, self._seq, config.sysid, config.compid)
+        except Exception:
+            self.stats.encode_errors += 1
+            logger.exception("cannot build message %d", msg_id)
+            return
+        self._seq = (self._seq + 1) & 0xFF
+        self.stats.frames_sent += 1
+        self._bytes_out += len(frame)
+        sock = self._sock
+        if config.shaper is not None or self._tlog is not None or sock is None:
+            self._transmit(frame)
+            return
+        for peer in self._peers:  # _transmit's work on an unshaped link without a tlog
+            try:
+                sock.sendto(frame, peer)
+            except OSError:
+                self.stats.send_errors += 1
 
     def _relay(self, frame: bytes) -> None:
         """Send a frame another link of the vehicle received, unchanged (forwarding)."""
@@ -577,9 +641,29 @@ class MavlinkEndpoint:
             logger.exception("cannot build message %d", msg_id)
             return None
 
+    def _emit_streams(self, due: list[StreamSpec]) -> None:
+        """Send the due streams in order; the hot ones packed from one snapshot read for all."""
+        if self._config.datarate_bytes_s > 0:  # every emission's bytes are averaged
+            for spec in due:
+                self._emit(spec.msg_id)
+            return
+        snapshot = None
+        for spec in due:
+            msg_id = spec.msg_id
+            fast = _FAST_STREAMS.get(msg_id)
+            if fast is None:
+                self._emit(msg_id)
+                continue
+            if snapshot is None:
+                snapshot = self._telemetry()
+            self._send_fields(msg_id, snapshot, *fast)
+
     def _emit(self, msg_id: int) -> None:
         before = self._bytes_out
-        if msg_id == mavlink2.MAVLINK_MSG_ID_DISTANCE_SENSOR:
+        fast = _FAST_STREAMS.get(msg_id)
+        if fast is not None:
+            self._send_fields(msg_id, self._telemetry(), *fast)
+        elif msg_id == mavlink2.MAVLINK_MSG_ID_DISTANCE_SENSOR:
             for reading in self._distance_sensors.new_messages(self._telemetry().distance_sensors):
                 self._send(reading)
         else:
@@ -745,6 +829,7 @@ class MavlinkEndpoint:
         if self._targets_us(msg.target_system, msg.target_component):
             self._params.handle_request_list()
             self._next_work_s = -_NEVER
+            self.quiet_until_s = -_NEVER
 
     def _on_param_request_read(self, msg: mavlink2.MAVLink_message) -> None:
         if self._targets_us(msg.target_system, msg.target_component):

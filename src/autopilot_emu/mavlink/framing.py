@@ -5,7 +5,12 @@ intermediate byte arrays for every frame; at PX4's onboard rates (about 400 fram
 vehicle) that is a large share of the endpoint's cost. :func:`encode` produces the same bytes
 (unsigned MAVLink 2: header, payload with trailing zeros removed, CRC-16/MCRF4XX over header and
 payload plus the message's CRC extra) from the message's own field values and payload ``Struct``,
-read with one precomputed ``attrgetter`` per message class.
+read with one precomputed ``attrgetter`` per message class. :func:`encode_fields` frames the
+hot streams' field values directly (:data:`autopilot_emu.mavlink.messages.FIELDS`), without a
+pymavlink object at all.
+
+Frames are never signed: the endpoint does not sign (no SETUP_SIGNING), so incompat flags and
+compat flags are always 0, as pymavlink's when its ``signing`` is off.
 """
 
 from __future__ import annotations
@@ -21,6 +26,9 @@ from pymavlink.generator import mavcrc
 _HEADER = struct.Struct("<BBBBBBBHB")
 """magic, payload length, incompat flags, compat flags, seq, sysid, compid, msgid (24 bit)."""
 _MAGIC_V2 = 0xFD
+_BODY_HEADER = struct.Struct("<BBBBBBHB")
+"""The header after the magic byte: what the CRC covers, with the payload."""
+_MAGIC_V2_BYTE = bytes((_MAGIC_V2,))
 
 
 def _crc(data: bytes) -> int:
@@ -98,3 +106,52 @@ def encode(message: mavlink2.MAVLink_message, seq: int, sysid: int, compid: int)
     )
     body = header[1:] + payload
     return header[:1] + body + _crc(body + plan.crc_extra).to_bytes(2, "little")
+
+
+@dataclass(frozen=True)
+class FieldsFormat:
+    """How to frame one message from its wire-order field values (see :func:`encode_fields`)."""
+
+    payload: struct.Struct
+    """The message's payload layout (pymavlink's, extensions included)."""
+    crc_extra: bytes
+    """The message's CRC extra byte (pymavlink's ``crc_extra``)."""
+    msg_id_low: int
+    msg_id_high: int
+    field_count: int
+    """Values the payload takes (array fields element by element)."""
+
+
+def fields_format(msg_id: int) -> FieldsFormat:
+    """The :class:`FieldsFormat` of message ``msg_id`` of the common dialect.
+
+    Raises:
+        KeyError: ``msg_id`` is not a message of the dialect.
+    """
+    cls = mavlink2.mavlink_map[msg_id]
+    return FieldsFormat(
+        payload=cls.unpacker,
+        crc_extra=bytes((cls.crc_extra,)),
+        msg_id_low=msg_id & 0xFFFF,
+        msg_id_high=msg_id >> 16,
+        field_count=sum(max(1, length) for length in cls.array_lengths),
+    )
+
+
+def encode_fields(fmt: FieldsFormat, values: tuple, seq: int, sysid: int, compid: int) -> bytes:
+    """The unsigned MAVLink 2 frame of a message given as wire-order field values.
+
+    Byte for byte what pymavlink sends for the message object with these values: payload with
+    trailing zeros removed (at least one byte kept), CRC-16/MCRF4XX over the header after the
+    magic byte and the payload, then the CRC extra.
+
+    Raises:
+        struct.error: a value does not fit its wire type, or the count is wrong.
+    """
+    payload = fmt.payload.pack(*values)
+    payload = payload.rstrip(b"\x00") or payload[:1]  # MAVLink 2 truncation, >= 1 byte
+    body = (
+        _BODY_HEADER.pack(len(payload), 0, 0, seq, sysid, compid, fmt.msg_id_low, fmt.msg_id_high)
+        + payload
+    )
+    return _MAGIC_V2_BYTE + body + _crc(body + fmt.crc_extra).to_bytes(2, "little")

@@ -13,6 +13,7 @@ components (a mission's camera items), which every link sends once.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 
 from autopilot_emu.mavlink.forwarding import ForwardingGroup
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
@@ -30,10 +31,18 @@ class LinkHub:
 
     Args:
         vehicle: the flight stack every link talks to.
+        telemetry: where the links read the vehicle's snapshot (default ``vehicle.telemetry``);
+            a source whose snapshot reads its fields on first access (a fleet's
+            ``lazy_snapshot``) makes a poll read only what its due streams need.
     """
 
-    def __init__(self, vehicle: VehiclePort) -> None:
+    def __init__(
+        self,
+        vehicle: VehiclePort,
+        telemetry: Callable[[], TelemetrySnapshot] | None = None,
+    ) -> None:
         self.vehicle = vehicle
+        self._read_telemetry = telemetry if telemetry is not None else vehicle.telemetry
         self._snapshot: TelemetrySnapshot | None = None
         self._snapshot_key: tuple[int, int] | None = None
         self._generation = 0
@@ -50,7 +59,7 @@ class LinkHub:
         """The vehicle's snapshot at simulation time ``now_us``, read once for all links."""
         key = (now_us, self._generation)
         if key != self._snapshot_key or self._snapshot is None:
-            self._snapshot = self.vehicle.telemetry()
+            self._snapshot = self._read_telemetry()
             self._snapshot_key = key
         return self._snapshot
 

@@ -85,6 +85,9 @@ class MessageContext:
 
 Message = mavlink2.MAVLink_message
 Builder = Callable[[TelemetrySnapshot, MessageContext], Message | None]
+FieldsBuilder = Callable[[TelemetrySnapshot, MessageContext], tuple | None]
+"""A builder of a message's field values, flat (arrays element by element) in wire order:
+what the payload ``Struct`` packs, without a pymavlink object (the hot streams)."""
 
 
 def custom_mode(main_mode: int, sub_mode: int) -> int:
@@ -124,9 +127,10 @@ def _flight_custom_version() -> tuple[int, ...]:
 def _scaled(value: float, scale: float, low: int, high: int, unknown: int) -> int:
     """round(value * scale) clamped to [low, high]; ``unknown`` for NaN or infinity."""
     value = float(value)
-    if not math.isfinite(value):
+    if value - value != 0.0:  # NaN or infinite (math.isfinite without the call)
         return unknown
-    return min(high, max(low, round(value * scale)))
+    scaled = round(value * scale)
+    return high if scaled > high else (low if scaled < low else scaled)
 
 
 def _degrees_cdeg(angle_rad: float) -> int:
@@ -196,90 +200,75 @@ def extended_sys_state(snapshot: TelemetrySnapshot, context: MessageContext) -> 
     )
 
 
-def global_position_int(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+def global_position_int_fields(
+    snapshot: TelemetrySnapshot, context: MessageContext
+) -> tuple | None:
     """GLOBAL_POSITION_INT (33): fused position; None until lat/lon are known."""
     if not (math.isfinite(snapshot.lat_deg) and math.isfinite(snapshot.lon_deg)):
         return None
     vn, ve, vd = snapshot.velocity_ned_m_s
-    return mavlink2.MAVLink_global_position_int_message(
-        time_boot_ms=_time_boot_ms(snapshot),
-        lat=_scaled(snapshot.lat_deg, 1e7, -900_000_000, 900_000_000, 0),
-        lon=_scaled(snapshot.lon_deg, 1e7, -1_800_000_000, 1_800_000_000, 0),
-        alt=_scaled(snapshot.alt_amsl_m, 1000.0, -(2**31), 2**31 - 1, 0),
-        relative_alt=_scaled(snapshot.relative_alt_m, 1000.0, -(2**31), 2**31 - 1, 0),
-        vx=_scaled(vn, 100.0, -INT16_MAX, INT16_MAX, 0),
-        vy=_scaled(ve, 100.0, -INT16_MAX, INT16_MAX, 0),
-        vz=_scaled(vd, 100.0, -INT16_MAX, INT16_MAX, 0),
-        hdg=_degrees_cdeg(snapshot.euler_rad[2]),
+    return (
+        _time_boot_ms(snapshot),
+        _scaled(snapshot.lat_deg, 1e7, -900_000_000, 900_000_000, 0),
+        _scaled(snapshot.lon_deg, 1e7, -1_800_000_000, 1_800_000_000, 0),
+        _scaled(snapshot.alt_amsl_m, 1000.0, -(2**31), 2**31 - 1, 0),
+        _scaled(snapshot.relative_alt_m, 1000.0, -(2**31), 2**31 - 1, 0),
+        _scaled(vn, 100.0, -INT16_MAX, INT16_MAX, 0),
+        _scaled(ve, 100.0, -INT16_MAX, INT16_MAX, 0),
+        _scaled(vd, 100.0, -INT16_MAX, INT16_MAX, 0),
+        _degrees_cdeg(snapshot.euler_rad[2]),
     )
 
 
-def local_position_ned(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+def local_position_ned_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple | None:
     """LOCAL_POSITION_NED (32): position and velocity in the EKF-origin NED frame."""
     x, y, z = _floats(snapshot.position_ned_m)
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
         return None
     vx, vy, vz = _floats(snapshot.velocity_ned_m_s)
-    return mavlink2.MAVLink_local_position_ned_message(
-        time_boot_ms=_time_boot_ms(snapshot), x=x, y=y, z=z, vx=vx, vy=vy, vz=vz
-    )
+    return (_time_boot_ms(snapshot), x, y, z, vx, vy, vz)
 
 
-def attitude(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
+def attitude_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple:
     """ATTITUDE (30): roll, pitch, yaw and body rates, rad and rad/s."""
     roll, pitch, yaw = _floats(snapshot.euler_rad)
     p, q, r = _floats(snapshot.body_rates_rad_s)
-    return mavlink2.MAVLink_attitude_message(
-        time_boot_ms=_time_boot_ms(snapshot),
-        roll=roll,
-        pitch=pitch,
-        yaw=yaw,
-        rollspeed=p,
-        pitchspeed=q,
-        yawspeed=r,
-    )
+    return (_time_boot_ms(snapshot), roll, pitch, yaw, p, q, r)
 
 
-def attitude_quaternion(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
-    """ATTITUDE_QUATERNION (31): q1..q4 = w, x, y, z (body FRD to NED) and body rates."""
+def attitude_quaternion_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple:
+    """ATTITUDE_QUATERNION (31): q1..q4 = w, x, y, z (body FRD to NED) and body rates.
+
+    repr_offset_q is all zero (no representation offset).
+    """
     w, x, y, z = _floats(snapshot.quaternion_wxyz)
     p, q, r = _floats(snapshot.body_rates_rad_s)
-    return mavlink2.MAVLink_attitude_quaternion_message(
-        time_boot_ms=_time_boot_ms(snapshot),
-        q1=w,
-        q2=x,
-        q3=y,
-        q4=z,
-        rollspeed=p,
-        pitchspeed=q,
-        yawspeed=r,
-        repr_offset_q=[0.0, 0.0, 0.0, 0.0],
-    )
+    return (_time_boot_ms(snapshot), w, x, y, z, p, q, r, 0.0, 0.0, 0.0, 0.0)
 
 
-def gps_raw_int(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
+def gps_raw_int_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple:
     """GPS_RAW_INT (24): raw receiver output; accuracies in h_acc/v_acc (mm)."""
     vn, ve, _ = _floats(snapshot.gps_velocity_ned_m_s)
     ground_speed = math.hypot(vn, ve)
     course_rad = math.atan2(ve, vn) if math.isfinite(ground_speed) else math.nan
     extra = snapshot.extra
-    return mavlink2.MAVLink_gps_raw_int_message(
-        time_usec=snapshot.time_usec,
-        fix_type=snapshot.gps_fix_type & 0xFF,
-        lat=_scaled(snapshot.gps_lat_deg, 1e7, -900_000_000, 900_000_000, 0),
-        lon=_scaled(snapshot.gps_lon_deg, 1e7, -1_800_000_000, 1_800_000_000, 0),
-        alt=_scaled(snapshot.gps_alt_amsl_m, 1000.0, -(2**31), 2**31 - 1, 0),
-        eph=_scaled(extra.get("gps_hdop", math.nan), 100.0, 0, UINT16_MAX - 1, UINT16_MAX),
-        epv=_scaled(extra.get("gps_vdop", math.nan), 100.0, 0, UINT16_MAX - 1, UINT16_MAX),
-        vel=_scaled(ground_speed, 100.0, 0, UINT16_MAX - 1, UINT16_MAX),
-        cog=_degrees_cdeg(course_rad),
-        satellites_visible=min(254, max(0, snapshot.gps_satellites)),
-        alt_ellipsoid=0,
-        h_acc=_scaled(snapshot.gps_eph_m, 1000.0, 0, 2**32 - 1, 0),
-        v_acc=_scaled(snapshot.gps_epv_m, 1000.0, 0, 2**32 - 1, 0),
-        vel_acc=0,
-        hdg_acc=0,
-        yaw=0,
+    return (
+        snapshot.time_usec,
+        _scaled(snapshot.gps_lat_deg, 1e7, -900_000_000, 900_000_000, 0),
+        _scaled(snapshot.gps_lon_deg, 1e7, -1_800_000_000, 1_800_000_000, 0),
+        _scaled(snapshot.gps_alt_amsl_m, 1000.0, -(2**31), 2**31 - 1, 0),
+        _scaled(extra.get("gps_hdop", math.nan), 100.0, 0, UINT16_MAX - 1, UINT16_MAX),  # eph
+        _scaled(extra.get("gps_vdop", math.nan), 100.0, 0, UINT16_MAX - 1, UINT16_MAX),  # epv
+        _scaled(ground_speed, 100.0, 0, UINT16_MAX - 1, UINT16_MAX),  # vel
+        _degrees_cdeg(course_rad),  # cog
+        snapshot.gps_fix_type & 0xFF,
+        min(254, max(0, snapshot.gps_satellites)),
+        0,  # alt_ellipsoid
+        _scaled(snapshot.gps_eph_m, 1000.0, 0, 2**32 - 1, 0),  # h_acc
+        _scaled(snapshot.gps_epv_m, 1000.0, 0, 2**32 - 1, 0),  # v_acc
+        0,  # vel_acc
+        0,  # hdg_acc
+        0,  # yaw
     )
 
 
@@ -348,35 +337,36 @@ def home_position(snapshot: TelemetrySnapshot, context: MessageContext) -> Messa
     )
 
 
-def vfr_hud(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
+def vfr_hud_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple:
     """VFR_HUD (74): speeds, heading (deg), throttle (%), AMSL altitude, climb rate."""
     vn, ve, vd = _floats(snapshot.velocity_ned_m_s)
     ground_speed = math.hypot(vn, ve)
     heading_cdeg = _degrees_cdeg(snapshot.euler_rad[2])
-    return mavlink2.MAVLink_vfr_hud_message(
-        airspeed=ground_speed,
-        groundspeed=ground_speed,
-        heading=0 if heading_cdeg == UINT16_MAX else round(heading_cdeg / 100.0) % 360,
-        throttle=_scaled(snapshot.throttle, 100.0, 0, 100, 0),
-        alt=float(snapshot.alt_amsl_m),
-        climb=-vd,
+    return (
+        ground_speed,  # airspeed
+        ground_speed,
+        float(snapshot.alt_amsl_m),
+        -vd,  # climb
+        0 if heading_cdeg == UINT16_MAX else round(heading_cdeg / 100.0) % 360,
+        _scaled(snapshot.throttle, 100.0, 0, 100, 0),
     )
 
 
-def altitude(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
+def altitude_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple:
     """ALTITUDE (141): AMSL, local (-z) and relative altitudes; terrain from the range finder.
 
     As PX4's ALTITUDE stream: ``altitude_terrain`` is the terrain's altitude AMSL and
     ``bottom_clearance`` the height above it, both NaN while the terrain estimate is invalid.
     """
-    return mavlink2.MAVLink_altitude_message(
-        time_usec=snapshot.time_usec,
-        altitude_monotonic=float(snapshot.alt_amsl_m),
-        altitude_amsl=float(snapshot.alt_amsl_m),
-        altitude_local=-float(snapshot.position_ned_m[2]),
-        altitude_relative=float(snapshot.relative_alt_m),
-        altitude_terrain=float(snapshot.extra.get("altitude_terrain_m", math.nan)),
-        bottom_clearance=float(snapshot.extra.get("bottom_clearance_m", math.nan)),
+    extra = snapshot.extra
+    return (
+        snapshot.time_usec,
+        float(snapshot.alt_amsl_m),  # altitude_monotonic
+        float(snapshot.alt_amsl_m),  # altitude_amsl
+        -float(snapshot.position_ned_m[2]),  # altitude_local
+        float(snapshot.relative_alt_m),
+        float(extra.get("altitude_terrain_m", math.nan)),
+        float(extra.get("bottom_clearance_m", math.nan)),
     )
 
 
@@ -445,7 +435,7 @@ def _ignore_mask(values: Sequence[float]) -> int:
     return mask
 
 
-def attitude_target(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+def attitude_target_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple | None:
     """ATTITUDE_TARGET (83): attitude, body-rate and collective thrust setpoints.
 
     As PX4: type_mask 0 (every field is a live setpoint) and thrust = |thrust vector| in 0..1;
@@ -455,20 +445,20 @@ def attitude_target(snapshot: TelemetrySnapshot, context: MessageContext) -> Mes
     if sp is None:
         return None
     p, q, r = sp.body_rates_rad_s
-    return mavlink2.MAVLink_attitude_target_message(
-        time_boot_ms=_time_boot_ms(snapshot),
-        type_mask=0,
-        q=list(sp.attitude_wxyz),
-        body_roll_rate=p,
-        body_pitch_rate=q,
-        body_yaw_rate=r,
-        thrust=min(1.0, max(0.0, sp.thrust)),
+    return (
+        _time_boot_ms(snapshot),
+        *sp.attitude_wxyz,
+        p,
+        q,
+        r,
+        min(1.0, max(0.0, sp.thrust)),
+        0,  # type_mask
     )
 
 
-def position_target_local_ned(
+def position_target_local_ned_fields(
     snapshot: TelemetrySnapshot, context: MessageContext
-) -> Message | None:
+) -> tuple | None:
     """POSITION_TARGET_LOCAL_NED (85): the position controller's setpoint, as PX4 fills it.
 
     Every NaN field (an axis that is velocity-controlled, no acceleration setpoint, no yaw-rate
@@ -479,28 +469,17 @@ def position_target_local_ned(
         return None
     values = (*sp.position_ned_m, *sp.velocity_ned_m_s, *sp.acceleration_ned_m_s2)
     values += (sp.yaw_rad, sp.yaw_rate_rad_s)
-    x, y, z, vx, vy, vz, afx, afy, afz, yaw, yaw_rate = values
-    return mavlink2.MAVLink_position_target_local_ned_message(
-        time_boot_ms=_time_boot_ms(snapshot),
-        coordinate_frame=mavlink2.MAV_FRAME_LOCAL_NED,
-        type_mask=_ignore_mask(values),
-        x=x,
-        y=y,
-        z=z,
-        vx=vx,
-        vy=vy,
-        vz=vz,
-        afx=afx,
-        afy=afy,
-        afz=afz,
-        yaw=yaw,
-        yaw_rate=yaw_rate,
+    return (
+        _time_boot_ms(snapshot),
+        *values,
+        _ignore_mask(values),
+        mavlink2.MAV_FRAME_LOCAL_NED,
     )
 
 
-def position_target_global_int(
+def position_target_global_int_fields(
     snapshot: TelemetrySnapshot, context: MessageContext
-) -> Message | None:
+) -> tuple | None:
     """POSITION_TARGET_GLOBAL_INT (87): the position setpoint as lat/lon (degE7) and AMSL alt.
 
     PX4 sends it only while a position setpoint is being flown (its triplet's current item, with
@@ -517,21 +496,13 @@ def position_target_global_int(
     vx, vy, vz = sp.velocity_ned_m_s
     afx, afy, afz = sp.acceleration_ned_m_s2
     values = (lat, lon, alt, vx, vy, vz, afx, afy, afz, sp.yaw_rad, sp.yaw_rate_rad_s)
-    return mavlink2.MAVLink_position_target_global_int_message(
-        time_boot_ms=_time_boot_ms(snapshot),
-        coordinate_frame=mavlink2.MAV_FRAME_GLOBAL_INT,
-        type_mask=_ignore_mask(values),
-        lat_int=_scaled(lat, 1e7, -900_000_000, 900_000_000, 0),
-        lon_int=_scaled(lon, 1e7, -1_800_000_000, 1_800_000_000, 0),
-        alt=alt,
-        vx=vx,
-        vy=vy,
-        vz=vz,
-        afx=afx,
-        afy=afy,
-        afz=afz,
-        yaw=sp.yaw_rad,
-        yaw_rate=sp.yaw_rate_rad_s,
+    return (
+        _time_boot_ms(snapshot),
+        _scaled(lat, 1e7, -900_000_000, 900_000_000, 0),
+        _scaled(lon, 1e7, -1_800_000_000, 1_800_000_000, 0),
+        *values[2:],
+        _ignore_mask(values),
+        mavlink2.MAV_FRAME_GLOBAL_INT,
     )
 
 
@@ -558,7 +529,7 @@ def estimator_status(snapshot: TelemetrySnapshot, context: MessageContext) -> Me
     )
 
 
-def odometry(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+def odometry_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple | None:
     """ODOMETRY (331): EKF pose and velocity in the local NED frame, as PX4's EKF2 publishes it.
 
     Velocity is NED (child_frame_id LOCAL_NED), angular velocity body FRD; the covariances carry
@@ -577,55 +548,40 @@ def odometry(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | 
         ):
             pose_cov[index] = pos_var
             velocity_cov[index] = vel_var
-    vx, vy, vz = snapshot.velocity_ned_m_s
-    p, q, r = snapshot.body_rates_rad_s
-    return mavlink2.MAVLink_odometry_message(
-        time_usec=snapshot.time_usec,
-        frame_id=mavlink2.MAV_FRAME_LOCAL_NED,
-        child_frame_id=mavlink2.MAV_FRAME_LOCAL_NED,
-        x=x,
-        y=y,
-        z=z,
-        q=list(snapshot.quaternion_wxyz),
-        vx=vx,
-        vy=vy,
-        vz=vz,
-        rollspeed=p,
-        pitchspeed=q,
-        yawspeed=r,
-        pose_covariance=pose_cov,
-        velocity_covariance=velocity_cov,
-        reset_counter=0,
-        estimator_type=mavlink2.MAV_ESTIMATOR_TYPE_AUTOPILOT,
-        quality=0,
+    return (
+        snapshot.time_usec,
+        x,
+        y,
+        z,
+        *snapshot.quaternion_wxyz,
+        *snapshot.velocity_ned_m_s,
+        *snapshot.body_rates_rad_s,
+        *pose_cov,
+        *velocity_cov,
+        mavlink2.MAV_FRAME_LOCAL_NED,  # frame_id
+        mavlink2.MAV_FRAME_LOCAL_NED,  # child_frame_id
+        0,  # reset_counter
+        mavlink2.MAV_ESTIMATOR_TYPE_AUTOPILOT,
+        0,  # quality
     )
 
 
-def highres_imu(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+def highres_imu_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple | None:
     """HIGHRES_IMU (105): the last IMU sample (body FRD; gauss, hPa, degC) and its update flags."""
     imu = snapshot.imu
     if imu is None:
         return None
-    ax, ay, az = imu.accel_m_s2
-    gx, gy, gz = imu.gyro_rad_s
-    mx, my, mz = imu.mag_gauss
-    return mavlink2.MAVLink_highres_imu_message(
-        time_usec=imu.time_usec,
-        xacc=ax,
-        yacc=ay,
-        zacc=az,
-        xgyro=gx,
-        ygyro=gy,
-        zgyro=gz,
-        xmag=mx,
-        ymag=my,
-        zmag=mz,
-        abs_pressure=imu.abs_pressure_hpa,
-        diff_pressure=imu.diff_pressure_hpa,
-        pressure_alt=imu.pressure_alt_m,
-        temperature=imu.temperature_degc,
-        fields_updated=imu.fields_updated & 0xFFFF,
-        id=0,
+    return (
+        imu.time_usec,
+        *imu.accel_m_s2,
+        *imu.gyro_rad_s,
+        *imu.mag_gauss,
+        imu.abs_pressure_hpa,
+        imu.diff_pressure_hpa,
+        imu.pressure_alt_m,
+        imu.temperature_degc,
+        imu.fields_updated & 0xFFFF,
+        0,  # id
     )
 
 
@@ -643,13 +599,13 @@ def gps_global_origin(snapshot: TelemetrySnapshot, context: MessageContext) -> M
     )
 
 
-def timesync_request(snapshot: TelemetrySnapshot, context: MessageContext) -> Message:
+def timesync_request_fields(snapshot: TelemetrySnapshot, context: MessageContext) -> tuple:
     """TIMESYNC (111) as PX4's onboard stream sends it: tc1 = 0 (a request), ts1 = boot time, ns.
 
     The companion answers with its own clock in tc1; this emulator needs no offset estimate (the
     simulation clock is authoritative), so the answers are not used.
     """
-    return mavlink2.MAVLink_timesync_message(tc1=0, ts1=snapshot.time_usec * 1000)
+    return (0, snapshot.time_usec * 1000)
 
 
 def timesync_reply(request: Message, now_ns: int) -> Message:
@@ -703,6 +659,73 @@ def statustext_chunks(severity: int, text: str, chunk_id: int) -> list[Message]:
         for seq, piece in enumerate(pieces)
     ]
 
+
+def _message_of(cls: type[Message], fields: FieldsBuilder) -> Builder:
+    """The builder of pymavlink ``cls`` objects from a builder of its wire-order fields."""
+    layout = tuple(zip(cls.ordered_fieldnames, cls.array_lengths, strict=True))
+
+    def build(snapshot: TelemetrySnapshot, context: MessageContext) -> Message | None:
+        values = fields(snapshot, context)
+        if values is None:
+            return None
+        kwargs: dict[str, object] = {}
+        k = 0
+        for name, length in layout:
+            if length:
+                kwargs[name] = list(values[k : k + length])
+                k += length
+            else:
+                kwargs[name] = values[k]
+                k += 1
+        return cls(**kwargs)
+
+    build.__name__ = build.__qualname__ = fields.__name__.removesuffix("_fields")
+    build.__doc__ = fields.__doc__
+    return build
+
+
+FIELDS: dict[int, FieldsBuilder] = {
+    mavlink2.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: global_position_int_fields,
+    mavlink2.MAVLINK_MSG_ID_LOCAL_POSITION_NED: local_position_ned_fields,
+    mavlink2.MAVLINK_MSG_ID_ATTITUDE: attitude_fields,
+    mavlink2.MAVLINK_MSG_ID_ATTITUDE_QUATERNION: attitude_quaternion_fields,
+    mavlink2.MAVLINK_MSG_ID_GPS_RAW_INT: gps_raw_int_fields,
+    mavlink2.MAVLINK_MSG_ID_VFR_HUD: vfr_hud_fields,
+    mavlink2.MAVLINK_MSG_ID_ALTITUDE: altitude_fields,
+    mavlink2.MAVLINK_MSG_ID_ATTITUDE_TARGET: attitude_target_fields,
+    mavlink2.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: position_target_local_ned_fields,
+    mavlink2.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT: position_target_global_int_fields,
+    mavlink2.MAVLINK_MSG_ID_ODOMETRY: odometry_fields,
+    mavlink2.MAVLINK_MSG_ID_HIGHRES_IMU: highres_imu_fields,
+    mavlink2.MAVLINK_MSG_ID_TIMESYNC: timesync_request_fields,
+}
+"""The hot streams (10 Hz or more in PX4's onboard or normal profile, streams.PROFILES): message
+id -> builder of its wire-order fields, which the endpoint packs straight into a frame
+(framing.encode_fields); their pymavlink-object builders below are made from the same fields."""
+
+global_position_int = _message_of(
+    mavlink2.MAVLink_global_position_int_message, global_position_int_fields
+)
+local_position_ned = _message_of(
+    mavlink2.MAVLink_local_position_ned_message, local_position_ned_fields
+)
+attitude = _message_of(mavlink2.MAVLink_attitude_message, attitude_fields)
+attitude_quaternion = _message_of(
+    mavlink2.MAVLink_attitude_quaternion_message, attitude_quaternion_fields
+)
+gps_raw_int = _message_of(mavlink2.MAVLink_gps_raw_int_message, gps_raw_int_fields)
+vfr_hud = _message_of(mavlink2.MAVLink_vfr_hud_message, vfr_hud_fields)
+altitude = _message_of(mavlink2.MAVLink_altitude_message, altitude_fields)
+attitude_target = _message_of(mavlink2.MAVLink_attitude_target_message, attitude_target_fields)
+position_target_local_ned = _message_of(
+    mavlink2.MAVLink_position_target_local_ned_message, position_target_local_ned_fields
+)
+position_target_global_int = _message_of(
+    mavlink2.MAVLink_position_target_global_int_message, position_target_global_int_fields
+)
+odometry = _message_of(mavlink2.MAVLink_odometry_message, odometry_fields)
+highres_imu = _message_of(mavlink2.MAVLink_highres_imu_message, highres_imu_fields)
+timesync_request = _message_of(mavlink2.MAVLink_timesync_message, timesync_request_fields)
 
 BUILDERS: dict[int, Builder] = {
     mavlink2.MAVLINK_MSG_ID_HEARTBEAT: heartbeat,

@@ -295,13 +295,18 @@ class StreamScheduler:
         if now_us < self.next_due_us:
             return []
         due: list[StreamSpec] = []
+        earliest = _NEVER_US
         for stream in self._streams:
-            if stream.next_due_us <= now_us:
+            next_due = stream.next_due_us
+            if next_due <= now_us:
                 due.append(stream.spec)
-                stream.next_due_us += stream.sent_interval_us
-                if stream.next_due_us <= now_us:
-                    stream.next_due_us = now_us + stream.sent_interval_us
-        self.next_due_us = self._earliest()
+                next_due += stream.sent_interval_us
+                if next_due <= now_us:
+                    next_due = now_us + stream.sent_interval_us
+                stream.next_due_us = next_due
+            if next_due < earliest:
+                earliest = next_due
+        self.next_due_us = earliest
         return due
 
     def restart(self, now_us: int) -> None:

@@ -133,3 +133,18 @@ def test_a_hub_serves_one_vehicle(vehicle):
 
     with pytest.raises(ValueError, match="another vehicle"):
         make_endpoint(FakeVehicle(), hub=LinkHub(vehicle))
+
+
+def test_a_telemetry_source_given_to_the_hub_replaces_the_vehicles(vehicle, client):
+    """The simulation hands the hub its fleet's lazy snapshots: the links read only that."""
+    reads = []
+
+    def source():
+        reads.append(1)
+        return vehicle.snapshot
+
+    hub = LinkHub(vehicle, source)
+    with make_endpoint(vehicle, peers=(client.address,), hub=hub) as onboard:
+        client.exchange(onboard, 0.0, has("ATTITUDE"))
+    assert len(reads) == 1
+    assert vehicle.telemetry_calls == 0
