@@ -12,7 +12,8 @@ Before the runs it times the start-up of a fresh process (imports, world, one si
 second) twice: cold, with an empty numba cache (every compiled kernel compiles), and warm (the
 kernels load from that cache). The last line is
 ``RESULT rtf_1=... rtf_3=... rtf_10=... [rtf_100=...] pyflyt_rtf_1=... ... startup_cold_s=...
-startup_warm_s=...``.
+startup_warm_s=... up_warm_s=...``
+(``up_warm_s``: ``swarmsitl up`` with one vehicle, from launch until it says it is ready).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import math
 import os
 import platform
 import pstats
+import signal
 import subprocess
 import sys
 import tempfile
@@ -57,6 +59,55 @@ with Simulation(SimulationConfig(n_vehicles=1, mavlink=False, record_hz=0.0, moc
     t3 = time.perf_counter()
 print(f"{t1 - t0:.3f} {t2 - t1:.3f} {t3 - t2:.3f}")
 """
+
+
+def up_startup_seconds(cache_dir: Path, port_base: int) -> float:
+    """Wall s from launching ``swarmsitl up`` (1 vehicle, its defaults) to its "Press Ctrl-C".
+
+    That line is printed once the simulation is built and every endpoint listens; the process
+    is then interrupted (as a user would stop it).
+    """
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), COLUMNS="200")
+    cmd = [
+        sys.executable,
+        "-c",
+        "from harness.cli import app; app()",
+        "up",
+        "--sdk-port",
+        str(port_base),
+        "--listen-port",
+        str(port_base + 1),
+        "--gcs-port",
+        "0",
+        "--gcs-listen-port",
+        str(port_base + 2),
+        "--payload-port",
+        str(port_base + 3),
+        "--payload-listen-port",
+        str(port_base + 4),
+        "--video-port",
+        "0",
+        "--mocap-port",
+        "0",
+        "--out",
+        str(cache_dir / "up-run"),
+    ]
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(
+        cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            if "Press Ctrl-C" in line:
+                return time.perf_counter() - t0
+        raise RuntimeError(f"swarmsitl up exited ({proc.wait()}) before it was ready")
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
 
 
 def startup_seconds(cache_dir: Path) -> tuple[float, float, float]:
@@ -173,12 +224,14 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="swarmsitl-numba-") as cache:
         cold = startup_seconds(Path(cache))
         warm = startup_seconds(Path(cache))
+        up_warm = up_startup_seconds(Path(cache), args.port_base + 2 * MAX_VEHICLES)
     for label, (imports, build, first) in (("cold", cold), ("warm", warm)):
         print(
             f"start-up {label} (numba cache {'empty' if label == 'cold' else 'filled'}): "
             f"{imports + build + first:.2f} s = imports {imports:.2f} s + world {build:.2f} s "
             f"+ first simulated second {first:.2f} s"
         )
+    print(f"swarmsitl up (1 vehicle, its default sensors) ready after {up_warm:.2f} s (warm)")
     results: dict[str, str] = {}
     for n in counts:
         prof = cProfile.Profile() if args.profile else None
@@ -232,6 +285,7 @@ def main() -> int:
             print(f"ratio swarmsitl/PyFlyt at N={n}: {ratio:.2f}")
     results["startup_cold_s"] = f"{sum(cold):.2f}"
     results["startup_warm_s"] = f"{sum(warm):.2f}"
+    results["up_warm_s"] = f"{up_warm:.2f}"
     print("RESULT " + " ".join(f"{k}={v}" for k, v in results.items()))
     return 0
 
