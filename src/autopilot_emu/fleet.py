@@ -168,8 +168,8 @@ class AutopilotFleet:
         baro = np.empty(n)
         flags = np.empty((2, n), dtype=np.bool_)
         hil_sensor_kernel(raw, self.mag_failure, self._pressure_alt_m, imu, baro, flags)
-        acc, gyro, mag = imu
-        has_mag, has_baro = flags
+        acc, gyro, mag = imu[0], imu[1], imu[2]
+        has_mag, has_baro = flags[0], flags[1]
         t_usec = int(msgs[0].time_usec)
         self.last_sensors = msgs
         if self.time_usec == 0 or t_usec <= self.time_usec:
@@ -274,24 +274,27 @@ class AutopilotFleet:
     def _navigate(self, dt: float, gains: _Gains) -> None:
         est = self.estimator
         pos, vel = est.position_ned_m, est.velocity_ned_m_s
-        yaw = quat.yaw_of(est.r)
-        ok = est.position_ok
+        yaw = quat.yaw_of(est.r).tolist()
+        ok = est.position_ok.tolist()
         origin = est.origin_lla.tolist()
+        origin_set = est.origin_set.tolist()
+        thrust = self.thrust.tolist()
         remaining = self.battery.remaining.tolist()
         # The commander gets the learned hover thrust only (NaN until the estimator is valid):
         # its land detector must not judge "low thrust" against the MPC_THR_HOVER guess.
         hover = np.where(self.hover_thrust_learned, self.hover_thrust, np.nan).tolist()
         sp = self._sp
+        time_s = est.time_s
         for i, cmd in enumerate(self.commanders):
-            lat, lon, alt = origin[i] if est.origin_set[i] else (math.nan, math.nan, 0.0)
+            lat, lon, alt = origin[i] if origin_set[i] else (math.nan, math.nan, 0.0)
             out: NavOutput = cmd.update(
                 NavInput(
-                    est.time_s,
+                    time_s,
                     pos[i],
                     vel[i],
-                    float(yaw[i]),
-                    bool(ok[i]),
-                    float(self.thrust[i]),
+                    yaw[i],
+                    ok[i],
+                    thrust[i],
                     alt,
                     (lat, lon),
                     remaining[i],
@@ -384,10 +387,10 @@ class AutopilotFleet:
         self, t_usec: int
     ) -> list[mavlink2.MAVLink_hil_actuator_controls_message]:
         build = mavlink2.MAVLink_hil_actuator_controls_message
-        tail = self._controls_tail
+        outputs, armed, tail = self.outputs.tolist(), self.armed.tolist(), self._controls_tail
         return [
-            build(t_usec, row + tail, _MODE_ARMED if armed else _MODE_DISARMED, 0)
-            for row, armed in zip(self.outputs.tolist(), self.armed.tolist(), strict=True)
+            build(t_usec, outputs[i] + tail, _MODE_ARMED if armed[i] else _MODE_DISARMED, 0)
+            for i in range(self.n)
         ]
 
     def _refresh_gains(self) -> _Gains:
