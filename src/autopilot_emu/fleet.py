@@ -112,8 +112,6 @@ class AutopilotFleet:
         self.q_sp = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
         self.rate_sp = np.zeros((n, 3))
         """Body-rate setpoints of the attitude loop, (N, 3) rad/s."""
-        self._torque = np.zeros((n, 3))
-        """Normalised torque commands of the rate loop, (N, 3) -1..1."""
         self.last_sensors: list[mavlink2.MAVLink_hil_sensor_message] | None = None
         """The last HIL_SENSOR of each vehicle (HIGHRES_IMU)."""
         self.last_gps: list[mavlink2.MAVLink_hil_gps_message | None] = [None] * n
@@ -122,7 +120,6 @@ class AutopilotFleet:
         self.mag_failure = np.full(n, _FAILURE_OK)
         """MAV_CMD_INJECT_FAILURE type of each magnetometer (OK, OFF or WRONG)."""
         self._sp = PositionSetpoint.hold(n)
-        self._ctrl_sp = PositionSetpoint.hold(n)
         self._nav_period_s = 1.0 / config.nav_hz
         self._nav_accum_s = self._nav_period_s  # run navigation on the first sample
         self._param_versions: list[int] = []
@@ -330,20 +327,14 @@ class AutopilotFleet:
         that it can catch up with the trajectory. Idle vehicles restart their position and rate
         controllers; offboard attitude / thrust setpoints replace the position loop's output.
         """
-        sp, c, lim, g = self._sp, self._ctrl_sp, gains.limits, gains.position
-        traj, pc = self.trajectory, self.position_control
+        sp, traj, pc = self._sp, self.trajectory, self.position_control
         nav_kernel(
             sp.position_ned_m, sp.velocity_ff_m_s, sp.yaw_rad, sp.max_speed_xy_m_s,
             sp.max_speed_up_m_s, sp.max_speed_down_m_s, sp.acceleration_ff_m_s2, sp.smoothed,
-            c.position_ned_m, c.velocity_ff_m_s, c.max_speed_xy_m_s, c.max_speed_up_m_s,
-            c.max_speed_down_m_s, c.acceleration_ff_m_s2, c.smoothed,
-            lim.speed_xy_m_s, lim.speed_up_m_s, lim.speed_down_m_s, lim.acc_xy_m_s2,
-            lim.acc_up_m_s2, lim.acc_down_m_s2, lim.jerk_m_s3, lim.error_max_m,
-            traj.position_m, traj.velocity_m_s, traj.acceleration_m_s2,
+            gains.limits_packed, traj.position_m, traj.velocity_m_s, traj.acceleration_m_s2,
             self._smooth, self._smoothing,
-            g.pos_p, g.vel_p, g.vel_i, g.vel_d, g.hover_thrust, g.tilt_max_rad,
-            g.cos_tilt_max, g.acc_hor_max_m_s2, pc.vel_int, pc.vel_sp, pc._prev_vel,
-            self.rate_control.integral,
+            gains.position_axes, gains.position_vehicle, self.hover_thrust,
+            pc.vel_int, pc.vel_sp, pc._prev_vel, self.rate_control.integral,
             pos, vel, dt, self.active,
             self._att_target_q, self._att_target_thrust,
             self.q_sp, self.thrust, self._overridden,
@@ -376,11 +367,10 @@ class AutopilotFleet:
         """Attitude, rate control and mixer of every vehicle: one compiled call per IMU sample."""
         est, rc, mixer = self.estimator, self.rate_control, self.mixer
         inner_loop_kernel(
-            est.q, est.rates_rad_s, self.q_sp, self.thrust, gains.att_p, gains.rate_max,
-            self._overridden, self._rate_target, gains.rate_p, gains.rate_i, gains.rate_d,
-            dt, self.active, self.armed, rc.integrator_limit, rc.integral, rc._prev_rates,
-            mixer.matrix, mixer.thrust_column, mixer.used, mixer.idle_output,
-            self.rate_sp, self._torque, self.outputs,
+            est.q, est.rates_rad_s, self.q_sp, self.thrust, gains.inner, self._overridden,
+            self._rate_target, dt, self.active, self.armed, rc.integrator_limit, rc.integral,
+            rc._prev_rates, mixer.matrix, mixer.thrust_column, mixer.used, mixer.idle_output,
+            self.rate_sp, self.outputs,
         )  # fmt: skip
 
     def _actuator_messages(
@@ -523,6 +513,27 @@ class _Gains:
     limits: TrajectoryLimits
     """Trajectory acceleration, jerk and error limits; its speeds are the controller's own
     (MPC_XY_VEL_MAX, MPC_Z_VEL_MAX_UP / _DN): the trajectory's come from the commander."""
+    inner: np.ndarray = field(init=False)
+    """(5, N, 3) att_p, rate_max, rate_p, rate_i, rate_d stacked for ``inner_loop_kernel``."""
+    position_axes: np.ndarray = field(init=False)
+    """(4, N, 3) pos_p, vel_p, vel_i, vel_d stacked for ``nav_kernel``."""
+    position_vehicle: np.ndarray = field(init=False)
+    """(3, N) tilt_max_rad, cos_tilt_max, acc_hor_max_m_s2 stacked for ``nav_kernel``."""
+    limits_packed: np.ndarray = field(init=False)
+    """(8, N) the ``limits`` fields in declaration order, for ``nav_kernel``."""
+
+    def __post_init__(self) -> None:
+        # Kernel arguments cost per array: stack what only changes with the parameters.
+        self.inner = np.stack((self.att_p, self.rate_max, self.rate_p, self.rate_i, self.rate_d))
+        g, lim = self.position, self.limits
+        self.position_axes = np.stack((g.pos_p, g.vel_p, g.vel_i, g.vel_d))
+        self.position_vehicle = np.stack((g.tilt_max_rad, g.cos_tilt_max, g.acc_hor_max_m_s2))
+        self.limits_packed = np.stack(
+            (
+                lim.speed_xy_m_s, lim.speed_up_m_s, lim.speed_down_m_s, lim.acc_xy_m_s2,
+                lim.acc_up_m_s2, lim.acc_down_m_s2, lim.jerk_m_s3, lim.error_max_m,
+            )
+        )  # fmt: skip
 
     @classmethod
     def from_params(cls, params: list[ParamStore]) -> _Gains:

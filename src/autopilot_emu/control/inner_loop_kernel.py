@@ -23,13 +23,9 @@ def inner_loop_kernel(
     rates: np.ndarray,
     q_sp: np.ndarray,
     thrust: np.ndarray,
-    att_p: np.ndarray,
-    rate_max: np.ndarray,
+    gains: np.ndarray,
     overridden: np.ndarray,
     rate_target: np.ndarray,
-    rate_p: np.ndarray,
-    rate_i: np.ndarray,
-    rate_d: np.ndarray,
     dt_s: float,
     active: np.ndarray,
     armed: np.ndarray,
@@ -41,16 +37,18 @@ def inner_loop_kernel(
     used: np.ndarray,
     idle_output: float,
     rate_sp: np.ndarray,
-    torque: np.ndarray,
     outputs: np.ndarray,
 ) -> None:
     """One control tick of every vehicle.
 
-    Writes the body-rate setpoints ``rate_sp`` (offboard body rates where ``overridden`` and
-    finite), the rate controller's state (``integral``, ``prev_rates``), ``torque`` and the motor
-    ``outputs``: armed-idle for vehicles not ``active``, 0 for vehicles not ``armed``.
+    ``gains`` (5, N, 3) are MC_*_P, MC_*RATE_MAX (rad/s), MC_*RATE_P, _I and _D per axis. Writes
+    the body-rate setpoints ``rate_sp`` (offboard body rates where ``overridden`` and finite),
+    the rate controller's state (``integral``, ``prev_rates``) and the motor ``outputs``:
+    armed-idle for vehicles not ``active``, 0 for vehicles not ``armed``.
     """
     n = q.shape[0]
+    att_p, rate_max, rate_p, rate_i, rate_d = gains[0], gains[1], gains[2], gains[3], gains[4]
+    torque = np.empty((n, 3))
     for i in range(n):
         attitude_rate_row(i, q, q_sp, att_p, rate_max, thrust, False, rate_sp)
         if overridden[i]:

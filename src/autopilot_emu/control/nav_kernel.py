@@ -21,19 +21,12 @@ def nav_kernel(
     sp_pos: np.ndarray, sp_vel: np.ndarray, sp_yaw: np.ndarray, sp_max_xy: np.ndarray,
     sp_max_up: np.ndarray, sp_max_down: np.ndarray, sp_acc_ff: np.ndarray,
     sp_smoothed: np.ndarray,
-    # what the position controller tracks (written)
-    c_pos: np.ndarray, c_vel: np.ndarray, c_max_xy: np.ndarray, c_max_up: np.ndarray,
-    c_max_down: np.ndarray, c_acc_ff: np.ndarray, c_smoothed: np.ndarray,
-    # trajectory limits and state
-    speed_xy: np.ndarray, speed_up: np.ndarray, speed_down: np.ndarray, acc_xy: np.ndarray,
-    acc_up: np.ndarray, acc_down: np.ndarray, jerk: np.ndarray, error_max: np.ndarray,
-    traj_pos: np.ndarray, traj_vel: np.ndarray, traj_acc: np.ndarray,
+    # trajectory limits (8, N) and state
+    limits: np.ndarray, traj_pos: np.ndarray, traj_vel: np.ndarray, traj_acc: np.ndarray,
     smooth_request: np.ndarray, smoothing: np.ndarray,
-    # position gains and state
-    pos_p: np.ndarray, vel_p: np.ndarray, vel_i: np.ndarray, vel_d: np.ndarray,
-    hover: np.ndarray, tilt_max_rad: np.ndarray, cos_tilt_max: np.ndarray,
-    acc_hor_max: np.ndarray, vel_int: np.ndarray, vel_sp: np.ndarray, prev_vel: np.ndarray,
-    rate_integral: np.ndarray,
+    # position gains (4, N, 3) and (3, N), hover thrust, controller states
+    gains_axes: np.ndarray, gains_vehicle: np.ndarray, hover: np.ndarray,
+    vel_int: np.ndarray, vel_sp: np.ndarray, prev_vel: np.ndarray, rate_integral: np.ndarray,
     # vehicle
     position: np.ndarray, velocity: np.ndarray, dt_s: float, active: np.ndarray,
     # offboard overrides
@@ -48,8 +41,26 @@ def nav_kernel(
     limits (``speed_*``); a vehicle that just started smoothing restarts the trajectory at its
     own position and velocity. Writes ``q_sp``, ``thrust`` (0 when inactive; offboard thrust
     clipped to 0..1) and ``overridden`` (the offboard attitude / rate setpoints apply).
+
+    ``limits`` rows: speed xy, up, down (the controller's own), acceleration xy, up, down,
+    jerk, MPC_XY_ERR_MAX. ``gains_axes``: MPC_*_P, MPC_*_VEL_P_ACC, _I_ACC, _D_ACC per axis;
+    ``gains_vehicle``: MPC_TILTMAX_AIR (rad), its cosine, MPC_ACC_HOR.
     """
     n = position.shape[0]
+    speed_xy, speed_up, speed_down = limits[0], limits[1], limits[2]
+    acc_xy, acc_up, acc_down, jerk, error_max = (
+        limits[3],
+        limits[4],
+        limits[5],
+        limits[6],
+        limits[7],
+    )
+    pos_p, vel_p, vel_i, vel_d = gains_axes[0], gains_axes[1], gains_axes[2], gains_axes[3]
+    tilt_max_rad, cos_tilt_max, acc_hor_max = gains_vehicle[0], gains_vehicle[1], gains_vehicle[2]
+    # What the position controller tracks.
+    c_pos, c_vel, c_acc_ff = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    c_max_xy, c_max_up, c_max_down = np.empty(n), np.empty(n), np.empty(n)
+    c_smoothed = np.empty(n, dtype=np.bool_)
     any_smooth = False
     for i in range(n):
         if not active[i]:  # idle: controllers restart from the vehicle's state
