@@ -6,8 +6,12 @@ estimate (recursive least squares), filtered cell voltage and fused state of cha
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
+
+from autopilot_emu.nan_scalar import fmax, fmin
 
 RECOGNITION_VOLTAGE_V = 2.1
 """Below this pack voltage no battery is connected (PX4 LITHIUM_BATTERY_RECOGNITION_VOLTAGE)."""
@@ -40,7 +44,7 @@ def _reset_row(
     rls[i, 1] = R_DEFAULT_OHM * cells
     c00, c11 = OCV_COVARIANCE * cells, R_COVARIANCE * cells
     cov[i, 0, 0], cov[i, 0, 1], cov[i, 1, 0], cov[i, 1, 1] = c00, 0.0, 0.0, c11
-    cov_norm[i] = np.sqrt(c00 * c00 + c11 * c11)
+    cov_norm[i] = math.sqrt(c00 * c00 + c11 * c11)
     r = r_internal if r_internal >= 0.0 else R_DEFAULT_OHM
     cell_filter_v[i] = v / cells + r * cur
 
@@ -64,13 +68,13 @@ def _resistance_row(
     n01 = (c[0, 1] - g0 * xp1) / RLS_LAMBDA
     n10 = (c[1, 0] - g1 * xp0) / RLS_LAMBDA
     n11 = (c[1, 1] - g1 * xp1) / RLS_LAMBDA
-    norm = np.sqrt(n00 * n00 + n01 * n01 + n10 * n10 + n11 * n11)
+    norm = math.sqrt(n00 * n00 + n01 * n01 + n10 * n10 + n11 * n11)
     if norm < cov_norm[i]:
         rls[i, 0] += g0 * error
         rls[i, 1] += g1 * error
         c[0, 0], c[0, 1], c[1, 0], c[1, 1] = n00, n01, n10, n11
         cov_norm[i] = norm
-        resistance[i] = np.maximum(rls[i, 1] / cells, 0.0)
+        resistance[i] = fmax(rls[i, 1] / cells, 0.0)
     else:
         rls[i, 0] = v + rls[i, 1] * cur
 
@@ -86,17 +90,17 @@ def battery_kernel(
     cov: np.ndarray, cov_norm: np.ndarray,
 ) -> None:  # fmt: skip
     """One measurement per vehicle (current NaN or negative: unknown), ``dt_s`` after the last."""
-    alpha_dt = np.minimum(dt_s, 2.0)
+    alpha_dt = fmin(dt_s, 2.0)
     a = alpha_dt / (alpha_dt + VOLTAGE_FILTER_TAU_S)
     for i in range(voltage_v.shape[0]):
-        cells = np.maximum(n_cells[i], 1.0)
+        cells = fmax(n_cells[i], 1.0)
         v, cur = voltage_v[i], current_a[i]
-        i_known = np.isfinite(cur) and cur >= 0.0
+        i_known = math.isfinite(cur) and cur >= 0.0
         i_used = cur if i_known else 0.0
         connected = v >= RECOGNITION_VOLTAGE_V
         if not connected:
             connected_since_s[i] = np.nan
-        elif not np.isfinite(connected_since_s[i]):
+        elif not math.isfinite(connected_since_s[i]):
             connected_since_s[i] = time_s
             _reset_row(
                 i, v, i_used, cells, r_internal[i], consumed_mah, resistance, rls, cov,
@@ -112,15 +116,15 @@ def battery_kernel(
         cell_v = v / cells + (r_cell * i_used if i_used > 0.0 else 0.0)
         if connected:
             cell_filter_v[i] = cell_filter_v[i] + a * (cell_v - cell_filter_v[i])
-        span = np.maximum(v_charged[i] - v_empty[i], 1e-6)
-        soc_v = np.minimum(np.maximum((cell_filter_v[i] - v_empty[i]) / span, 0.0), 1.0)
+        span = fmax(v_charged[i] - v_empty[i], 1e-6)
+        soc_v = fmin(fmax((cell_filter_v[i] - v_empty[i]) / span, 0.0), 1.0)
         soc_voltage[i] = soc_v if connected else np.nan
         capacity = capacity_mah[i]
-        if initialized and capacity > 0.0 and np.isfinite(soc[i]):
+        if initialized and capacity > 0.0 and math.isfinite(soc[i]):
             w = FUSION_GAIN * (1.0 - soc_v)
             fused = (1.0 - w) * soc[i] + w * soc_v - loop_mah / capacity
-            cap_left = np.maximum(1.0 - consumed_mah[i] / capacity, 0.0)
-            soc[i] = np.minimum(np.maximum(fused, 0.0), cap_left)
+            cap_left = fmax(1.0 - consumed_mah[i] / capacity, 0.0)
+            soc[i] = fmin(fmax(fused, 0.0), cap_left)
         else:
             soc[i] = soc_v if connected else np.nan
         voltage_out[i] = v if connected else np.nan

@@ -7,6 +7,8 @@ messages. One call per IMU sample replaces a dozen small numpy operations.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
@@ -40,8 +42,8 @@ def hil_sensor_kernel(
     for i in range(raw.shape[0]):
         for k in range(raw.shape[1]):
             v = raw[i, k]
-            if not np.isfinite(v):
-                raw[i, k] = 0.0 if np.isnan(v) else (big if v > 0 else -big)
+            if not math.isfinite(v):
+                raw[i, k] = 0.0 if math.isnan(v) else (big if v > 0 else -big)
         bits = np.int64(raw[i, 10])
         for a in range(3):
             imu[0, i, a] = raw[i, a]

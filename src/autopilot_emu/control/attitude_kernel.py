@@ -7,8 +7,12 @@ numpy (``np.maximum`` / ``np.minimum`` on scalars keep NaN).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
+
+from autopilot_emu.nan_scalar import fmax, fmin
 
 
 @numba.njit(cache=True)
@@ -36,18 +40,18 @@ def attitude_rate_row(
     if use_ff:
         # A yaw rate about NED z expressed in the body frame (third row of R(q)).
         ff = yaw_rate_ff_rad_s[i]
-        if np.isnan(ff):
+        if math.isnan(ff):
             ff = 0.0
-        elif np.isinf(ff):
+        elif math.isinf(ff):
             ff = np.finfo(np.float64).max if ff > 0.0 else -np.finfo(np.float64).max
         qw, qx, qy, qz = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
         r0 += ff * (2.0 * (qx * qz - qw * qy))
         r1 += ff * (2.0 * (qy * qz + qw * qx))
         r2 += ff * (qw * qw - qx * qx - qy * qy + qz * qz)
     m0, m1, m2 = rate_max_rad_s[i, 0], rate_max_rad_s[i, 1], rate_max_rad_s[i, 2]
-    out[i, 0] = np.minimum(np.maximum(r0, -m0), m0)
-    out[i, 1] = np.minimum(np.maximum(r1, -m1), m1)
-    out[i, 2] = np.minimum(np.maximum(r2, -m2), m2)
+    out[i, 0] = fmin(fmax(r0, -m0), m0)
+    out[i, 1] = fmin(fmax(r1, -m1), m1)
+    out[i, 2] = fmin(fmax(r2, -m2), m2)
 
 
 @numba.njit(cache=True)

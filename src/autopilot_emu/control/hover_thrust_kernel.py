@@ -12,6 +12,8 @@ import math
 import numba
 import numpy as np
 
+from autopilot_emu.nan_scalar import clamp, fmax, sign
+
 G_M_S2 = 9.80665
 ACC_VAR_INIT = 5.0
 """Initial acceleration noise variance, (m/s²)²."""
@@ -22,11 +24,6 @@ NOISE_TAU_S = 2.0
 """Time constant of the acceleration-noise learning, s."""
 VALID_VAR = 1e-3
 VALID_HOLD_S = 2.0
-
-
-@numba.njit(cache=True)
-def _clip(x: float, lo: float, hi: float) -> float:
-    return np.minimum(np.maximum(x, lo), hi)
 
 
 @numba.njit(cache=True)
@@ -79,20 +76,20 @@ def update_row(
     var = variance[i] + (pn * dt_s) ** 2
     v = velocity_ned_m_s
     speed_xy = math.hypot(v[i, 0], v[i, 1])
-    excess = np.maximum(speed_xy - vxy_threshold[i], abs(v[i, 2]) - vz_threshold[i])
-    scale = np.maximum(excess + 1.0, 1.0)
+    excess = fmax(speed_xy - vxy_threshold[i], abs(v[i, 2]) - vz_threshold[i])
+    scale = fmax(excess + 1.0, 1.0)
     r = acc_variance[i] * scale * scale
     jac = -g * thrust_up / (h * h)
-    innov_var = np.maximum(jac * var * jac + r, r)
+    innov_var = fmax(jac * var * jac + r, r)
     innov = acc_up_m_s2 - (g * thrust_up / h - g)
     ratio = innov * innov / (gate[i] * gate[i] * innov_var)
     gain = var * jac / innov_var
     passing = ratio < 1.0
-    lo = _clip(initial[i] - thr_range[i], 0.0, 0.8)
-    hi = _clip(initial[i] + thr_range[i], 0.2, 0.9)
+    lo = clamp(initial[i] - thr_range[i], 0.0, 0.8)
+    hi = clamp(initial[i] + thr_range[i], 0.2, 0.9)
     if passing:
-        h_new = _clip(h + gain * innov, np.maximum(lo, 0.1), hi)
-        var_new = _clip((1.0 - gain * jac) * var, 1e-10, 1.0)
+        h_new = clamp(h + gain * innov, fmax(lo, 0.1), hi)
+        var_new = clamp((1.0 - gain * jac) * var, 1e-10, 1.0)
         residual = acc_up_m_s2 - (g * thrust_up / h_new - g)
     else:
         h_new, var_new, residual = h, var, innov
@@ -100,13 +97,13 @@ def update_row(
             var_new = var_new + 1e3 * (pn**2) * dt_s
     alpha = dt_s / (LPF_TAU_S + dt_s)
     res_lpf = residual_lpf[i] + alpha * (residual - residual_lpf[i])
-    signed = _clip(np.sign(innov) * ratio, -1.0, 1.0)
+    signed = clamp(sign(innov) * ratio, -1.0, 1.0)
     beta = dt_s / (NOISE_TAU_S + dt_s)
     unbiased = residual - res_lpf
     acc_var = (1.0 - beta) * acc_variance[i] + beta * (unbiased * unbiased + jac * var_new * jac)
     hover[i] = h_new
     variance[i] = var_new
-    acc_variance[i] = _clip(acc_var, ACC_VAR_MIN, ACC_VAR_MAX)
+    acc_variance[i] = clamp(acc_var, ACC_VAR_MIN, ACC_VAR_MAX)
     residual_lpf[i] = res_lpf
     ratio_lpf[i] = ratio_lpf[i] + alpha * (signed - ratio_lpf[i])
     good = var_new < VALID_VAR and (valid[i] or passing)

@@ -9,12 +9,15 @@ public :func:`~autopilot_emu.control.attitude.attitude_rate_setpoint`,
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
 from autopilot_emu.control.attitude_kernel import attitude_rate_row
 from autopilot_emu.control.mixer_kernel import _desaturate_row, _fractions, _output_row
 from autopilot_emu.control.rate_kernel import rate_pid_row
+from autopilot_emu.nan_scalar import fmax, fmin
 
 
 @numba.njit(cache=True)
@@ -53,9 +56,9 @@ def inner_loop_kernel(
         attitude_rate_row(i, q, q_sp, att_p, rate_max, thrust, False, rate_sp)
         if overridden[i]:
             for a in range(3):
-                r = rate_target[i, a] if np.isfinite(rate_target[i, a]) else rate_sp[i, a]
+                r = rate_target[i, a] if math.isfinite(rate_target[i, a]) else rate_sp[i, a]
                 m = rate_max[i, a]
-                rate_sp[i, a] = np.minimum(np.maximum(r, -m), m)
+                rate_sp[i, a] = fmin(fmax(r, -m), m)
         rate_pid_row(
             i, rates, rate_sp, rate_p, rate_i, rate_d, dt_s, active, integrator_limit,
             integral, prev_rates, torque,

@@ -9,8 +9,12 @@ what is left); then outputs = max(sqrt(fraction), idle) on used rotors, 0 elsewh
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
+
+from autopilot_emu.nan_scalar import fmax, fmin
 
 
 @numba.njit(cache=True)
@@ -52,20 +56,20 @@ def _desaturate_row(
         t_rp[r] = out[i, r] - thr[r] - t_y[r]
         if used[i, r]:
             base = thr[r] + t_rp[r]
-            hi = np.maximum(hi, base)
-            lo = np.minimum(lo, base)
-    shift = -np.maximum(hi - 1.0, 0.0) + np.maximum(-lo, 0.0)
+            hi = fmax(hi, base)
+            lo = fmin(lo, base)
+    shift = -fmax(hi - 1.0, 0.0) + fmax(-lo, 0.0)
     k = np.inf
     for r in range(m_rotors):
         base = thr[r] + shift + t_rp[r] if used[i, r] else 0.0
         thr[r] = base
         ty = t_y[r]
-        room_up = (1.0 - base) / np.maximum(ty, 1e-9) if ty > 0 else np.inf
-        room_dn = base / np.maximum(-ty, 1e-9) if ty < 0 else np.inf
-        k = np.minimum(k, np.minimum(room_up, room_dn))
-    k = np.minimum(np.maximum(k, 0.0), 1.0)
+        room_up = (1.0 - base) / fmax(ty, 1e-9) if ty > 0 else np.inf
+        room_dn = base / fmax(-ty, 1e-9) if ty < 0 else np.inf
+        k = fmin(k, fmin(room_up, room_dn))
+    k = fmin(fmax(k, 0.0), 1.0)
     for r in range(m_rotors):
-        out[i, r] = np.minimum(np.maximum(thr[r] + k * t_y[r], 0.0), 1.0)
+        out[i, r] = fmin(fmax(thr[r] + k * t_y[r], 0.0), 1.0)
 
 
 @numba.njit(cache=True)
@@ -73,7 +77,7 @@ def _output_row(i: int, used: np.ndarray, idle_output: float, out: np.ndarray) -
     """Thrust fractions -> motor outputs (thrust ∝ output²), idle floor, unused outputs 0."""
     for r in range(out.shape[1]):
         used_f = 1.0 if used[i, r] else 0.0
-        out[i, r] = np.maximum(np.sqrt(out[i, r]), idle_output) * used_f
+        out[i, r] = fmax(math.sqrt(out[i, r]), idle_output) * used_f
 
 
 @numba.njit(cache=True)

@@ -8,11 +8,14 @@ from the row functions of :mod:`trajectory_kernel` and :mod:`position_kernel`.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
 from autopilot_emu.control.position_kernel import position_row
 from autopilot_emu.control.trajectory_kernel import trajectory_row
+from autopilot_emu.nan_scalar import fmax, fmin
 
 
 @numba.njit(cache=True)
@@ -85,7 +88,7 @@ def nav_kernel(
             )  # fmt: skip
         for a in range(3):
             p = sp_pos[i, a]
-            c_pos[i, a] = traj_pos[i, a] if (smooth and np.isfinite(p)) else p
+            c_pos[i, a] = traj_pos[i, a] if (smooth and math.isfinite(p)) else p
             c_vel[i, a] = traj_vel[i, a] if smooth else sp_vel[i, a]
             c_acc_ff[i, a] = traj_acc[i, a] if smooth else sp_acc_ff[i, a]
         c_max_xy[i] = speed_xy[i] if smooth else sp_max_xy[i]
@@ -102,13 +105,13 @@ def nav_kernel(
         # Offboard attitude / rate setpoints replace the position controller's output. Not
         # flying the position loop, it restarts from the vehicle's state afterwards, as PX4
         # initialises its position controller when a mode starts using it.
-        override = active[i] and np.isfinite(att_target_thrust[i])
+        override = active[i] and math.isfinite(att_target_thrust[i])
         overridden[i] = override
         if override:
             for a in range(3):
                 vel_int[i, a] = 0.0
                 vel_sp[i, a] = velocity[i, a]
-            if np.isfinite(att_target_q[i, 0]):
+            if math.isfinite(att_target_q[i, 0]):
                 for a in range(4):
                     q_sp[i, a] = att_target_q[i, a]
-            thrust[i] = np.minimum(np.maximum(att_target_thrust[i], 0.0), 1.0)
+            thrust[i] = fmin(fmax(att_target_thrust[i], 0.0), 1.0)

@@ -14,6 +14,8 @@ import math
 import numba
 import numpy as np
 
+from autopilot_emu.nan_scalar import clamp, fmax, fmin
+
 GRAVITY_M_S2 = 9.80665
 """Same value as ``autopilot_emu.estimator.GRAVITY_M_S2`` (kept here: kernels take constants)."""
 ACC_Z_MAX = 0.8 * GRAVITY_M_S2
@@ -21,11 +23,6 @@ ACC_Z_MAX = 0.8 * GRAVITY_M_S2
 INT_MAX_XY, INT_MAX_Z = GRAVITY_M_S2, 4.0
 """Velocity-integrator limits, horizontal and vertical, m/s². Horizontally PX4 has no fixed cap
 (its anti-windup is the tilt limit); one g is as far as MPC_TILTMAX_AIR = 45 deg can go."""
-
-
-@numba.njit(cache=True)
-def _clamp(x: float, lo: float, hi: float) -> float:
-    return np.minimum(np.maximum(x, lo), hi)
 
 
 @numba.njit(cache=True)
@@ -68,10 +65,10 @@ def position_row(
     vel_cmd = np.empty(3)
     for a in range(3):
         e = sp_pos[i, a] - position[i, a]
-        has_pos[a] = np.isfinite(e)
+        has_pos[a] = math.isfinite(e)
         err[a] = e if has_pos[a] else 0.0
         vf = sp_vel[i, a]
-        has_vel[a] = np.isfinite(vf) or has_pos[a]
+        has_vel[a] = math.isfinite(vf) or has_pos[a]
         if not has_vel[a]:
             vf = 0.0
         vel_cmd[a] = vf + pos_p[i, a] * err[a]
@@ -82,15 +79,15 @@ def position_row(
     acc_hor = acc_hor_max[i]
     hnorm = math.hypot(vel_cmd[0], vel_cmd[1])
     dist = math.hypot(err[0], err[1]) if (has_pos[0] and raw) else np.inf
-    v_max = np.minimum(sp_max_xy[i], np.sqrt(acc_hor * dist))
-    s = np.minimum(1.0, v_max / np.maximum(hnorm, 1e-9))
+    v_max = fmin(sp_max_xy[i], math.sqrt(acc_hor * dist))
+    s = fmin(1.0, v_max / fmax(hnorm, 1e-9))
     vel_cmd[0] *= s
     vel_cmd[1] *= s
-    vel_cmd[2] = _clamp(vel_cmd[2], -sp_max_up[i], sp_max_down[i])
+    vel_cmd[2] = clamp(vel_cmd[2], -sp_max_up[i], sp_max_down[i])
     dv0 = vel_cmd[0] - vel_sp[i, 0]
     dv1 = vel_cmd[1] - vel_sp[i, 1]
     if raw:  # horizontal slew limit (acceleration) on the velocity setpoint
-        s = np.minimum(1.0, (acc_hor * dt_s) / np.maximum(math.hypot(dv0, dv1), 1e-9))
+        s = fmin(1.0, (acc_hor * dt_s) / fmax(math.hypot(dv0, dv1), 1e-9))
         dv0 *= s
         dv1 *= s
     vel_sp[i, 0] += dv0
@@ -113,22 +110,22 @@ def position_row(
         if not has_vel[a]:
             acc_a = 0.0
         acc[a] = acc_a + sp_acc_ff[i, a]
-    acc[2] = _clamp(acc[2], -ACC_Z_MAX, ACC_Z_MAX)
+    acc[2] = clamp(acc[2], -ACC_Z_MAX, ACC_Z_MAX)
 
     # Thrust direction: body z (down) opposes the required specific force.
     f0, f1, f2 = acc[0], acc[1], acc[2] - g
-    scale = -1.0 / np.maximum(np.sqrt(f0 * f0 + f1 * f1 + f2 * f2), 1e-6)
+    scale = -1.0 / fmax(math.sqrt(f0 * f0 + f1 * f1 + f2 * f2), 1e-6)
     bz0, bz1, bz2 = f0 * scale, f1 * scale, f2 * scale
     cos_max = cos_tilt_max[i]
     if bz2 < cos_max:  # rotate towards vertical so the tilt never exceeds tilt_max
-        hn = np.maximum(math.hypot(bz0, bz1), 1e-9)
-        st = np.sin(tilt_max_rad[i])
+        hn = fmax(math.hypot(bz0, bz1), 1e-9)
+        st = math.sin(tilt_max_rad[i])
         bz0 = bz0 / hn * st
         bz1 = bz1 / hn * st
         bz2 = cos_max
     h = hover[i]
     thrust = h * (g - acc[2]) / (g * bz2)
-    thrust_sat = _clamp(thrust, 0.05, 0.95)
+    thrust_sat = clamp(thrust, 0.05, 0.95)
 
     # Integrate with anti-windup: stop integrating the vertical axis while thrust saturates;
     # horizontally, as PX4's PositionControl, feed back what the tilt limit cut off the
@@ -137,8 +134,8 @@ def position_row(
     done0, done1 = -bz0 * k, -bz1 * k
     cut = acc[0] * acc[0] + acc[1] * acc[1] > done0 * done0 + done1 * done1
     lim0, lim1 = (done0, done1) if cut else (acc[0], acc[1])
-    verr[0] -= (2.0 / np.maximum(vel_p[i, 0], 1e-6)) * (acc[0] - lim0)
-    verr[1] -= (2.0 / np.maximum(vel_p[i, 1], 1e-6)) * (acc[1] - lim1)
+    verr[0] -= (2.0 / fmax(vel_p[i, 0], 1e-6)) * (acc[0] - lim0)
+    verr[1] -= (2.0 / fmax(vel_p[i, 1], 1e-6)) * (acc[1] - lim1)
     on = 1.0 if active[i] else 0.0
     for a in range(3):
         step = vel_i[i, a] * verr[a] * dt_s
@@ -150,7 +147,7 @@ def position_row(
             step *= 0.0
             vi = 0.0
         lim = INT_MAX_Z if a == 2 else INT_MAX_XY
-        vel_int[i, a] = _clamp(vi + step, -lim, lim)
+        vel_int[i, a] = clamp(vi + step, -lim, lim)
     attitude_from_body_z_row(i, bz0, bz1, bz2, sp_yaw[i], q_out)
     thrust_out[i] = thrust_sat
 
@@ -164,21 +161,21 @@ def attitude_from_body_z_row(
     As PX4's bodyzToAttitude: body x is the horizontal heading direction made orthogonal to
     body z (y_C x body_z), body y completes the frame.
     """
-    yc0, yc1 = -np.sin(yaw_rad), np.cos(yaw_rad)
+    yc0, yc1 = -math.sin(yaw_rad), math.cos(yaw_rad)
     bx0 = yc1 * bz2 - 0.0 * bz1
     bx1 = 0.0 * bz0 - yc0 * bz2
     bx2 = yc0 * bz1 - yc1 * bz0
-    n = np.maximum(np.sqrt(bx0 * bx0 + bx1 * bx1 + bx2 * bx2), 1e-9)
+    n = fmax(math.sqrt(bx0 * bx0 + bx1 * bx1 + bx2 * bx2), 1e-9)
     bx0, bx1, bx2 = bx0 / n, bx1 / n, bx2 / n
     by0 = bz1 * bx2 - bz2 * bx1
     by1 = bz2 * bx0 - bz0 * bx2
     by2 = bz0 * bx1 - bz1 * bx0
     # Rotation matrix with columns (body_x, body_y, body_z) -> quaternion (branch-free).
     d0, d1, d2 = bx0, by1, bz2
-    w = 0.5 * np.sqrt(np.maximum(1.0 + d0 + d1 + d2, 0.0))
-    x = 0.5 * np.sqrt(np.maximum(1.0 + d0 - d1 - d2, 0.0))
-    y = 0.5 * np.sqrt(np.maximum(1.0 - d0 + d1 - d2, 0.0))
-    z = 0.5 * np.sqrt(np.maximum(1.0 - d0 - d1 + d2, 0.0))
+    w = 0.5 * math.sqrt(fmax(1.0 + d0 + d1 + d2, 0.0))
+    x = 0.5 * math.sqrt(fmax(1.0 + d0 - d1 - d2, 0.0))
+    y = 0.5 * math.sqrt(fmax(1.0 - d0 + d1 - d2, 0.0))
+    z = 0.5 * math.sqrt(fmax(1.0 - d0 - d1 + d2, 0.0))
     q_out[i, 0] = w
     q_out[i, 1] = math.copysign(x, by2 - bz1)
     q_out[i, 2] = math.copysign(y, bz0 - bx2)

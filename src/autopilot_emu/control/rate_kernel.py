@@ -9,6 +9,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from autopilot_emu.nan_scalar import fmax, fmin
+
 
 @numba.njit(cache=True)
 def rate_pid_row(
@@ -39,8 +41,8 @@ def rate_pid_row(
         t = kp[i, a] * err + integral[i, a] - kd[i, a] * ((r - prev_rates[i, a]) * inv_dt)
         prev_rates[i, a] = r
         step = (ki[i, a] * dt_s) * err * gate
-        integral[i, a] = np.minimum(np.maximum(integral[i, a] + step, -lim), lim)
-        torque[i, a] = np.minimum(np.maximum(t, -1.0), 1.0)
+        integral[i, a] = fmin(fmax(integral[i, a] + step, -lim), lim)
+        torque[i, a] = fmin(fmax(t, -1.0), 1.0)
 
 
 @numba.njit(cache=True)
