@@ -25,22 +25,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
-RECOGNITION_VOLTAGE_V = 2.1
-"""Below this pack voltage no battery is connected (PX4 LITHIUM_BATTERY_RECOGNITION_VOLTAGE)."""
-INIT_DELAY_S = 2.0
-"""Connected time before the estimate fuses coulomb counting, s (PX4)."""
-VOLTAGE_FILTER_TAU_S = 1.0
-"""Time constant of the cell-voltage low-pass filter, s (PX4)."""
-RLS_LAMBDA = 0.95
-"""Forgetting factor of the internal-resistance estimator (PX4 LAMBDA)."""
-R_DEFAULT_OHM = 0.005
-"""Initial per-cell internal resistance estimate, ohm (PX4 R_DEFAULT)."""
-OCV_COVARIANCE = 1.5
-"""Initial per-cell covariance of the open-circuit voltage (PX4)."""
-R_COVARIANCE = 0.1
-"""Initial per-cell covariance of the internal resistance (PX4)."""
-FUSION_GAIN = 3e-2
-"""Weight of the voltage-based estimate per update, times (1 - soc_v) (PX4)."""
+from autopilot_emu.battery_kernel import (
+    FUSION_GAIN,
+    INIT_DELAY_S,
+    OCV_COVARIANCE,
+    R_COVARIANCE,
+    R_DEFAULT_OHM,
+    RECOGNITION_VOLTAGE_V,
+    RLS_LAMBDA,
+    VOLTAGE_FILTER_TAU_S,
+    battery_kernel,
+)
+
+__all__ = [
+    "FUSION_GAIN",
+    "INIT_DELAY_S",
+    "OCV_COVARIANCE",
+    "RECOGNITION_VOLTAGE_V",
+    "RLS_LAMBDA",
+    "R_COVARIANCE",
+    "R_DEFAULT_OHM",
+    "VOLTAGE_FILTER_TAU_S",
+    "BatteryParams",
+    "FleetBattery",
+]
 
 
 @dataclass(frozen=True)
@@ -95,82 +103,22 @@ class FleetBattery:
         return self.soc
 
     def update(self, voltage_v: np.ndarray, current_a: np.ndarray, time_s: float) -> None:
-        """One measurement per vehicle (current NaN or negative: unknown) at ``time_s``."""
+        """One measurement per vehicle (current NaN or negative: unknown) at ``time_s``.
+
+        Compiled (``battery_kernel``); the state arrays are updated in place.
+        """
         p = self.params
-        cells = np.maximum(p.n_cells, 1.0)
-        v = np.asarray(voltage_v, dtype=float)
-        i = np.asarray(current_a, dtype=float)
-        i_known = np.isfinite(i) & (i >= 0.0)
-        i_used = np.where(i_known, i, 0.0)
         dt = 0.0 if self._last_s is None else max(time_s - self._last_s, 0.0)
-        alpha_dt = min(dt, 2.0)
         self._last_s = time_s
+        battery_kernel(
+            _f64(voltage_v), _f64(current_a), float(time_s), dt, _f64(p.n_cells),
+            _f64(p.capacity_mah), _f64(p.v_empty), _f64(p.v_charged), _f64(p.r_internal),
+            self.voltage_v, self.current_a, self.consumed_mah, self.soc, self.soc_voltage,
+            self.internal_resistance_ohm, self.connected_since_s, self._cell_filter_v,
+            self._rls, self._cov, self._cov_norm,
+        )  # fmt: skip
 
-        connected = v >= RECOGNITION_VOLTAGE_V
-        fresh = connected & ~np.isfinite(self.connected_since_s)
-        self.connected_since_s = np.where(connected, self.connected_since_s, np.nan)
-        self.connected_since_s[fresh] = time_s
-        if fresh.any():
-            self._reset(fresh, v, i_used, cells)
-        initialized = connected & (time_s >= self.connected_since_s + INIT_DELAY_S)
 
-        loop_mah = np.where(i_known, i_used * dt / 3.6, 0.0)
-        self.consumed_mah += np.where(connected, loop_mah, 0.0)
-
-        self._update_resistance(connected & (i_used > 0.0), v, i_used, cells)
-        r_cell = np.where(p.r_internal >= 0.0, p.r_internal, self.internal_resistance_ohm)
-        cell_v = v / cells + np.where(i_used > 0.0, r_cell * i_used, 0.0)
-        a = alpha_dt / (alpha_dt + VOLTAGE_FILTER_TAU_S)
-        filt = self._cell_filter_v + a * (cell_v - self._cell_filter_v)
-        self._cell_filter_v = np.where(connected, filt, self._cell_filter_v)
-        span = np.maximum(p.v_charged - p.v_empty, 1e-6)
-        soc_v = np.clip((self._cell_filter_v - p.v_empty) / span, 0.0, 1.0)
-        self.soc_voltage = np.where(connected, soc_v, np.nan)
-
-        capacity = p.capacity_mah
-        fuse = initialized & (capacity > 0.0) & np.isfinite(self.soc)
-        w = FUSION_GAIN * (1.0 - soc_v)
-        safe_cap = np.where(capacity > 0.0, capacity, 1.0)
-        fused = (1.0 - w) * self.soc + w * soc_v - loop_mah / safe_cap
-        fused = np.minimum(
-            np.maximum(fused, 0.0), np.maximum(1.0 - self.consumed_mah / safe_cap, 0.0)
-        )
-        self.soc = np.where(fuse, fused, np.where(connected, soc_v, np.nan))
-        self.voltage_v = np.where(connected, v, np.nan)
-        self.current_a = np.where(connected & i_known, i, np.nan)
-
-    def _reset(self, mask: np.ndarray, v: np.ndarray, i: np.ndarray, cells: np.ndarray) -> None:
-        """A battery was just connected: restart counting and the estimators (PX4 reset)."""
-        self.consumed_mah[mask] = 0.0
-        self.internal_resistance_ohm[mask] = R_DEFAULT_OHM
-        self._rls[mask, 0] = v[mask]
-        self._rls[mask, 1] = R_DEFAULT_OHM * cells[mask]
-        self._cov[mask] = 0.0
-        self._cov[mask, 0, 0] = OCV_COVARIANCE * cells[mask]
-        self._cov[mask, 1, 1] = R_COVARIANCE * cells[mask]
-        self._cov_norm[mask] = np.linalg.norm(self._cov[mask], axis=(1, 2))
-        r = np.where(self.params.r_internal >= 0.0, self.params.r_internal, R_DEFAULT_OHM)
-        self._cell_filter_v[mask] = (v / cells + r * i)[mask]
-
-    def _update_resistance(
-        self, mask: np.ndarray, v: np.ndarray, i: np.ndarray, cells: np.ndarray
-    ) -> None:
-        """PX4's recursive least squares on ``V = OCV - R_pack I``, for the vehicles ``mask``."""
-        if not mask.any():
-            return
-        x = np.stack((np.ones_like(i), -i), axis=1)  # (N, 2)
-        px = np.einsum("nij,nj->ni", self._cov, x)
-        denom = RLS_LAMBDA + np.einsum("ni,ni->n", x, px)
-        gamma = px / denom[:, None]
-        error = v - np.einsum("ni,ni->n", x, self._rls)
-        rls_new = self._rls + gamma * error[:, None]
-        xp = np.einsum("ni,nij->nj", x, self._cov)
-        cov_new = (self._cov - gamma[:, :, None] * xp[:, None, :]) / RLS_LAMBDA
-        norm_new = np.linalg.norm(cov_new, axis=(1, 2))
-        better = mask & (norm_new < self._cov_norm)
-        self._rls[better] = rls_new[better]
-        self._cov[better] = cov_new[better]
-        self._cov_norm[better] = norm_new[better]
-        self.internal_resistance_ohm[better] = np.maximum(rls_new[better, 1] / cells[better], 0.0)
-        worse = mask & ~better
-        self._rls[worse, 0] = (v + self._rls[:, 1] * i)[worse]
+def _f64(a: np.ndarray) -> np.ndarray:
+    """C-contiguous float64 (one compiled signature for the kernel)."""
+    return np.ascontiguousarray(a, dtype=np.float64)

@@ -11,6 +11,7 @@ prediction, attitude and rate control and the mixer for the whole fleet in numpy
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,13 +21,16 @@ from autopilot_emu import geodesy, magnetic_declination
 from autopilot_emu import quaternion as quat
 from autopilot_emu.battery import BatteryParams, FleetBattery
 from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
-from autopilot_emu.control.attitude import attitude_rate_setpoint
 from autopilot_emu.control.hover_thrust import HoverThrustEstimator, HoverThrustParams
+from autopilot_emu.control.hover_thrust_kernel import hover_thrust_tick_kernel
+from autopilot_emu.control.inner_loop_kernel import inner_loop_kernel
 from autopilot_emu.control.mixer import MAX_ROTORS, Mixer, RotorGeometry
+from autopilot_emu.control.nav_kernel import nav_kernel
 from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
 from autopilot_emu.control.rate import RateController
 from autopilot_emu.control.trajectory import JerkLimitedTrajectory, TrajectoryLimits
-from autopilot_emu.estimator import GRAVITY_M_S2, EstimatorConfig, FleetEstimator
+from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
+from autopilot_emu.hil_sensor_kernel import hil_sensor_kernel
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
 from autopilot_emu.mission.camera_items import ComponentCommand
 from autopilot_emu.mission.items import MissionItem, MissionType
@@ -43,16 +47,19 @@ from autopilot_emu.rangefinder import FleetRangefinders
 from autopilot_emu.telemetry import FleetTelemetry
 from autopilot_emu.terrain import FleetTerrain, TerrainParams
 
-_ACC_BITS, _GYRO_BITS, _MAG_BITS = 0x7, 0x38, 0x1C0
-_PRESSURE_ALT_BIT = 0x800
-_ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
-_CUSTOM_FLAG = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+_HIL_SENSOR_FIELDS = operator.attrgetter(
+    "xacc", "yacc", "zacc", "xgyro", "ygyro", "zgyro", "xmag", "ymag", "zmag", "pressure_alt",
+    "fields_updated",
+)  # fmt: skip
+"""A HIL_SENSOR's fields in the order ``hil_sensor_kernel`` reads them."""
+_MODE_DISARMED = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+_MODE_ARMED = _MODE_DISARMED | mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
+"""HIL_ACTUATOR_CONTROLS mode of a disarmed / armed vehicle."""
+_VERSION = operator.attrgetter("version")
 _FAILURE_UNIT_GPS = mavlink2.FAILURE_UNIT_SENSOR_GPS
 _FAILURE_UNIT_MAG = mavlink2.FAILURE_UNIT_SENSOR_MAG
 _FAILURE_OK, _FAILURE_OFF = mavlink2.FAILURE_TYPE_OK, mavlink2.FAILURE_TYPE_OFF
 _FAILURE_WRONG = mavlink2.FAILURE_TYPE_WRONG
-_MAG_WRONG = np.array([-1.0, -1.0, 1.0])
-"""A WRONG magnetometer reads its x and y axes reversed (mounted 180 deg off in yaw)."""
 _NO_CELL = 65535  # BATTERY_STATUS.voltages entry of a cell that is not there
 
 
@@ -113,10 +120,9 @@ class AutopilotFleet:
         self.mag_failure = np.full(n, _FAILURE_OK)
         """MAV_CMD_INJECT_FAILURE type of each magnetometer (OK, OFF or WRONG)."""
         self._sp = PositionSetpoint.hold(n)
-        self._ctrl_sp = PositionSetpoint.hold(n)
         self._nav_period_s = 1.0 / config.nav_hz
         self._nav_accum_s = self._nav_period_s  # run navigation on the first sample
-        self._param_versions: tuple[int, ...] = ()
+        self._param_versions: list[int] = []
         self._gains: _Gains | None = None
         self.hover_thrust_estimator: HoverThrustEstimator | None = None
         """PX4's mc_hover_thrust_estimator for each vehicle (built with the gains)."""
@@ -125,7 +131,8 @@ class AutopilotFleet:
         MPC_THR_HOVER, (N,) 0..1."""
         self.hover_thrust_learned = np.zeros(n, dtype=bool)
         """The hover-thrust estimator has been valid since arming: ``hover_thrust`` is learned."""
-        self._controls = [0.0] * 16
+        self._controls_tail = [0.0] * (16 - MAX_ROTORS)
+        """HIL_ACTUATOR_CONTROLS entries after the motor outputs (always 0)."""
         self._pressure_alt_m = np.zeros(n)
         self.metres_per_degree = np.ones((n, 2))
         """Local projection scale of each vehicle's EKF origin (lat, lon), m/deg."""
@@ -152,26 +159,14 @@ class AutopilotFleet:
     ) -> list[mavlink2.MAVLink_hil_actuator_controls_message]:
         """Consume one HIL_SENSOR per vehicle; return one HIL_ACTUATOR_CONTROLS per vehicle."""
         est = self.estimator
-        raw = np.array(
-            [
-                (
-                    m.xacc,
-                    m.yacc,
-                    m.zacc,
-                    m.xgyro,
-                    m.ygyro,
-                    m.zgyro,
-                    m.xmag,
-                    m.ymag,
-                    m.zmag,
-                    m.pressure_alt,
-                    m.fields_updated,
-                )
-                for m in msgs
-            ]
-        )
-        if not np.isfinite(raw).all():
-            raw = np.nan_to_num(raw)  # a corrupt sample must not poison the filters
+        n = self.n
+        raw = np.array(list(map(_HIL_SENSOR_FIELDS, msgs)), dtype=np.float64)
+        imu = np.empty((3, n, 3))
+        baro = np.empty(n)
+        flags = np.empty((2, n), dtype=np.bool_)
+        hil_sensor_kernel(raw, self.mag_failure, self._pressure_alt_m, imu, baro, flags)
+        acc, gyro, mag = imu[0], imu[1], imu[2]
+        has_mag, has_baro = flags[0], flags[1]
         t_usec = int(msgs[0].time_usec)
         self.last_sensors = msgs
         if self.time_usec == 0 or t_usec <= self.time_usec:
@@ -179,20 +174,11 @@ class AutopilotFleet:
         else:
             dt = min((t_usec - self.time_usec) * 1e-6, 0.05)
         self.time_usec = t_usec
-        flags = raw[:, 10].astype(np.int64)
-        acc, gyro, mag = raw[:, 0:3], raw[:, 3:6], raw[:, 6:9]
-        has_mag = (flags & _MAG_BITS) != 0
-        if (self.mag_failure != _FAILURE_OK).any():
-            has_mag &= self.mag_failure != _FAILURE_OFF
-            wrong = self.mag_failure == _FAILURE_WRONG
-            mag = np.where(wrong[:, None], mag * _MAG_WRONG, mag)
         if not est.attitude_ok.all():
             est.align_heading(acc, mag, has_mag & ~est.attitude_ok)
         est.update_mag(mag, has_mag)
         est.update_imu(acc, gyro, dt)
-        has_baro = (flags & _PRESSURE_ALT_BIT) != 0
-        self._pressure_alt_m = np.where(has_baro, raw[:, 9], self._pressure_alt_m)
-        est.update_baro(raw[:, 9], has_baro)
+        est.update_baro(baro, has_baro)
 
         gains = self._refresh_gains()
         self._nav_accum_s += dt
@@ -211,11 +197,8 @@ class AutopilotFleet:
         in cell 0); a current of -1 is unknown.
         """
         self._refresh_gains()
-        volts = np.array(
-            [sum(c for c in m.voltages if c != _NO_CELL) * 1e-3 for m in msgs], dtype=float
-        )
+        volts = np.array([sum(c for c in m.voltages if c != _NO_CELL) * 1e-3 for m in msgs])
         amps = np.array([m.current_battery * 0.01 for m in msgs], dtype=float)
-        amps[amps < 0.0] = np.nan
         self.battery.update(volts, amps, self.time_usec * 1e-6)
 
     def handle_distance_sensors(
@@ -288,24 +271,27 @@ class AutopilotFleet:
     def _navigate(self, dt: float, gains: _Gains) -> None:
         est = self.estimator
         pos, vel = est.position_ned_m, est.velocity_ned_m_s
-        yaw = quat.yaw_of(est.r)
-        ok = est.position_ok
+        yaw = quat.yaw_of(est.r).tolist()
+        ok = est.position_ok.tolist()
         origin = est.origin_lla.tolist()
+        origin_set = est.origin_set.tolist()
+        thrust = self.thrust.tolist()
         remaining = self.battery.remaining.tolist()
         # The commander gets the learned hover thrust only (NaN until the estimator is valid):
         # its land detector must not judge "low thrust" against the MPC_THR_HOVER guess.
         hover = np.where(self.hover_thrust_learned, self.hover_thrust, np.nan).tolist()
         sp = self._sp
+        time_s = est.time_s
         for i, cmd in enumerate(self.commanders):
-            lat, lon, alt = origin[i] if est.origin_set[i] else (math.nan, math.nan, 0.0)
+            lat, lon, alt = origin[i] if origin_set[i] else (math.nan, math.nan, 0.0)
             out: NavOutput = cmd.update(
                 NavInput(
-                    est.time_s,
+                    time_s,
                     pos[i],
                     vel[i],
-                    float(yaw[i]),
-                    bool(ok[i]),
-                    float(self.thrust[i]),
+                    yaw[i],
+                    ok[i],
+                    thrust[i],
                     alt,
                     (lat, lon),
                     remaining[i],
@@ -328,24 +314,31 @@ class AutopilotFleet:
             self.active[i] = out.active
             self._smooth[i] = out.smooth
             self.armed[i] = cmd.armed
-        idle = ~self.active
-        if idle.any():
-            self.position_control.reset(idle, vel)
-            self.rate_control.reset(idle)
-        self.q_sp, thrust = self.position_control.update(
-            self._smoothed_setpoint(pos, vel, dt, gains), gains.position, pos, vel, dt, self.active
-        )
-        self.thrust = np.where(self.active, thrust, 0.0)
-        # Offboard attitude / rate setpoints replace the position controller's output.
-        override = self.active & np.isfinite(self._att_target_thrust)
-        self._overridden = override
-        if override.any():
-            # Not flying the position loop: it restarts from the vehicle's state afterwards,
-            # as PX4 initialises its position controller when a mode starts using it.
-            self.position_control.reset(override, vel)
-            with_att = override & np.isfinite(self._att_target_q[:, 0])
-            self.q_sp[with_att] = self._att_target_q[with_att]
-            self.thrust[override] = np.clip(self._att_target_thrust[override], 0.0, 1.0)
+        self._control_positions(pos, vel, dt, gains)
+
+    def _control_positions(
+        self, pos: np.ndarray, vel: np.ndarray, dt: float, gains: _Gains
+    ) -> None:
+        """Trajectory smoothing, position control and offboard overrides: one compiled call.
+
+        Auto-mode targets are replaced by the jerk-limited trajectory's state (position on the
+        axes the commander controls by position, velocity and acceleration as feed-forward), and
+        the controller's own limits become MPC_XY_VEL_MAX / MPC_Z_VEL_MAX_UP / _DN, as in PX4, so
+        that it can catch up with the trajectory. Idle vehicles restart their position and rate
+        controllers; offboard attitude / thrust setpoints replace the position loop's output.
+        """
+        sp, traj, pc = self._sp, self.trajectory, self.position_control
+        nav_kernel(
+            sp.position_ned_m, sp.velocity_ff_m_s, sp.yaw_rad, sp.max_speed_xy_m_s,
+            sp.max_speed_up_m_s, sp.max_speed_down_m_s, sp.acceleration_ff_m_s2, sp.smoothed,
+            gains.limits_packed, traj.position_m, traj.velocity_m_s, traj.acceleration_m_s2,
+            self._smooth, self._smoothing,
+            gains.position_axes, gains.position_vehicle, self.hover_thrust,
+            pc.vel_int, pc.vel_sp, pc._prev_vel, self.rate_control.integral,
+            pos, vel, dt, self.active,
+            self._att_target_q, self._att_target_thrust,
+            self.q_sp, self.thrust, self._overridden,
+        )  # fmt: skip
 
     def _update_hover_thrust(self, dt: float, gains: _Gains) -> None:
         """Fuse one sample into the hover-thrust estimators; hand the result to the controller.
@@ -358,114 +351,40 @@ class AutopilotFleet:
         """
         hte = self.hover_thrust_estimator
         assert hte is not None
-        est = self.estimator
+        est, p, pc = self.estimator, hte.params, self.position_control
         flying = np.array(
             [c.in_air and c.landed_state != LandedState.TAKEOFF for c in self.commanders]
         )
-        flying &= self.armed
-        if not self.armed.all():
-            hte.reset(~self.armed)
-            self.hover_thrust_learned &= self.armed
-        hte.update(
-            flying,
-            -est.accel_ned_m_s2[:, 2],
-            self.thrust * est.r[:, 2, 2],
-            est.velocity_ned_m_s,
-            dt,
-        )
-        # As PX4's position controller: a valid estimate replaces the hover thrust in use, an
-        # invalid one (variance bumped by a manoeuvre) leaves the last valid value in place.
-        old = self.hover_thrust
-        self.hover_thrust_learned |= hte.valid
-        kept = np.where(self.hover_thrust_learned, old, hte.params.initial)
-        hover = np.where(hte.valid, hte.hover_thrust, kept)
-        changed = (hover != old) & (old > 0.0)
-        if changed.any():
-            integ = self.position_control.vel_int
-            adjusted = GRAVITY_M_S2 - old / hover * (GRAVITY_M_S2 - integ[:, 2])
-            integ[:, 2] = np.where(changed, adjusted, integ[:, 2])
-        self.hover_thrust = hover
-        gains.position.hover_thrust = hover
-        gains.hover_thrust = hover
-
-    def _smoothed_setpoint(
-        self, pos: np.ndarray, vel: np.ndarray, dt: float, gains: _Gains
-    ) -> PositionSetpoint:
-        """The commander's setpoint, with auto-mode targets replaced by the trajectory's state.
-
-        Axes the commander controls by position get the trajectory's position, velocity and
-        acceleration; axes it controls by velocity (landing) get its velocity and acceleration.
-        The controller's own limits then become MPC_XY_VEL_MAX / MPC_Z_VEL_MAX_UP / _DN, as in
-        PX4, so that it can catch up with the trajectory.
-        """
-        sp = self._sp
-        smooth = self._smooth & self.active
-        restart = smooth & ~self._smoothing
-        self._smoothing = smooth
-        if not smooth.any():
-            return sp
-        traj = self.trajectory
-        if restart.any():
-            traj.reset(restart, pos, vel)
-        lim = gains.limits
-        traj.update(
-            sp.position_ned_m,
-            sp.velocity_ff_m_s,
-            TrajectoryLimits(
-                sp.max_speed_xy_m_s,
-                sp.max_speed_up_m_s,
-                sp.max_speed_down_m_s,
-                lim.acc_xy_m_s2,
-                lim.acc_up_m_s2,
-                lim.acc_down_m_s2,
-                lim.jerk_m_s3,
-                lim.error_max_m,
-            ),
-            pos,
-            dt,
-        )
-        out, rows = self._ctrl_sp, smooth[:, None]
-        has_pos = np.isfinite(sp.position_ned_m)
-        out.position_ned_m = np.where(rows & has_pos, traj.position_m, sp.position_ned_m)
-        out.velocity_ff_m_s = np.where(rows, traj.velocity_m_s, sp.velocity_ff_m_s)
-        out.acceleration_ff_m_s2 = np.where(rows, traj.acceleration_m_s2, sp.acceleration_ff_m_s2)
-        out.yaw_rad = sp.yaw_rad
-        out.max_speed_xy_m_s = np.where(smooth, lim.speed_xy_m_s, sp.max_speed_xy_m_s)
-        out.max_speed_up_m_s = np.where(smooth, lim.speed_up_m_s, sp.max_speed_up_m_s)
-        out.max_speed_down_m_s = np.where(smooth, lim.speed_down_m_s, sp.max_speed_down_m_s)
-        out.smoothed = smooth
-        return out
+        hover_thrust_tick_kernel(
+            flying, self.armed, est.accel_ned_m_s2, self.thrust, est.r, est.velocity_ned_m_s,
+            dt, p.initial, p.process_noise, p.gate, p.error_init, p.range,
+            p.vxy_threshold_m_s, p.vz_threshold_m_s, hte.hover_thrust, hte.variance,
+            hte.acc_variance, hte.residual_lpf, hte.ratio_lpf, hte.valid, hte._good_for_s,
+            self.hover_thrust_learned, self.hover_thrust, pc.vel_int,
+        )  # fmt: skip
 
     def _control(self, dt: float, gains: _Gains) -> None:
-        est = self.estimator
-        rate_sp = attitude_rate_setpoint(est.q, self.q_sp, gains.att_p, gains.rate_max)
-        if self._overridden.any():
-            use = self._overridden[:, None] & np.isfinite(self._rate_target)
-            rates = np.where(use, self._rate_target, rate_sp)
-            rate_sp = np.minimum(np.maximum(rates, -gains.rate_max), gains.rate_max)
-        self.rate_sp = rate_sp
-        torque = self.rate_control.update(
-            est.rates_rad_s, rate_sp, gains.rate_p, gains.rate_i, gains.rate_d, dt, self.active
-        )
-        out = self.mixer.mix(torque, self.thrust)
-        if not (self.active.all() and self.armed.all()):
-            out[~self.active] = self.mixer.idle_outputs[~self.active]
-            out[~self.armed] = 0.0
-        self.outputs = out
+        """Attitude, rate control and mixer of every vehicle: one compiled call per IMU sample."""
+        est, rc, mixer = self.estimator, self.rate_control, self.mixer
+        inner_loop_kernel(
+            est.q, est.rates_rad_s, self.q_sp, self.thrust, gains.inner, self._overridden,
+            self._rate_target, dt, self.active, self.armed, rc.integrator_limit, rc.integral,
+            rc._prev_rates, mixer.matrix, mixer.thrust_column, mixer.used, mixer.idle_output,
+            self.rate_sp, self.outputs,
+        )  # fmt: skip
 
     def _actuator_messages(
         self, t_usec: int
     ) -> list[mavlink2.MAVLink_hil_actuator_controls_message]:
-        msgs = []
-        outputs = self.outputs.tolist()
-        for i in range(self.n):
-            controls = outputs[i] + self._controls[MAX_ROTORS:]
-            mode = _CUSTOM_FLAG | (_ARMED_FLAG if self.armed[i] else 0)
-            msgs.append(mavlink2.MAVLink_hil_actuator_controls_message(t_usec, controls, mode, 0))
-        return msgs
+        build = mavlink2.MAVLink_hil_actuator_controls_message
+        outputs, armed, tail = self.outputs.tolist(), self.armed.tolist(), self._controls_tail
+        return [
+            build(t_usec, outputs[i] + tail, _MODE_ARMED if armed[i] else _MODE_DISARMED, 0)
+            for i in range(self.n)
+        ]
 
     def _refresh_gains(self) -> _Gains:
-        versions = tuple(p.version for p in self.params)
+        versions = list(map(_VERSION, self.params))
         if versions != self._param_versions or self._gains is None:
             self.estimator.set_params(self.params)
             self._gains = _Gains.from_params(self.params)
@@ -594,6 +513,27 @@ class _Gains:
     limits: TrajectoryLimits
     """Trajectory acceleration, jerk and error limits; its speeds are the controller's own
     (MPC_XY_VEL_MAX, MPC_Z_VEL_MAX_UP / _DN): the trajectory's come from the commander."""
+    inner: np.ndarray = field(init=False)
+    """(5, N, 3) att_p, rate_max, rate_p, rate_i, rate_d stacked for ``inner_loop_kernel``."""
+    position_axes: np.ndarray = field(init=False)
+    """(4, N, 3) pos_p, vel_p, vel_i, vel_d stacked for ``nav_kernel``."""
+    position_vehicle: np.ndarray = field(init=False)
+    """(3, N) tilt_max_rad, cos_tilt_max, acc_hor_max_m_s2 stacked for ``nav_kernel``."""
+    limits_packed: np.ndarray = field(init=False)
+    """(8, N) the ``limits`` fields in declaration order, for ``nav_kernel``."""
+
+    def __post_init__(self) -> None:
+        # Kernel arguments cost per array: stack what only changes with the parameters.
+        self.inner = np.stack((self.att_p, self.rate_max, self.rate_p, self.rate_i, self.rate_d))
+        g, lim = self.position, self.limits
+        self.position_axes = np.stack((g.pos_p, g.vel_p, g.vel_i, g.vel_d))
+        self.position_vehicle = np.stack((g.tilt_max_rad, g.cos_tilt_max, g.acc_hor_max_m_s2))
+        self.limits_packed = np.stack(
+            (
+                lim.speed_xy_m_s, lim.speed_up_m_s, lim.speed_down_m_s, lim.acc_xy_m_s2,
+                lim.acc_up_m_s2, lim.acc_down_m_s2, lim.jerk_m_s3, lim.error_max_m,
+            )
+        )  # fmt: skip
 
     @classmethod
     def from_params(cls, params: list[ParamStore]) -> _Gains:

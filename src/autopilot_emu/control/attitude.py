@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from autopilot_emu import quaternion as quat
+from autopilot_emu.control.attitude_kernel import attitude_rate_kernel
 
 
 def attitude_rate_setpoint(
@@ -19,12 +19,17 @@ def attitude_rate_setpoint(
     The error quaternion q^-1 ⊗ q_sp is taken on the short way round (w >= 0); its vector part
     times two is the rotation-vector error for small angles, scaled per axis by MC_*_P. Yaw has a
     lower gain than roll and pitch, so tilt (which produces thrust direction) is served first.
+    A yaw-rate feed-forward (about NED z, NaN: none) is added in the body frame.
     """
-    q_err = quat.multiply(quat.conjugate(q), q_sp)
-    q_err *= np.where(q_err[:, :1] < 0.0, -1.0, 1.0)
-    rate_sp = 2.0 * q_err[:, 1:] * gains_rpy
-    if yaw_rate_ff_rad_s is not None:
-        # A yaw rate about NED z expressed in the body frame (third row of R).
-        r = quat.to_rotation_matrix(q)
-        rate_sp += np.nan_to_num(yaw_rate_ff_rad_s)[:, None] * r[:, 2, :]
-    return np.minimum(np.maximum(rate_sp, -rate_max_rad_s), rate_max_rad_s)
+    out = np.empty((q.shape[0], 3))
+    use_ff = yaw_rate_ff_rad_s is not None
+    ff = np.asarray(yaw_rate_ff_rad_s, dtype=float) if use_ff else out[:, 0]
+    attitude_rate_kernel(
+        _f64(q), _f64(q_sp), _f64(gains_rpy), _f64(rate_max_rad_s), _f64(ff), use_ff, out
+    )
+    return out
+
+
+def _f64(a: np.ndarray) -> np.ndarray:
+    """C-contiguous float64 (one compiled signature for the kernels)."""
+    return np.ascontiguousarray(a, dtype=np.float64)

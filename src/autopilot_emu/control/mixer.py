@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from autopilot_emu.control.mixer_kernel import mix_kernel
 from autopilot_emu.params import ParamStore
 
 MAX_ROTORS = 8
@@ -84,7 +85,6 @@ class Mixer:
     """(N, MAX_ROTORS) armed-idle output: idle_output on used rotors, 0 elsewhere."""
     rotor_counts: np.ndarray = field(init=False)
     """(N,) rotors of each vehicle."""
-    _used_f: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         n = len(self.geometries)
@@ -101,31 +101,23 @@ class Mixer:
             self.matrix[i, :m] = mix[:, :3] / peak
             self.thrust_column[i, :m] = mix[:, 3] / mix[:, 3].mean()
             self.used[i, :m] = True
-        self._used_f = self.used.astype(float)
-        self.idle_outputs = self.idle_output * self._used_f
+        self.idle_outputs = self.idle_output * self.used.astype(float)
         self.rotor_counts = self.used.sum(axis=1)
 
     def mix(self, torque: np.ndarray, thrust: np.ndarray) -> np.ndarray:
-        """Outputs (N, MAX_ROTORS) for torque (N, 3) in -1..1 and collective thrust (N,) 0..1."""
-        thr = thrust[:, None] * self.thrust_column
-        fractions = thr + np.matmul(self.matrix, torque[:, :, None])[:, :, 0]
-        if fractions.max() > 1.0 or fractions.min() < 0.0:
-            t_y = self.matrix[:, :, 2] * torque[:, 2:3]
-            t_rp = fractions - thr - t_y
-            fractions = self._desaturate(thr, t_rp, t_y, self.used)
-        return np.maximum(np.sqrt(fractions), self.idle_output) * self._used_f
+        """Outputs (N, MAX_ROTORS) for torque (N, 3) in -1..1 and collective thrust (N,) 0..1.
 
-    @staticmethod
-    def _desaturate(
-        thr: np.ndarray, t_rp: np.ndarray, t_y: np.ndarray, used: np.ndarray
-    ) -> np.ndarray:
-        """Keep roll/pitch by shifting collective thrust, then scale yaw into what is left."""
-        base = thr + t_rp
-        hi = np.where(used, base, -np.inf).max(axis=1, keepdims=True)
-        lo = np.where(used, base, np.inf).min(axis=1, keepdims=True)
-        thr = thr - np.maximum(hi - 1.0, 0.0) + np.maximum(-lo, 0.0)
-        base = np.where(used, thr + t_rp, 0.0)
-        room_up = np.where(t_y > 0, (1.0 - base) / np.maximum(t_y, 1e-9), np.inf)
-        room_dn = np.where(t_y < 0, base / np.maximum(-t_y, 1e-9), np.inf)
-        k = np.clip(np.minimum(room_up, room_dn).min(axis=1, keepdims=True), 0.0, 1.0)
-        return np.clip(base + k * t_y, 0.0, 1.0)
+        Roll/pitch have priority: when a fraction leaves 0..1 the collective thrust is shifted
+        to keep them, and yaw is scaled into what is left (see ``mixer_kernel``).
+        """
+        out = np.empty_like(self.thrust_column)
+        mix_kernel(
+            np.ascontiguousarray(torque, dtype=np.float64),
+            np.ascontiguousarray(thrust, dtype=np.float64),
+            self.matrix,
+            self.thrust_column,
+            self.used,
+            float(self.idle_output),
+            out,
+        )
+        return out

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from autopilot_emu.control.rate_kernel import rate_pid_kernel
+
 
 class RateController:
     """PID on body rates with derivative on measurement; outputs normalised torque (-1..1)."""
@@ -29,12 +31,9 @@ class RateController:
         integrate: np.ndarray,
     ) -> np.ndarray:
         """Torque command for rates (N, 3) given setpoints; ``integrate`` masks the I term."""
-        err = rate_sp - rates
-        torque = kp * err + self.integral - kd * ((rates - self._prev_rates) * (1.0 / dt_s))
-        self._prev_rates = rates
-        step = (ki * dt_s) * err
-        if not integrate.all():
-            step *= integrate[:, None]
-        lim = self.integrator_limit
-        self.integral = np.minimum(np.maximum(self.integral + step, -lim), lim)
-        return np.minimum(np.maximum(torque, -1.0), 1.0)
+        torque = np.empty_like(self.integral)
+        rate_pid_kernel(
+            rates, rate_sp, kp, ki, kd, float(dt_s), np.asarray(integrate, dtype=np.bool_),
+            float(self.integrator_limit), self.integral, self._prev_rates, torque,
+        )  # fmt: skip
+        return torque

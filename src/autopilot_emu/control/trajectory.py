@@ -23,15 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-def _clip(x: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> np.ndarray:
-    """np.clip without its per-call overhead (it dominates on (N,) arrays of a few vehicles)."""
-    return np.minimum(np.maximum(x, lo), hi)
+from autopilot_emu.control.trajectory_kernel import trajectory_kernel
 
 
-def _finite_or_zero(x: np.ndarray) -> np.ndarray:
-    """NaN (not controlled) as 0."""
-    return np.where(np.isfinite(x), x, 0.0)
+def _f64(a: np.ndarray) -> np.ndarray:
+    """C-contiguous float64 (one compiled signature for the kernel)."""
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 @dataclass
@@ -104,63 +101,14 @@ class JerkLimitedTrajectory:
         """Advance all trajectories by ``dt_s`` towards their targets.
 
         ``target_position`` NaN on an axis means that axis follows ``target_velocity`` instead
-        (the horizontal axes go together: both north and east positions must be finite).
+        (the horizontal axes go together: both north and east positions must be finite). The
+        step itself is compiled (``trajectory_kernel``).
         """
-        pos, vel, acc = self.position_m, self.velocity_m_s, self.acceleration_m_s2
-        jerk_max = limits.jerk_m_s3
-        # Velocity each axis group is asked to reach now.
-        err = target_position - pos
-        has_xy = np.isfinite(err[:, 0]) & np.isfinite(err[:, 1])
-        has_z = np.isfinite(err[:, 2])
-        err = _finite_or_zero(err)
-        dist_xy = np.hypot(err[:, 0], err[:, 1])
-        speed_xy = np.minimum(
-            limits.speed_xy_m_s, max_speed_from_distance(dist_xy, limits.acc_xy_m_s2, jerk_max)
-        )
-        v_xy = err[:, :2] * (speed_xy / np.maximum(dist_xy, 1e-9))[:, None]
-        v_xy = np.where(has_xy[:, None], v_xy, _finite_or_zero(target_velocity[:, :2]))
-        v_xy_n = np.hypot(v_xy[:, 0], v_xy[:, 1])
-        v_xy *= np.minimum(1.0, limits.speed_xy_m_s / np.maximum(v_xy_n, 1e-9))[:, None]
-        down = err[:, 2] > 0
-        acc_brake_z = np.where(down, limits.acc_up_m_s2, limits.acc_down_m_s2)
-        speed_z = np.where(down, limits.speed_down_m_s, limits.speed_up_m_s)
-        speed_z = np.minimum(
-            speed_z, max_speed_from_distance(np.abs(err[:, 2]), acc_brake_z, jerk_max)
-        )
-        v_z = np.where(has_z, np.sign(err[:, 2]) * speed_z, _finite_or_zero(target_velocity[:, 2]))
-        v_z = np.minimum(np.maximum(v_z, -limits.speed_up_m_s), limits.speed_down_m_s)
-
-        # Time stretch: the trajectory waits for a vehicle that lags behind it (MPC_XY_ERR_MAX);
-        # one that is ahead (it overshot a corner) is pulled back, the trajectory runs on.
-        behind = pos[:, :2] - vehicle_position[:, :2]
-        lagging = (behind * vel[:, :2]).sum(axis=1) > 0.0
-        lag = np.where(lagging, np.hypot(behind[:, 0], behind[:, 1]), 0.0)
-        dt = dt_s * _clip(1.0 - lag / np.maximum(limits.error_max_m, 1e-6), 0.0, 1.0)
-
-        # Jerk that steers the acceleration towards the one reaching the target velocity: the
-        # velocity error left once the present acceleration is ramped out at the jerk limit
-        # (v + a|a|/2j) asks for the acceleration sqrt(j |e|) of a triangular profile, capped.
-        e_xy = v_xy - (
-            vel[:, :2] + acc[:, :2] * (np.hypot(acc[:, 0], acc[:, 1]) / (2.0 * jerk_max))[:, None]
-        )
-        e_xy_n = np.hypot(e_xy[:, 0], e_xy[:, 1])
-        a_mag = np.minimum(limits.acc_xy_m_s2, np.sqrt(jerk_max * e_xy_n))
-        a_des_xy = e_xy * (a_mag / np.maximum(e_xy_n, 1e-9))[:, None]
-        e_z = v_z - (vel[:, 2] + acc[:, 2] * np.abs(acc[:, 2]) / (2.0 * jerk_max))
-        a_des_z = np.sign(e_z) * np.sqrt(jerk_max * np.abs(e_z))
-        a_des_z = np.minimum(np.maximum(a_des_z, -limits.acc_up_m_s2), limits.acc_down_m_s2)
-
-        inv_dt = 1.0 / max(dt_s, 1e-9)
-        j_xy = (a_des_xy - acc[:, :2]) * inv_dt
-        j_xy_n = np.hypot(j_xy[:, 0], j_xy[:, 1])
-        j_xy *= np.minimum(1.0, jerk_max / np.maximum(j_xy_n, 1e-9))[:, None]
-        j_z = _clip((a_des_z - acc[:, 2]) * inv_dt, -jerk_max, jerk_max)
-        jerk = np.empty_like(acc)
-        jerk[:, :2] = j_xy
-        jerk[:, 2] = j_z
-
-        # Exact integration over dt at constant jerk.
-        dt_c = dt[:, None]
-        pos += vel * dt_c + acc * (dt_c**2 / 2.0) + jerk * (dt_c**3 / 6.0)
-        vel += acc * dt_c + jerk * (dt_c**2 / 2.0)
-        acc += jerk * dt_c
+        lim = limits
+        trajectory_kernel(
+            _f64(target_position), _f64(target_velocity), _f64(lim.speed_xy_m_s),
+            _f64(lim.speed_up_m_s), _f64(lim.speed_down_m_s), _f64(lim.acc_xy_m_s2),
+            _f64(lim.acc_up_m_s2), _f64(lim.acc_down_m_s2), _f64(lim.jerk_m_s3),
+            _f64(lim.error_max_m), _f64(vehicle_position), float(dt_s),
+            self.position_m, self.velocity_m_s, self.acceleration_m_s2,
+        )  # fmt: skip

@@ -1,0 +1,98 @@
+"""Compiled control allocation: torque and collective thrust -> motor outputs, for the fleet.
+
+Shared by :meth:`autopilot_emu.control.mixer.Mixer.mix` and the fleet's fused per-IMU-sample
+kernel. Two passes, as the numpy mixer: the thrust fractions of every vehicle first; if any
+fraction of the fleet leaves 0..1 (and none is NaN, which hides the fleet's max / min in numpy),
+every vehicle is desaturated (roll/pitch kept by shifting the collective thrust, yaw scaled into
+what is left); then outputs = max(sqrt(fraction), idle) on used rotors, 0 elsewhere.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from autopilot_emu.nan_scalar import fmax, fmin
+
+
+@numba.njit(cache=True)
+def _fractions(
+    torque: np.ndarray, thrust: np.ndarray, matrix: np.ndarray, thrust_column: np.ndarray,
+    out: np.ndarray,
+) -> bool:  # fmt: skip
+    """Unsaturated thrust fractions into ``out``; True when the fleet needs desaturation."""
+    hi, lo, nan = -np.inf, np.inf, False
+    for i in range(out.shape[0]):
+        t0, t1, t2, thr = torque[i, 0], torque[i, 1], torque[i, 2], thrust[i]
+        for r in range(out.shape[1]):
+            m = matrix[i, r]
+            f = thr * thrust_column[i, r] + (m[0] * t0 + m[1] * t1 + m[2] * t2)
+            out[i, r] = f
+            if f != f:
+                nan = True
+            elif f > hi:
+                hi = f
+            if f < lo:
+                lo = f
+    return not nan and (hi > 1.0 or lo < 0.0)
+
+
+@numba.njit(cache=True)
+def _desaturate_row(
+    i: int, torque: np.ndarray, thrust: np.ndarray, matrix: np.ndarray,
+    thrust_column: np.ndarray, used: np.ndarray, out: np.ndarray,
+) -> None:  # fmt: skip
+    """Keep roll/pitch by shifting collective thrust, then scale yaw into what is left."""
+    m_rotors = out.shape[1]
+    thr = np.empty(m_rotors)
+    t_rp = np.empty(m_rotors)
+    t_y = np.empty(m_rotors)
+    hi, lo = -np.inf, np.inf
+    for r in range(m_rotors):
+        thr[r] = thrust[i] * thrust_column[i, r]
+        t_y[r] = matrix[i, r, 2] * torque[i, 2]
+        t_rp[r] = out[i, r] - thr[r] - t_y[r]
+        if used[i, r]:
+            base = thr[r] + t_rp[r]
+            hi = fmax(hi, base)
+            lo = fmin(lo, base)
+    shift = -fmax(hi - 1.0, 0.0) + fmax(-lo, 0.0)
+    k = np.inf
+    for r in range(m_rotors):
+        base = thr[r] + shift + t_rp[r] if used[i, r] else 0.0
+        thr[r] = base
+        ty = t_y[r]
+        room_up = (1.0 - base) / fmax(ty, 1e-9) if ty > 0 else np.inf
+        room_dn = base / fmax(-ty, 1e-9) if ty < 0 else np.inf
+        k = fmin(k, fmin(room_up, room_dn))
+    k = fmin(fmax(k, 0.0), 1.0)
+    for r in range(m_rotors):
+        out[i, r] = fmin(fmax(thr[r] + k * t_y[r], 0.0), 1.0)
+
+
+@numba.njit(cache=True)
+def _output_row(i: int, used: np.ndarray, idle_output: float, out: np.ndarray) -> None:
+    """Thrust fractions -> motor outputs (thrust ∝ output²), idle floor, unused outputs 0."""
+    for r in range(out.shape[1]):
+        used_f = 1.0 if used[i, r] else 0.0
+        out[i, r] = fmax(math.sqrt(out[i, r]), idle_output) * used_f
+
+
+@numba.njit(cache=True)
+def mix_kernel(
+    torque: np.ndarray,
+    thrust: np.ndarray,
+    matrix: np.ndarray,
+    thrust_column: np.ndarray,
+    used: np.ndarray,
+    idle_output: float,
+    out: np.ndarray,
+) -> None:
+    """Motor outputs (N, MAX_ROTORS) into ``out`` for torque (N, 3) and thrust (N,)."""
+    saturated = _fractions(torque, thrust, matrix, thrust_column, out)
+    for i in range(out.shape[0]):
+        if saturated:
+            _desaturate_row(i, torque, thrust, matrix, thrust_column, used, out)
+        _output_row(i, used, idle_output, out)
