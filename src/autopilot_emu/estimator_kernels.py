@@ -106,12 +106,12 @@ _IN1 = "f8[:]"
 _MASK = "b1[:]"
 """Argument types: the filter's arrays are C-contiguous, callers' samples any layout."""
 
-_helper = numba.njit(cache=True, nogil=True)
+_helper = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 
 def _kernel(*args: str) -> numba.core.registry.CPUDispatcher:
     """Compile a kernel for exactly one signature (void return), cached beside the package."""
-    return numba.njit("void(" + ", ".join(args) + ")", cache=True, nogil=True)
+    return numba.njit("void(" + ", ".join(args) + ")", cache=True, nogil=True, error_model="numpy")
 
 
 # -- per-vehicle helpers ------------------------------------------------------------------------

@@ -4,13 +4,17 @@ Issue 12 compiles the per-tick kernels (estimator, controllers, mixer, rotors, s
 shortens the Python around them; it must not change behaviour. The recording in
 ``data/lockstep_golden.npz`` was made with the uncompiled numpy code (commit before issue 12's
 first change). Compiled code may reassociate floating-point sums (fused multiply-adds, loop
-order), so the comparison allows a small tolerance instead of bit equality:
+order), so the comparison allows a tolerance instead of bit equality, in two tiers:
 
-* true position within 1 mm, true velocity within 1 mm/s, attitude within 1e-4 (quaternion
-  components), rotor speed within 0.1 rad/s (of ~600), estimated position within 1 mm;
-
-a behaviour change (a different control law, a dropped sensor sample, a reordered noise draw)
-moves these by orders of magnitude more within a second of flight.
+* **until 6 s** (boot, arming, the start of the climb: continuous dynamics only) the trajectories
+  agree to ``TIGHT``: 1 um in position, 1 um/s, 1e-6 in the quaternion, 1e-4 rad/s of rotor speed.
+  Reassociation leaves differences of ~1e-10 there; any behaviour change (a gain, a dropped
+  sample, a reordered noise draw) moves them by far more within a few ticks.
+* **over the whole flight** they agree to ``TOLERANCE``: 1 cm, 1 cm/s, 1e-3, 3 rad/s (0.5 % of the
+  hover speed). Later a 1e-10 difference can move a discrete event by one tick (a gust starting,
+  a setpoint switching on arrival) and the closed loop carries that on; measured for the
+  first compiled kernel alone (the rotor model's, whose sums differ from numpy's only in order),
+  that came to 2.3 mm and 1.3 rad/s, bounded (it does not grow with flight time).
 
 Regenerate (only when behaviour is meant to change, and say so in the commit):
 ``python tests/harness/test_lockstep_golden.py --record``.
@@ -46,12 +50,20 @@ SCENARIOS: dict[str, dict] = {
         "world_overrides": {"rangefinders": True},
     },
 }
+TIGHT_UNTIL_S = 6.0
+TIGHT = {
+    "position_enu_m": 1e-6,
+    "velocity_enu_m_s": 1e-6,
+    "quaternion_xyzw": 1e-6,
+    "rotor_speed_rad_s": 1e-4,
+    "estimated_position_ned_m": 1e-6,
+}
 TOLERANCE = {
-    "position_enu_m": 1e-3,
-    "velocity_enu_m_s": 1e-3,
-    "quaternion_xyzw": 1e-4,
-    "rotor_speed_rad_s": 0.1,
-    "estimated_position_ned_m": 1e-3,
+    "position_enu_m": 1e-2,
+    "velocity_enu_m_s": 1e-2,
+    "quaternion_xyzw": 1e-3,
+    "rotor_speed_rad_s": 3.0,
+    "estimated_position_ned_m": 1e-2,
 }
 
 
@@ -110,10 +122,16 @@ def test_lockstep_trajectory_matches_the_recording(name: str) -> None:
     pos = flown["position_enu_m"]
     assert (pos[-1, :, 2] - pos[0, :, 2]).min() > 1.5
     assert (pos[-1, :, 1] - pos[0, :, 1]).min() > 5.0
+    tight_samples = round(TIGHT_UNTIL_S / SAMPLE_EVERY_S)
     for key, tol in TOLERANCE.items():
         want = recorded[f"{name}/{key}"]
         got = flown[key]
         assert got.shape == want.shape, key
+        early = float(np.max(np.abs(got[:tight_samples] - want[:tight_samples])))
+        assert early <= TIGHT[key], (
+            f"{name} {key}: differs from the recording by {early:.3g} > {TIGHT[key]} "
+            f"in the first {TIGHT_UNTIL_S:g} s"
+        )
         worst = float(np.max(np.abs(got - want)))
         assert worst <= tol, f"{name} {key}: differs from the recording by {worst:.3g} > {tol}"
 
