@@ -22,6 +22,11 @@ are an (N, 15, 15) array. Controllers only ever see these estimates, never groun
 
 Heights: the barometer is the height reference (EKF2_HGT_REF baro); GNSS gives horizontal position
 and 3-D velocity. Heading: magnetic heading fusion (EKF2's heading mode) with EKF2_HEAD_NOISE.
+
+The per-sample work (IMU step with covariance prediction and fake position, magnetometer,
+barometer, GNSS fusion) runs in compiled kernels (``estimator_kernels``), one call per stage, on
+packed arrays (``estimator_layout``) of which the public attributes are views; the rare paths
+(alignment, origin, external vision, resets) are numpy and share the kernels' scalar fusion.
 """
 
 from __future__ import annotations
