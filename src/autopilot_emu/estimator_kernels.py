@@ -106,7 +106,10 @@ _IN1 = "f8[:]"
 _MASK = "b1[:]"
 """Argument types: the filter's arrays are C-contiguous, callers' samples any layout."""
 
-_helper = numba.njit(cache=True, nogil=True, error_model="numpy")
+_helper = numba.njit(
+    cache=True, nogil=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True
+)
+"""Helpers are only called from kernels: no Python or C wrapper is generated (compile time)."""
 
 
 def _kernel(*args: str) -> numba.core.registry.CPUDispatcher:
