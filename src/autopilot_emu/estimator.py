@@ -193,6 +193,10 @@ class FleetEstimator:
         self._buf_q[:] = self.q
         self._buf_corr_yaw = self._buf[:, :, lay.B_CORR_YAW]
         self._scalars[lay.S_HEAD] = length - 1
+        self._zero3 = np.zeros((n, 3))
+        self._zero1 = np.zeros(n)
+        self._no = np.zeros(n, dtype=bool)
+        """Placeholders for the inputs of the kernel stages not run."""
         self._axis_rows = np.tile(np.eye(_K)[:, None, :], (1, n, 1))
         """Measurement rows e_j of a direct observation of error state j, (15, N, 15)."""
         self._reset_covariance(np.ones(n, dtype=bool))
@@ -274,25 +278,59 @@ class FleetEstimator:
 
         Strapdown step, the covariance prediction when EKF2_PREDICT_US has elapsed
         (P <- Phi P Phi^T + Q), a delayed-state buffer row and, at its period, the fake-position
-        fusion: one kernel call (``estimator_kernels.imu_step``).
+        fusion: one kernel call (``estimator_kernels.sensor_step``).
         """
-        rates = np.empty((self.n, 3))  # a new array: callers may keep the previous sample's
-        args = (self.q, self._r, self._v3, self._s1, self._flags, self.P, self._prm)
+        self._sensor_step(kernels.IMU, self._zero3, self._no, accel_frd, gyro_frd, dt_s)
+
+    def update_sensors(
+        self,
+        accel_frd: np.ndarray,
+        gyro_frd: np.ndarray,
+        dt_s: float,
+        mag_frd: np.ndarray,
+        has_mag: np.ndarray,
+        pressure_alt_m: np.ndarray,
+        has_baro: np.ndarray,
+    ) -> None:
+        """One sensor sample in one call: update_mag, update_imu, update_baro, in this order.
+
+        ``has_mag``/``has_baro`` (N,) bool select the vehicles whose sample carries a new
+        magnetometer / barometer reading (the HIL_SENSOR fields_updated bits).
+        """
+        stages = kernels.MAG | kernels.IMU | kernels.BARO
+        self._sensor_step(
+            stages, mag_frd, has_mag, accel_frd, gyro_frd, dt_s, pressure_alt_m, has_baro
+        )
+
+    def _sensor_step(
+        self,
+        stages: int,
+        mag: np.ndarray,
+        has_mag: np.ndarray,
+        accel: np.ndarray,
+        gyro: np.ndarray,
+        dt_s: float,
+        pressure_alt: np.ndarray | None = None,
+        has_baro: np.ndarray | None = None,
+    ) -> None:
+        """Run the kernel's stages; a stage's unused inputs are placeholders."""
+        if pressure_alt is None:
+            pressure_alt, has_baro = self._zero1, self._no
+        rates = self.rates_rad_s
+        if stages & kernels.IMU:
+            rates = np.empty((self.n, 3))  # a new array: callers may keep the previous sample's
+        state = (self.q, self._r, self._v3, self._s1, self._flags, self.P, self._prm)
         try:
-            kernels.imu_step(
-                *args, self._scalars, self._buf, self._buf_t, accel_frd, gyro_frd, dt_s, rates
-            )
-        except TypeError:  # not float64 arrays (lists, integers): convert once
-            kernels.imu_step(
-                *args,
-                self._scalars,
-                self._buf,
-                self._buf_t,
-                _f64(accel_frd),
-                _f64(gyro_frd),
-                float(dt_s),
-                rates,
-            )
+            kernels.sensor_step(
+                *state, self._scalars, self._buf, self._buf_t, stages, mag, has_mag,
+                accel, gyro, dt_s, rates, pressure_alt, has_baro,
+            )  # fmt: skip
+        except TypeError:  # not float64 samples or bool masks (lists, integers): convert once
+            kernels.sensor_step(
+                *state, self._scalars, self._buf, self._buf_t, stages, _f64(mag),
+                np.asarray(has_mag, dtype=bool), _f64(accel), _f64(gyro), float(dt_s), rates,
+                _f64(pressure_alt), np.asarray(has_baro, dtype=bool),
+            )  # fmt: skip
         self.rates_rad_s = rates
 
     def update_acceleration(self, dt_s: float) -> None:
@@ -403,13 +441,9 @@ class FleetEstimator:
     def update_mag(self, mag_frd: np.ndarray, mask: np.ndarray) -> None:
         """Magnetic heading fusion with EKF2_HEAD_NOISE (or EKF2_MAG_NOISE's heading equivalent).
 
-        Gated by EKF2_HDG_GATE; one kernel call (``estimator_kernels.mag_step``).
+        Gated by EKF2_HDG_GATE; one kernel call (``estimator_kernels.sensor_step``).
         """
-        args = (self.q, self._r, self._v3, self._s1, self._flags, self.P, self._prm, self._scalars)
-        try:
-            kernels.mag_step(*args, mag_frd, mask)
-        except TypeError:  # not float64 samples or a bool mask: convert once
-            kernels.mag_step(*args, _f64(mag_frd), np.asarray(mask, dtype=bool))
+        self._sensor_step(kernels.MAG, mag_frd, mask, self._zero3, self._zero3, 0.0)
 
     # -- height ---------------------------------------------------------------------------------
     def update_baro(self, pressure_alt_m: np.ndarray, mask: np.ndarray) -> None:
@@ -418,13 +452,11 @@ class FleetEstimator:
         Before an origin the barometer is referenced to the height estimate at its first sample
         (a GNSS-denied vehicle still holds height on it); the first GNSS fix re-references it
         to the fix's altitude. A height rejected longer than the reset timeout is reset to the
-        barometer (EKF2). One kernel call (``estimator_kernels.baro_step``).
+        barometer (EKF2). One kernel call (``estimator_kernels.sensor_step``).
         """
-        args = (self.q, self._r, self._v3, self._s1, self._flags, self.P, self._prm, self._scalars)
-        try:
-            kernels.baro_step(*args, pressure_alt_m, mask)
-        except TypeError:  # not float64 samples or a bool mask: convert once
-            kernels.baro_step(*args, _f64(pressure_alt_m), np.asarray(mask, dtype=bool))
+        self._sensor_step(
+            kernels.BARO, self._zero3, self._no, self._zero3, self._zero3, 0.0, pressure_alt_m, mask
+        )
 
     # -- GNSS -----------------------------------------------------------------------------------
     def update_gps(

@@ -382,8 +382,8 @@ def _reset_block(cov: np.ndarray, i: int, j: int, var: float) -> None:
 
 
 # -- kernels ------------------------------------------------------------------------------------
-@_kernel(_Q, _ROT, _V3, _S1, _FLAGS, _COV, _PRM, _VEC, _BUF, _VEC, _IN2, _IN2, "f8", _Q)
-def imu_step(
+@_helper
+def _imu_step(
     q: np.ndarray,
     rot: np.ndarray,
     v3: np.ndarray,
@@ -468,8 +468,8 @@ def acceleration_step(v3: np.ndarray, scalars: np.ndarray, dt: float) -> None:
             v3[V_ACC_DV, i, k] = 0.0
 
 
-@_kernel(_Q, _ROT, _V3, _S1, _FLAGS, _COV, _PRM, _VEC, _IN2, _MASK)
-def mag_step(
+@_helper
+def _mag_step(
     q: np.ndarray,
     rot: np.ndarray,
     v3: np.ndarray,
@@ -527,8 +527,8 @@ def mag_step(
     _fuse_masked(q, rot, v3, s1, cov, prm, scalars, h, innovs, variances, ok)
 
 
-@_kernel(_Q, _ROT, _V3, _S1, _FLAGS, _COV, _PRM, _VEC, _IN1, _MASK)
-def baro_step(
+@_helper
+def _baro_step(
     q: np.ndarray,
     rot: np.ndarray,
     v3: np.ndarray,
@@ -722,3 +722,45 @@ def gps_step(
             if not math.isfinite(s1[T_FIRST_AID, i]):
                 s1[T_FIRST_AID, i] = t
             flags[F_CONST_POS, i] = False
+
+
+MAG, IMU, BARO = 1, 2, 4
+"""Stages of ``sensor_step`` (bits), run in this order: magnetometer, IMU, barometer."""
+
+
+@_kernel(
+    _Q, _ROT, _V3, _S1, _FLAGS, _COV, _PRM, _VEC, _BUF, _VEC,
+    "i8", _IN2, _MASK, _IN2, _IN2, "f8", _Q, _IN1, _MASK,
+)  # fmt: skip
+def sensor_step(
+    q: np.ndarray,
+    rot: np.ndarray,
+    v3: np.ndarray,
+    s1: np.ndarray,
+    flags: np.ndarray,
+    cov: np.ndarray,
+    prm: np.ndarray,
+    scalars: np.ndarray,
+    buf: np.ndarray,
+    buf_t: np.ndarray,
+    stages: int,
+    mag: np.ndarray,
+    has_mag: np.ndarray,
+    accel: np.ndarray,
+    gyro: np.ndarray,
+    dt: float,
+    rates_out: np.ndarray,
+    pressure_alt: np.ndarray,
+    has_baro: np.ndarray,
+) -> None:
+    """The stages of one sensor sample (MAG | IMU | BARO bits), in the fleet's order.
+
+    One kernel for the three, so that the fleet's per-sample work is one call (the arguments
+    of a stage not run are not read).
+    """
+    if stages & MAG:
+        _mag_step(q, rot, v3, s1, flags, cov, prm, scalars, mag, has_mag)
+    if stages & IMU:
+        _imu_step(q, rot, v3, s1, flags, cov, prm, scalars, buf, buf_t, accel, gyro, dt, rates_out)
+    if stages & BARO:
+        _baro_step(q, rot, v3, s1, flags, cov, prm, scalars, pressure_alt, has_baro)

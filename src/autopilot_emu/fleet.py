@@ -188,11 +188,9 @@ class AutopilotFleet:
             mag = np.where(wrong[:, None], mag * _MAG_WRONG, mag)
         if not est.attitude_ok.all():
             est.align_heading(acc, mag, has_mag & ~est.attitude_ok)
-        est.update_mag(mag, has_mag)
-        est.update_imu(acc, gyro, dt)
         has_baro = (flags & _PRESSURE_ALT_BIT) != 0
         self._pressure_alt_m = np.where(has_baro, raw[:, 9], self._pressure_alt_m)
-        est.update_baro(raw[:, 9], has_baro)
+        est.update_sensors(acc, gyro, dt, mag, has_mag, raw[:, 9], has_baro)  # mag, IMU, baro
 
         gains = self._refresh_gains()
         self._nav_accum_s += dt

@@ -179,3 +179,27 @@ def _rotation(q: np.ndarray) -> np.ndarray:
             [2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z],
         ]
     )
+
+
+def test_one_sensor_call_equals_the_three_stage_calls():
+    """update_sensors is update_mag, update_imu, update_baro in one kernel call, bit for bit."""
+    rng = np.random.default_rng(5)
+    a, b = FleetEstimator(3), FleetEstimator(3)
+    for est in (a, b):
+        est.align_heading(
+            np.tile(LEVEL_ACCEL, (3, 1)), np.tile([0.2, 0.0, 0.4], (3, 1)), np.ones(3, bool)
+        )
+    for tick in range(300):
+        acc = LEVEL_ACCEL + 0.3 * rng.standard_normal((3, 3))
+        gyro = 0.02 * rng.standard_normal((3, 3))
+        mag = np.array([0.2, 0.0, 0.4]) + 0.01 * rng.standard_normal((3, 3))
+        baro = 480.0 + 0.2 * rng.standard_normal(3)
+        has_mag = rng.random(3) < 0.4
+        has_baro = np.full(3, tick % 5 == 0)
+        a.update_mag(mag, has_mag)
+        a.update_imu(acc, gyro, DT)
+        a.update_baro(baro, has_baro)
+        b.update_sensors(acc, gyro, DT, mag, has_mag, baro, has_baro)
+    for name in ("q", "P", "position_ned_m", "velocity_ned_m_s", "gyro_bias_rad_s", "rates_rad_s"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert np.array_equal(a.mag_accepted_s, b.mag_accepted_s) and a.time_s == b.time_s
