@@ -3,7 +3,9 @@
 As ``AutopilotFleet.handle_sensors`` calls them: ``update_mag`` and ``update_baro`` at every IMU
 sample with a mask (magnetometer in 2 of 5 samples, barometer in 1 of 5), ``update_imu`` at
 250 Hz, ``update_acceleration`` at 50 Hz, ``update_gps`` at 10 Hz. ``*_on``/``*_off``: calls
-with the mask set / empty. Medians, so other processes on the machine matter less.
+with the mask set / empty. ``sensors``: the same three as one ``update_sensors`` call (what the
+fleet does), timed on a second filter fed the same samples. Medians, so other processes on the
+machine matter less.
 
     PYTHONPATH=src python benchmarks/estimator_calls.py --vehicles 1,10
 """
@@ -20,7 +22,7 @@ from autopilot_emu.estimator import GRAVITY_M_S2, FleetEstimator
 
 def run(n: int, ticks: int, warmup: int = 2500) -> dict[str, float]:
     """Median microseconds per call of each method for n vehicles."""
-    est = FleetEstimator(n)
+    est, combined = FleetEstimator(n), FleetEstimator(n)
     rng = np.random.default_rng(0)
     ones, none = np.ones(n, dtype=bool), np.zeros(n, dtype=bool)
     lla = np.tile([47.397742, 8.545594, 488.0], (n, 1))
@@ -40,8 +42,9 @@ def run(n: int, ticks: int, warmup: int = 2500) -> dict[str, float]:
         gyro = 0.003 * rng.standard_normal((n, 3))
         mag = np.array([0.21, 0.01, 0.43]) + 0.002 * rng.standard_normal((n, 3))
         baro = alt + 0.1 * rng.standard_normal(n)
-        if not est.attitude_ok.all():
-            est.align_heading(acc, mag, ~est.attitude_ok)
+        for filt in (est, combined):
+            if not filt.attitude_ok.all():
+                filt.align_heading(acc, mag, ~filt.attitude_ok)
         has_mag = tick % 5 in (0, 2)
         timed("mag_on" if has_mag else "mag_off", est.update_mag, mag, ones if has_mag else none)
         timed("imu", est.update_imu, acc, gyro, 1.0 / 250.0)
@@ -49,11 +52,14 @@ def run(n: int, ticks: int, warmup: int = 2500) -> dict[str, float]:
         timed(
             "baro_on" if has_baro else "baro_off", est.update_baro, baro, ones if has_baro else none
         )
+        mag_mask, baro_mask = ones if has_mag else none, ones if has_baro else none
+        timed("sensors", combined.update_sensors, acc, gyro, 0.004, mag, mag_mask, baro, baro_mask)
         if tick % 5 == 0:
             timed("acceleration", est.update_acceleration, 0.02)
         if tick % 25 == 0:
             gps = 0.1 * rng.standard_normal((n, 3))
             timed("gps", est.update_gps, gps, zeros, fix, lla, alt, eph, epv, sats)
+            combined.update_gps(gps, zeros, fix, lla, alt, eph, epv, sats)
     return {name: float(np.median(v)) / 1e3 for name, v in times.items()}
 
 
