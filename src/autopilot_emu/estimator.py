@@ -248,12 +248,12 @@ class FleetEstimator:
     @property
     def position_variance_m2(self) -> np.ndarray:
         """(N, 3) variance of the NED position estimate, m²."""
-        return self.P[:, (6, 7, 8), (6, 7, 8)]
+        return self.P.diagonal(0, 1, 2)[:, 6:9].copy()
 
     @property
     def velocity_variance_m2_s2(self) -> np.ndarray:
         """(N, 3) variance of the NED velocity estimate, m²/s²."""
-        return self.P[:, (3, 4, 5), (3, 4, 5)]
+        return self.P.diagonal(0, 1, 2)[:, 3:6].copy()
 
     @property
     def heading_failure(self) -> np.ndarray:
