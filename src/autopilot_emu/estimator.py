@@ -22,6 +22,11 @@ are an (N, 15, 15) array. Controllers only ever see these estimates, never groun
 
 Heights: the barometer is the height reference (EKF2_HGT_REF baro); GNSS gives horizontal position
 and 3-D velocity. Heading: magnetic heading fusion (EKF2's heading mode) with EKF2_HEAD_NOISE.
+
+The per-sample work (IMU step with covariance prediction and fake position, magnetometer,
+barometer, GNSS fusion) runs in compiled kernels (``estimator_kernels``), one call per stage, on
+packed arrays (``estimator_layout``) of which the public attributes are views; the rare paths
+(alignment, origin, external vision, resets) are numpy and share the kernels' scalar fusion.
 """
 
 from __future__ import annotations
@@ -30,6 +35,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from autopilot_emu import estimator_kernels as kernels
+from autopilot_emu import estimator_layout as lay
 from autopilot_emu import geodesy
 from autopilot_emu import quaternion as quat
 from autopilot_emu.estimator_params import (
@@ -42,7 +49,6 @@ from autopilot_emu.estimator_params import (
 from autopilot_emu.params import ParamStore
 
 GRAVITY_M_S2 = 9.80665
-_G_NED = np.array([0.0, 0.0, GRAVITY_M_S2])
 _TH, _VEL, _POS, _BG, _BA = 0, 3, 6, 9, 12
 """First index of each block of the 15-element error state."""
 _K = 15
@@ -72,13 +78,16 @@ class EstimatorConfig:
     """Clamp of the gyro-bias estimate (EKF2's gyro bias limit), rad/s."""
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) cross-product matrices [v]x of (N, 3) vectors."""
-    s = np.zeros((v.shape[0], 3, 3))
-    s[:, 0, 1], s[:, 0, 2] = -v[:, 2], v[:, 1]
-    s[:, 1, 0], s[:, 1, 2] = v[:, 2], -v[:, 0]
-    s[:, 2, 0], s[:, 2, 1] = -v[:, 1], v[:, 0]
-    return s
+def _column(values: np.ndarray | float, n: int) -> np.ndarray:
+    """A new (n,) float64 array of ``values`` (broadcast), as the fusion kernel takes."""
+    out = np.empty(n)
+    out[:] = values
+    return out
+
+
+def _f64(a: np.ndarray | list) -> np.ndarray:
+    """``a`` as a float64 array (the kernels' argument type)."""
+    return np.asarray(a, dtype=np.float64)
 
 
 class FleetEstimator:
@@ -89,93 +98,133 @@ class FleetEstimator:
     ) -> None:
         self.n = n
         self.config = config or EstimatorConfig()
+        cfg = self.config
+        # Packed state the kernels update in place (layout: estimator_layout); the public
+        # attributes below are C-contiguous views of it.
+        self._v3 = np.zeros((lay.V3_BLOCKS, n, 3))
+        self._s1 = np.zeros((lay.S1_ROWS, n))
+        self._flags = np.zeros((lay.FLAGS_ROWS, n), dtype=bool)
+        self._prm = np.zeros((n, len(lay.PRM_FIELDS)))
+        self._scalars = np.zeros(lay.SCALARS_SIZE)
+        self._scalars[lay.S_PREDICT_PERIOD] = cfg.predict_period_s
+        self._scalars[lay.S_FAKE_PERIOD] = cfg.fake_position_period_s
+        self._scalars[lay.S_PREFLIGHT_STD] = cfg.preflight_fake_position_std_m
+        self._scalars[lay.S_RESET_TIMEOUT] = cfg.reset_timeout_s
+        self._scalars[lay.S_GBIAS_LIM] = cfg.gyro_bias_limit_rad_s
+        self._scalars[lay.S_ACC_TAU] = cfg.accel_lpf_tau_s
         self.params = params or EstimatorParams.defaults(n)
         self.q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
-        """Attitude body FRD -> NED, [w, x, y, z]."""
+        """Attitude body FRD -> NED, [w, x, y, z] (updated in place)."""
         self._r = quat.to_rotation_matrix(self.q)
-        self._r_stale = False
-        self.position_ned_m = np.zeros((n, 3))
+        """Rotation matrices of ``q``, kept current by every change of ``q``."""
+        self.position_ned_m = self._v3[lay.V_POS]
         """(N, 3) position in each vehicle's NED frame, m."""
-        self.velocity_ned_m_s = np.zeros((n, 3))
+        self.velocity_ned_m_s = self._v3[lay.V_VEL]
         """(N, 3) velocity NED, m/s."""
-        self.gyro_bias_rad_s = np.zeros((n, 3))
+        self.gyro_bias_rad_s = self._v3[lay.V_BG]
         """Gyro bias estimate, body FRD, rad/s."""
-        self.accel_bias_m_s2 = np.zeros((n, 3))
+        self.accel_bias_m_s2 = self._v3[lay.V_BA]
         """Accelerometer bias estimate, body FRD, m/s²."""
         self.P = np.zeros((n, _K, _K))
-        """Error-state covariances, (N, 15, 15)."""
+        """Error-state covariances, (N, 15, 15) (updated in place)."""
         self.rates_rad_s = np.zeros((n, 3))
-        """Bias-corrected body rates, rad/s."""
-        self.accel_ned_m_s2 = np.zeros((n, 3))
+        """Bias-corrected body rates, rad/s (a new array at every IMU sample)."""
+        self.accel_ned_m_s2 = self._v3[lay.V_ACC_NED]
         """Low-passed, bias-corrected NED acceleration, m/s²."""
-        self.attitude_ok = np.zeros(n, dtype=bool)
-        self.origin_set = np.zeros(n, dtype=bool)
-        self.origin_lla = np.zeros((n, 3))
+        self.attitude_ok = self._flags[lay.F_ATT_OK]
+        self.origin_set = self._flags[lay.F_ORIGIN]
+        self.origin_lla = self._v3[lay.V_ORIGIN]
         """EKF origin: latitude, longitude (deg), altitude AMSL (m) of each vehicle's NED frame."""
-        self.baro_offset_m = np.zeros(n)
+        self.baro_offset_m = self._s1[lay.T_BARO_OFF]
         """pressure_alt - GPS altitude at the origin fix, m."""
-        self.time_s = 0.0
         self.first_fix_s = np.full(n, np.inf)
         """When the origin was set (the first GNSS fix passing the checks), s."""
-        self.first_aiding_s = np.full(n, np.inf)
+        self.first_aiding_s = self._s1[lay.T_FIRST_AID]
         """When a horizontal position source was first fused, s."""
+        self.first_aiding_s[:] = np.inf
         self.gps_fix_type = np.zeros(n, dtype=int)
         self.gps_checks_ok = np.zeros(n, dtype=bool)
         """The last GNSS sample passed EKF2's checks (fix, satellites, eph, epv)."""
         self.gps_time_s = np.full(n, -np.inf)
-        self.gps_fused_s = np.full(n, -np.inf)
+        self.gps_fused_s = self._s1[lay.T_GPS_FUSED]
         """Last GNSS horizontal position fusion, s."""
-        self.ev_fused_s = np.full(n, -np.inf)
+        self.ev_fused_s = self._s1[lay.T_EV_FUSED]
         """Last external-vision horizontal position fusion, s."""
-        self.hpos_aided_s = np.full(n, -np.inf)
+        self.gps_fused_s[:] = -np.inf
+        self.ev_fused_s[:] = -np.inf
+        self.hpos_aided_s = self._s1[lay.T_HPOS_AIDED]
         """Last fusion of any horizontal position source (GNSS or vision), s."""
-        self.height_aided_s = np.full(n, -np.inf)
+        self.height_aided_s = self._s1[lay.T_HGT_AIDED]
         """Last fusion of a height source (barometer or vision), s."""
-        self.vel_ratio = np.zeros(n)
+        self.hpos_aided_s[:] = -np.inf
+        self.height_aided_s[:] = -np.inf
+        self.vel_ratio = self._s1[lay.T_VEL_RATIO]
         """GNSS velocity innovation test ratio, sqrt(innov² / (gate² S)) (>1: rejected)."""
-        self.pos_horiz_ratio = np.zeros(n)
+        self.pos_horiz_ratio = self._s1[lay.T_HORIZ_RATIO]
         """Horizontal position (GNSS or vision) innovation test ratio."""
-        self.pos_vert_ratio = np.zeros(n)
+        self.pos_vert_ratio = self._s1[lay.T_VERT_RATIO]
         """Height innovation test ratio."""
-        self.mag_ratio = np.zeros(n)
+        self.mag_ratio = self._s1[lay.T_MAG_RATIO]
         """Magnetic heading innovation test ratio."""
-        self.gps_glitch = np.zeros(n, dtype=bool)
+        self.gps_glitch = self._flags[lay.F_GPS_GLITCH]
         """The last GNSS position was rejected by its gate."""
-        self.const_pos_mode = np.ones(n, dtype=bool)
+        self.const_pos_mode = self._flags[lay.F_CONST_POS]
         """A fake position is fused (no horizontal aiding)."""
-        self.mag_seen_s = np.full(n, -np.inf)
-        self.mag_accepted_s = np.full(n, -np.inf)
-        self._fake_hold = np.zeros((n, 3))
-        self._fake_next_s = 0.0
-        self._pred_dt = 0.0
-        self._pred_dv = np.zeros((n, 3))
-        self._acc_dv = np.zeros((n, 3))
-        """Velocity change from the bias-corrected accelerometer since update_acceleration."""
+        self.const_pos_mode[:] = True
+        self.mag_seen_s = self._s1[lay.T_MAG_SEEN]
+        self.mag_accepted_s = self._s1[lay.T_MAG_ACCEPTED]
+        self.mag_seen_s[:] = -np.inf
+        self.mag_accepted_s[:] = -np.inf
         self._idx = np.arange(n)
-        self._baro_ref = np.zeros(n, dtype=bool)
+        self._baro_ref = self._flags[lay.F_BARO_REF]
         """The barometer has a reference height (set at its first sample or by the origin)."""
-        # Delayed-state ring buffer (one row per IMU sample): time, position, velocity, attitude.
-        length = self.config.buffer_samples
-        self._buf_t = np.full(length, -np.inf)
-        self._buf_p = np.zeros((length, n, 3))
-        self._buf_v = np.zeros((length, n, 3))
-        self._buf_q = np.tile([1.0, 0.0, 0.0, 0.0], (length, n, 1))
-        self._buf_head = length - 1
-        self._corr_p = np.zeros((n, 3))
-        self._corr_v = np.zeros((n, 3))
+        self._corr_p = self._v3[lay.V_CORR_P]
+        self._corr_v = self._v3[lay.V_CORR_V]
         """Corrections applied since the start: a buffered state is its row plus these."""
-        self._corr_yaw = np.zeros(n)
-        self._buf_corr_yaw = np.zeros((length, n))
-        """Yaw corrections applied since the start, now and when each row was written, rad."""
+        self._corr_yaw = self._s1[lay.T_CORR_YAW]
+        # Delayed-state ring buffer (one row per IMU sample): time, position, velocity, attitude,
+        # yaw corrections applied until then (rad).
+        length = cfg.buffer_samples
+        self._buf_t = np.full(length, -np.inf)
+        self._buf = np.zeros((length, n, lay.BUF_WIDTH))
+        self._buf_p = self._buf[:, :, lay.B_POS : lay.B_POS + 3]
+        self._buf_v = self._buf[:, :, lay.B_VEL : lay.B_VEL + 3]
+        self._buf_q = self._buf[:, :, lay.B_Q : lay.B_Q + 4]
+        self._buf_q[:] = self.q
+        self._buf_corr_yaw = self._buf[:, :, lay.B_CORR_YAW]
+        self._scalars[lay.S_HEAD] = length - 1
+        self._zero3 = np.zeros((n, 3))
+        self._zero1 = np.zeros(n)
+        self._no = np.zeros(n, dtype=bool)
+        """Placeholders for the inputs of the kernel stages not run."""
+        self._axis_rows = np.tile(np.eye(_K)[:, None, :], (1, n, 1))
+        """Measurement rows e_j of a direct observation of error state j, (15, N, 15)."""
         self._reset_covariance(np.ones(n, dtype=bool))
+
+    @property
+    def params(self) -> EstimatorParams:
+        """Each vehicle's EKF2_* parameters (assigning one also updates the kernels' copy)."""
+        return self._params
+
+    @params.setter
+    def params(self, params: EstimatorParams) -> None:
+        self._params = params
+        for col, name in enumerate(lay.PRM_FIELDS):
+            self._prm[:, col] = getattr(params, name)
+
+    @property
+    def time_s(self) -> float:
+        """Filter time (sum of the IMU intervals), s."""
+        return float(self._scalars[lay.S_TIME])
+
+    @time_s.setter
+    def time_s(self, value: float) -> None:
+        self._scalars[lay.S_TIME] = value
 
     # -- read-only views ---------------------------------------------------------------------
     @property
     def r(self) -> np.ndarray:
         """(N, 3, 3) rotation matrices of ``q`` (body FRD -> NED)."""
-        if self._r_stale:
-            self._r = quat.to_rotation_matrix(self.q)
-            self._r_stale = False
         return self._r
 
     @property
@@ -199,12 +248,12 @@ class FleetEstimator:
     @property
     def position_variance_m2(self) -> np.ndarray:
         """(N, 3) variance of the NED position estimate, m²."""
-        return self.P[:, (6, 7, 8), (6, 7, 8)]
+        return self.P.diagonal(0, 1, 2)[:, 6:9].copy()
 
     @property
     def velocity_variance_m2_s2(self) -> np.ndarray:
         """(N, 3) variance of the NED velocity estimate, m²/s²."""
-        return self.P[:, (3, 4, 5), (3, 4, 5)]
+        return self.P.diagonal(0, 1, 2)[:, 3:6].copy()
 
     @property
     def heading_failure(self) -> np.ndarray:
@@ -225,119 +274,93 @@ class FleetEstimator:
 
     # -- prediction ----------------------------------------------------------------------------
     def update_imu(self, accel_frd: np.ndarray, gyro_frd: np.ndarray, dt_s: float) -> None:
-        """Propagate with one IMU sample per vehicle (specific force m/s², rates rad/s)."""
-        self.time_s += dt_s
-        rates = gyro_frd - self.gyro_bias_rad_s
-        f_ned = np.einsum("nij,nj->ni", self.r, accel_frd - self.accel_bias_m_s2)
-        acc = f_ned + _G_NED
-        p, v = self.position_ned_m, self.velocity_ned_m_s
-        p += v * dt_s + (0.5 * dt_s * dt_s) * acc
-        v += acc * dt_s
+        """Propagate with one IMU sample per vehicle (specific force m/s², rates rad/s).
+
+        Strapdown step, the covariance prediction when EKF2_PREDICT_US has elapsed
+        (P <- Phi P Phi^T + Q), a delayed-state buffer row and, at its period, the fake-position
+        fusion: one kernel call (``estimator_kernels.sensor_step``).
+        """
+        self._sensor_step(kernels.IMU, self._zero3, self._no, accel_frd, gyro_frd, dt_s)
+
+    def update_sensors(
+        self,
+        accel_frd: np.ndarray,
+        gyro_frd: np.ndarray,
+        dt_s: float,
+        mag_frd: np.ndarray,
+        has_mag: np.ndarray,
+        pressure_alt_m: np.ndarray,
+        has_baro: np.ndarray,
+    ) -> None:
+        """One sensor sample in one call: update_mag, update_imu, update_baro, in this order.
+
+        ``has_mag``/``has_baro`` (N,) bool select the vehicles whose sample carries a new
+        magnetometer / barometer reading (the HIL_SENSOR fields_updated bits).
+        """
+        stages = kernels.MAG | kernels.IMU | kernels.BARO
+        self._sensor_step(
+            stages, mag_frd, has_mag, accel_frd, gyro_frd, dt_s, pressure_alt_m, has_baro
+        )
+
+    def _sensor_step(
+        self,
+        stages: int,
+        mag: np.ndarray,
+        has_mag: np.ndarray,
+        accel: np.ndarray,
+        gyro: np.ndarray,
+        dt_s: float,
+        pressure_alt: np.ndarray | None = None,
+        has_baro: np.ndarray | None = None,
+    ) -> None:
+        """Run the kernel's stages; a stage's unused inputs are placeholders."""
+        if pressure_alt is None:
+            pressure_alt, has_baro = self._zero1, self._no
+        rates = self.rates_rad_s
+        if stages & kernels.IMU:
+            rates = np.empty((self.n, 3))  # a new array: callers may keep the previous sample's
+        state = (self.q, self._r, self._v3, self._s1, self._flags, self.P, self._prm)
+        try:
+            kernels.sensor_step(
+                *state, self._scalars, self._buf, self._buf_t, stages, mag, has_mag,
+                accel, gyro, dt_s, rates, pressure_alt, has_baro,
+            )  # fmt: skip
+        except TypeError:  # not float64 samples or bool masks (lists, integers): convert once
+            kernels.sensor_step(
+                *state, self._scalars, self._buf, self._buf_t, stages, _f64(mag),
+                np.asarray(has_mag, dtype=bool), _f64(accel), _f64(gyro), float(dt_s), rates,
+                _f64(pressure_alt), np.asarray(has_baro, dtype=bool),
+            )  # fmt: skip
         self.rates_rad_s = rates
-        self.q = quat.integrate(self.q, rates, dt_s)
-        self._r_stale = True
-        self._acc_dv += acc * dt_s
-        self._pred_dt += dt_s
-        self._pred_dv += f_ned * dt_s
-        if self._pred_dt >= self.config.predict_period_s - 1e-9:
-            self._predict_covariance()
-        head = (self._buf_head + 1) % self._buf_t.shape[0]
-        self._buf_head = head
-        self._buf_t[head] = self.time_s
-        np.subtract(p, self._corr_p, out=self._buf_p[head])
-        np.subtract(v, self._corr_v, out=self._buf_v[head])
-        self._buf_q[head] = self.q
-        self._buf_corr_yaw[head] = self._corr_yaw
-        if self.time_s >= self._fake_next_s:
-            self._fake_next_s = self.time_s + self.config.fake_position_period_s
-            self._fuse_fake_position()
 
     def update_acceleration(self, dt_s: float) -> None:
         """Low-pass the mean NED acceleration of the last ``dt_s`` into ``accel_ned_m_s2``.
 
         Called at the navigation rate (the hover-thrust estimator and controllers read it).
         """
-        alpha = dt_s / (self.config.accel_lpf_tau_s + dt_s)
-        self.accel_ned_m_s2 += alpha * (self._acc_dv / dt_s - self.accel_ned_m_s2)
-        self._acc_dv.fill(0.0)
-
-    def _predict_covariance(self) -> None:
-        """P <- Phi P Phi^T + Q over the interval since the last prediction (EKF2 downsampled)."""
-        dt = self._pred_dt
-        r_dt = self.r * dt
-        s_dt = _skew(self._pred_dv)  # [f_ned]x dt
-
-        def phi_times(m: np.ndarray) -> np.ndarray:
-            # Phi m with Phi = I + F dt applied block by block (Phi is sparse: 4 3x3 blocks).
-            out = m.copy()
-            out[:, _TH : _TH + 3] -= r_dt @ m[:, _BG : _BG + 3]
-            out[:, _VEL : _VEL + 3] -= s_dt @ m[:, _TH : _TH + 3] + r_dt @ m[:, _BA : _BA + 3]
-            out[:, _POS : _POS + 3] += dt * m[:, _VEL : _VEL + 3]
-            return out
-
-        m = np.ascontiguousarray(phi_times(self.P).transpose(0, 2, 1))
-        p = phi_times(m).transpose(0, 2, 1)
-        prm = self.params
-        q_diag = np.repeat(
-            np.stack(
-                (
-                    (prm.gyr_noise_rad_s * dt) ** 2,
-                    (prm.acc_noise_m_s2 * dt) ** 2,
-                    np.zeros(self.n),
-                    (prm.gyr_b_noise_rad_s2 * dt) ** 2,
-                    (prm.acc_b_noise_m_s3 * dt) ** 2,
-                ),
-                axis=1,
-            ),
-            3,
-            axis=1,
-        )
-        diag = np.arange(_K)
-        p[:, diag, diag] += q_diag
-        self.P = 0.5 * (p + p.transpose(0, 2, 1))
-        self._pred_dt = 0.0
-        self._pred_dv.fill(0.0)
+        kernels.acceleration_step(self._v3, self._scalars, float(dt_s))
 
     # -- generic fusion ----------------------------------------------------------------------------
     def _fuse_axis(self, j: int, innov: np.ndarray, var: np.ndarray, use: np.ndarray) -> None:
         """Scalar update of error-state element j (H = e_j) for the vehicles in ``use``."""
-        if not use.any():
-            return
-        pht = self.P[:, :, j].copy()
-        s = pht[:, j] + var
-        k = pht * (use / s)[:, None]
-        self.P -= k[:, :, None] * pht[:, None, :]
-        self._inject(k * np.where(use, innov, 0.0)[:, None])
+        self._fuse_row(self._axis_rows[j], innov, var, use)
 
     def _fuse_row(self, h: np.ndarray, innov: np.ndarray, var: np.ndarray, use: np.ndarray) -> None:
         """Scalar update with an (N, 15) measurement row for the vehicles in ``use``."""
-        if not use.any():
-            return
-        pht = np.einsum("nij,nj->ni", self.P, h)
-        s = np.einsum("ni,ni->n", h, pht) + var
-        k = pht * (use / s)[:, None]
-        self.P -= k[:, :, None] * pht[:, None, :]
-        self._inject(k * np.where(use, innov, 0.0)[:, None])
-
-    def _inject(self, dx: np.ndarray) -> None:
-        """Add an (N, 15) error-state correction to the nominal state (and the buffered one)."""
-        dq = np.empty((self.n, 4))
-        dq[:, 0] = 1.0
-        dq[:, 1:] = 0.5 * dx[:, _TH : _TH + 3]
-        self.q = quat.normalize(quat.multiply(dq, self.q))
-        self._r_stale = True
-        self._corr_yaw += dx[:, _TH + 2]
-        dv, dp = dx[:, _VEL : _VEL + 3], dx[:, _POS : _POS + 3]
-        self.velocity_ned_m_s += dv
-        self.position_ned_m += dp
-        self._corr_v += dv
-        self._corr_p += dp
-        lim_g = self.config.gyro_bias_limit_rad_s
-        lim_a = self.params.abias_lim_m_s2[:, None]
-        bg = self.gyro_bias_rad_s + dx[:, _BG : _BG + 3]
-        self.gyro_bias_rad_s = np.minimum(np.maximum(bg, -lim_g), lim_g)
-        ba = self.accel_bias_m_s2 + dx[:, _BA : _BA + 3]
-        self.accel_bias_m_s2 = np.minimum(np.maximum(ba, -lim_a), lim_a)
+        n = self.n
+        kernels.fuse(
+            self.q,
+            self._r,
+            self._v3,
+            self._s1,
+            self.P,
+            self._prm,
+            self._scalars,
+            np.ascontiguousarray(h, dtype=float),
+            _column(innov, n),
+            _column(var, n),
+            np.asarray(use, dtype=bool),
+        )
 
     def _test_ratio(
         self, j: int, innov: np.ndarray, var: np.ndarray, gate: np.ndarray
@@ -376,7 +399,7 @@ class FleetEstimator:
     def _delayed_slot(self, delay_s: np.ndarray) -> np.ndarray:
         """(N,) ring-buffer rows of the state ``delay_s`` ago (the latest at or before it)."""
         length = self._buf_t.shape[0]
-        order = (self._buf_head + 1 + np.arange(length)) % length
+        order = (int(self._scalars[lay.S_HEAD]) + 1 + np.arange(length)) % length
         k = np.searchsorted(self._buf_t[order], self.time_s - delay_s + 1e-9, side="right") - 1
         return order[np.clip(k, 0, length - 1)]
 
@@ -401,7 +424,7 @@ class FleetEstimator:
         m_h = np.einsum("nij,nj->ni", tilt, mag_frd[mask])
         yaw = quat.wrap_pi(self.params.mag_decl_rad[mask] - np.arctan2(m_h[:, 1], m_h[:, 0]))
         self.q[mask] = quat.from_euler(np.stack((roll, pitch, yaw), axis=1))
-        self._r_stale = True
+        self._r[mask] = quat.to_rotation_matrix(self.q[mask])
         self._buf_q[:, mask] = self.q[mask]
         self.attitude_ok[mask] = True
 
@@ -416,23 +439,11 @@ class FleetEstimator:
         return h
 
     def update_mag(self, mag_frd: np.ndarray, mask: np.ndarray) -> None:
-        """Magnetic heading fusion with EKF2_HEAD_NOISE (or EKF2_MAG_NOISE's heading equivalent)."""
-        use = mask & self.attitude_ok
-        if not use.any():
-            return
-        prm = self.params
-        m_ned = np.einsum("nij,nj->ni", self.r, mag_frd)
-        m_h = np.maximum(np.hypot(m_ned[:, 0], m_ned[:, 1]), 1e-6)
-        innov = quat.wrap_pi(prm.mag_decl_rad - np.arctan2(m_ned[:, 1], m_ned[:, 0]))
-        var = np.maximum(prm.head_noise_rad, prm.mag_noise_gauss / m_h) ** 2
-        h = self._yaw_row()
-        s = np.einsum("ni,nij,nj->n", h, self.P, h) + var
-        ratio = innov * innov / (prm.hdg_gate**2 * s)
-        self.mag_ratio = np.where(use, np.sqrt(ratio), self.mag_ratio)
-        ok = use & (ratio <= 1.0)
-        self.mag_seen_s[use] = self.time_s
-        self.mag_accepted_s[ok] = self.time_s
-        self._fuse_row(h, innov, var, ok)
+        """Magnetic heading fusion with EKF2_HEAD_NOISE (or EKF2_MAG_NOISE's heading equivalent).
+
+        Gated by EKF2_HDG_GATE; one kernel call (``estimator_kernels.sensor_step``).
+        """
+        self._sensor_step(kernels.MAG, mag_frd, mask, self._zero3, self._zero3, 0.0)
 
     # -- height ---------------------------------------------------------------------------------
     def update_baro(self, pressure_alt_m: np.ndarray, mask: np.ndarray) -> None:
@@ -440,32 +451,12 @@ class FleetEstimator:
 
         Before an origin the barometer is referenced to the height estimate at its first sample
         (a GNSS-denied vehicle still holds height on it); the first GNSS fix re-references it
-        to the fix's altitude.
+        to the fix's altitude. A height rejected longer than the reset timeout is reset to the
+        barometer (EKF2). One kernel call (``estimator_kernels.sensor_step``).
         """
-        new = mask & ~self.origin_set & ~self._baro_ref & self.attitude_ok
-        if new.any():
-            self.baro_offset_m[new] = pressure_alt_m[new] + self.position_ned_m[new, 2]
-            self._baro_ref |= new
-            self.height_aided_s[new] = self.time_s
-        use = mask & (self.origin_set | self._baro_ref)
-        if not use.any():
-            return
-        prm = self.params
-        z = -(pressure_alt_m - self.baro_offset_m - self.origin_lla[:, 2])
-        innov = z - self.position_ned_m[:, 2]
-        var = prm.baro_noise_m**2
-        ratio = self._test_ratio(_POS + 2, innov, var, prm.baro_gate)
-        self.pos_vert_ratio = np.where(use, np.sqrt(ratio), self.pos_vert_ratio)
-        ok = use & (ratio <= 1.0)
-        stale = use & ~ok & (self.time_s - self.height_aided_s > self.config.reset_timeout_s)
-        if stale.any():  # rejected too long: reset the height to the barometer (EKF2)
-            self._corr_p[stale, 2] += z[stale] - self.position_ned_m[stale, 2]
-            self.position_ned_m[stale, 2] = z[stale]
-            self.P[stale, _POS + 2, :] = 0.0
-            self.P[stale, :, _POS + 2] = 0.0
-            self.P[stale, _POS + 2, _POS + 2] = var[stale]
-        self._fuse_axis(_POS + 2, innov, var, ok)
-        self.height_aided_s[ok | stale] = self.time_s
+        self._sensor_step(
+            kernels.BARO, self._zero3, self._no, self._zero3, self._zero3, 0.0, pressure_alt_m, mask
+        )
 
     # -- GNSS -----------------------------------------------------------------------------------
     def update_gps(
@@ -488,7 +479,7 @@ class FleetEstimator:
         noise, max(EKF2_GPS_P_NOISE, eph) as EKF2 (capped at EKF2_NOAID_NOISE while GNSS is the
         only aiding source, so it keeps constraining the attitude).
         """
-        n, prm, cfg = self.n, self.params, self.config
+        n, prm = self.n, self.params
         eph = np.zeros(n) if eph_m is None else eph_m
         epv = np.zeros(n) if epv_m is None else epv_m
         sats = np.full(n, 99.0) if satellites is None else satellites
@@ -506,47 +497,13 @@ class FleetEstimator:
         if new_origin.any():
             self._set_origin(new_origin, lla, vel_ned_m_s, pressure_alt_m, eph)
         use = checks & self.origin_set & ~new_origin
-        if not use.any():
-            self.gps_glitch[:] = False
-            return new_origin
-        slot = self._delayed_slot(prm.gps_delay_s)
-        other_aiding = (self.time_s - self.ev_fused_s) <= prm.noaid_tout_s
-        cap = np.where(other_aiding, np.inf, np.maximum(prm.noaid_noise_m, prm.gps_p_noise_m))
-        pos_var = np.minimum(np.maximum(prm.gps_p_noise_m, eph), cap) ** 2
-        vel_var = prm.gps_v_noise_m_s**2
-        innov_v = vel_ned_m_s - self._delayed_v(slot)
-        innov_p = ned_m[:, :2] - self._delayed_p(slot)[:, :2]
-        ratio_v = np.max(
-            [self._test_ratio(_VEL + k, innov_v[:, k], vel_var, prm.gps_v_gate) for k in range(3)],
-            axis=0,
-        )
-        ratio_p = np.max(
-            [self._test_ratio(_POS + k, innov_p[:, k], pos_var, prm.gps_p_gate) for k in range(2)],
-            axis=0,
-        )
-        self.vel_ratio = np.where(use, np.sqrt(ratio_v), self.vel_ratio)
-        self.pos_horiz_ratio = np.where(use, np.sqrt(ratio_p), self.pos_horiz_ratio)
-        ok_v = use & (ratio_v <= 1.0)
-        ok_p = use & (ratio_p <= 1.0)
-        self.gps_glitch = use & ~ok_p
-        # Rejected for longer than the reset timeout: reset to GNSS (delay-compensated), as EKF2.
-        stale = use & ~ok_p & (self.time_s - self.gps_fused_s > cfg.reset_timeout_s)
-        if stale.any():
-            shift = self.position_ned_m - self._delayed_p(slot)
-            target = self.position_ned_m.copy()
-            target[:, :2] = ned_m[:, :2] + shift[:, :2]
-            self._reset_horizontal(stale, target, pos_var)
-            vshift = self.velocity_ned_m_s - self._delayed_v(slot)
-            self._reset_block(_VEL, vel_ned_m_s + vshift, vel_var, stale)
-        for k in range(3):
-            innov = vel_ned_m_s[:, k] - self._delayed_v(slot)[:, k]
-            self._fuse_axis(_VEL + k, innov, vel_var, ok_v)
-        for k in range(2):
-            innov = ned_m[:, k] - self._delayed_p(slot)[:, k]
-            self._fuse_axis(_POS + k, innov, pos_var, ok_p)
-        aided = ok_p | stale
-        self.gps_fused_s[aided] = self.time_s
-        self._mark_aided(aided)
+        args = (self.q, self._r, self._v3, self._s1, self._flags, self.P, self._prm, self._scalars)
+        try:
+            kernels.gps_step(*args, self._buf, self._buf_t, ned_m, vel_ned_m_s, eph, use)
+        except TypeError:  # not float64 arrays: convert once
+            kernels.gps_step(
+                *args, self._buf, self._buf_t, _f64(ned_m), _f64(vel_ned_m_s), _f64(eph), use
+            )
         return new_origin
 
     def _set_origin(
@@ -596,28 +553,6 @@ class FleetEstimator:
         self.first_aiding_s[first] = self.time_s
         self.const_pos_mode[mask] = False
 
-    def _fuse_fake_position(self) -> None:
-        """Hold a fake position while nothing aids the horizontal position (EKF2 fake pos).
-
-        Before any aiding (preflight) its noise is 0.5 m, which is what levels the filter on the
-        ground; after a loss of aiding it is EKF2_NOAID_NOISE. Without a height source the
-        height is held the same way.
-        """
-        prm = self.params
-        no_aid = self.attitude_ok & ((self.time_s - self.hpos_aided_s) > prm.noaid_tout_s)
-        entering = no_aid & ~self.const_pos_mode
-        self._fake_hold[entering] = self.position_ned_m[entering]
-        self.const_pos_mode = no_aid | (self.const_pos_mode & ~self.attitude_ok)
-        if not no_aid.any():
-            return
-        never = ~np.isfinite(self.first_aiding_s)
-        std = np.where(never, self.config.preflight_fake_position_std_m, prm.noaid_noise_m)
-        var = std * std
-        no_height = no_aid & ((self.time_s - self.height_aided_s) > prm.noaid_tout_s)
-        for k, mask in ((0, no_aid), (1, no_aid), (2, no_height)):
-            innov = self._fake_hold[:, k] - self.position_ned_m[:, k]
-            self._fuse_axis(_POS + k, innov, var, mask)
-
     # -- external vision ------------------------------------------------------------------------
     def update_vision(
         self,
@@ -653,7 +588,7 @@ class FleetEstimator:
                 self._test_ratio(_POS, innov[:, 0], pos_var[:, 0], gate),
                 self._test_ratio(_POS + 1, innov[:, 1], pos_var[:, 1], gate),
             )
-            self.pos_horiz_ratio = np.where(horiz, np.sqrt(ratio), self.pos_horiz_ratio)
+            self.pos_horiz_ratio[:] = np.where(horiz, np.sqrt(ratio), self.pos_horiz_ratio)
             ok = horiz & (ratio <= 1.0)
             stale = horiz & ~ok & (self.time_s - self.ev_fused_s > self.config.reset_timeout_s)
             stale |= horiz & ~np.isfinite(self.first_aiding_s)  # first sample: start there
@@ -672,7 +607,7 @@ class FleetEstimator:
         if vert.any():
             innov = position_ned_m[:, 2] - self._delayed_p(slot)[:, 2]
             ratio = self._test_ratio(_POS + 2, innov, pos_var[:, 2], gate)
-            self.pos_vert_ratio = np.where(vert, np.sqrt(ratio), self.pos_vert_ratio)
+            self.pos_vert_ratio[:] = np.where(vert, np.sqrt(ratio), self.pos_vert_ratio)
             ok = vert & (ratio <= 1.0)
             self._fuse_axis(_POS + 2, innov, pos_var[:, 2], ok)
             self.height_aided_s[ok] = self.time_s
@@ -684,7 +619,7 @@ class FleetEstimator:
                 [self._test_ratio(_VEL + k, innov[:, k], vel_var[:, k], gate) for k in range(3)],
                 axis=0,
             )
-            self.vel_ratio = np.where(vel, np.sqrt(ratio), self.vel_ratio)
+            self.vel_ratio[:] = np.where(vel, np.sqrt(ratio), self.vel_ratio)
             ok = vel & (ratio <= 1.0)
             for k in range(3):
                 innov_k = velocity_ned_m_s[:, k] - self._delayed_v(slot)[:, k]

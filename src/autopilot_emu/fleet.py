@@ -176,9 +176,7 @@ class AutopilotFleet:
         self.time_usec = t_usec
         if not est.attitude_ok.all():
             est.align_heading(acc, mag, has_mag & ~est.attitude_ok)
-        est.update_mag(mag, has_mag)
-        est.update_imu(acc, gyro, dt)
-        est.update_baro(baro, has_baro)
+        est.update_sensors(acc, gyro, dt, mag, has_mag, baro, has_baro)  # mag, IMU, baro
 
         gains = self._refresh_gains()
         self._nav_accum_s += dt
