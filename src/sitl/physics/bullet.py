@@ -15,7 +15,7 @@ import numpy as np
 import pybullet as p
 
 from sitl.physics.earth import GRAVITY_M_S2
-from sitl.physics.state_kernel import complete_state
+from sitl.physics.state_kernel import complete_state, wrench_to_world
 
 _STATE_WIDTH = 22  # position 3, quaternion 4, velocity 3, angular velocity 3, rotation matrix 9
 
@@ -127,11 +127,9 @@ class BulletScene:
         self.rotation = s[:, 13:22].reshape(n, 3, 3)
         """Rotation matrices FLU->ENU (``v_enu = R @ v_flu``), (N, 3, 3) view."""
         assert np.shares_memory(self.rotation, s), "rotation must be a view of the state"
-        self._rotation_t = self.rotation.transpose(0, 2, 1)
         self.velocity_flu_m_s = np.zeros((n, 1, 3))
         """Centre-of-mass velocities in body FLU axes, m/s, (N, 1, 3) (valid after read_state)."""
         self._wrench_world = np.zeros((n, 2, 3))
-        self._wrench_shape = (n, 2, 3)
         self._read = np.zeros(13 * n)
         """What PyBullet returned, 13 values per body (the kernel spreads them into the state)."""
         self.read_state()
@@ -160,8 +158,7 @@ class BulletScene:
 
     def apply_body_wrench_and_step(self, wrench_flu: np.ndarray) -> None:
         """Apply [F_flu, tau_flu] ``(N, 6)`` at each centre of mass, step once, read the state."""
-        # Row vectors: [F; tau] (N, 2, 3) @ R^T = [(R F)^T; (R tau)^T].
-        np.matmul(wrench_flu.reshape(self._wrench_shape), self._rotation_t, self._wrench_world)
+        wrench_to_world(wrench_flu, self._state, self._wrench_world)
         cid = self._cid
         world = p.WORLD_FRAME
         apply_force = p.applyExternalForce

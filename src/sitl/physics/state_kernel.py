@@ -56,3 +56,19 @@ def complete_state(read: np.ndarray, state: np.ndarray, velocity_flu_m_s: np.nda
         v2 = state[k, 9]
         for c in range(3):
             velocity_flu_m_s[k, 0, c] = v0 * r[c] + v1 * r[3 + c] + v2 * r[6 + c]
+
+
+@numba.njit(cache=True)
+def wrench_to_world(wrench_flu: np.ndarray, state: np.ndarray, out: np.ndarray) -> None:
+    """Rotate each body's ``[F_flu, tau_flu]`` (N, 6) into world ENU axes, ``out`` (N, 2, 3).
+
+    The rotation is the state's FLU->ENU matrix (``complete_state``): ``v_enu = R v_flu``.
+    """
+    for k in range(wrench_flu.shape[0]):
+        r = state[k, 13:22]
+        for half in range(2):
+            x = wrench_flu[k, 3 * half]
+            y = wrench_flu[k, 3 * half + 1]
+            z = wrench_flu[k, 3 * half + 2]
+            for c in range(3):
+                out[k, half, c] = r[3 * c] * x + r[3 * c + 1] * y + r[3 * c + 2] * z
