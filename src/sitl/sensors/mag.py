@@ -8,6 +8,7 @@ import numpy as np
 
 from sitl import frames
 from sitl.sensors.noise import BiasedWhiteNoise
+from sitl.sensors.noise_kernel import field_in_body
 
 
 @dataclass(frozen=True)
@@ -33,7 +34,9 @@ class Magnetometer:
         rng: np.random.Generator,
     ) -> None:
         self.params = params
-        self._field_enu = np.broadcast_to(frames.ned_to_enu(field_ned_gauss), (n_vehicles, 3))
+        self._field_enu = np.ascontiguousarray(
+            np.broadcast_to(frames.ned_to_enu(field_ned_gauss), (n_vehicles, 3))
+        )
         self.noise = BiasedWhiteNoise(
             (n_vehicles, 3),
             params.noise_density_gauss_sqrt_hz,
@@ -48,5 +51,4 @@ class Magnetometer:
 
         ``dt_s`` is the time since the previous sample.
         """
-        out[:] = frames.world_enu_to_body_frd(rotation_flu_to_enu, self._field_enu)
-        np.add(out, self.noise.sample(dt_s), out=out)
+        field_in_body(rotation_flu_to_enu, self._field_enu, self.noise.sample(dt_s), out)

@@ -52,7 +52,13 @@ class BiasedWhiteNoise:
         self._z = np.zeros((2, *shape))
         self._error = np.zeros(shape)
         # Flat views for the compiled kernel (same memory).
-        self._flat = (self._z.reshape(-1), self.bias.reshape(-1), self.turn_on_bias.reshape(-1))
+        self._flat = (
+            self._z.reshape(-1),
+            self.bias.reshape(-1),
+            self.turn_on_bias.reshape(-1),
+            self._error.reshape(-1),
+        )
+        self._coefficients: tuple[np.ndarray, np.ndarray, np.ndarray] = ()  # set with dt
 
     def sample(self, dt_s: float) -> np.ndarray:
         """Advance the bias by ``dt_s``; return the total error of one sample (reused buffer)."""
@@ -63,17 +69,15 @@ class BiasedWhiteNoise:
                 self._tau / 2.0 * -np.expm1(-2.0 * dt_s / self._tau)
             )
             self._sigma_white = self._density / np.sqrt(dt_s)
+            self._coefficients = (
+                self._phi.reshape(-1),
+                self._sigma_bias.reshape(-1),
+                self._sigma_white.reshape(-1),
+            )
         self._rng.standard_normal(out=self._z)
-        z, bias, turn_on = self._flat
-        biased_white_noise(
-            z,
-            bias,
-            self._phi.reshape(-1),
-            self._sigma_bias.reshape(-1),
-            self._sigma_white.reshape(-1),
-            turn_on,
-            self._error.reshape(-1),
-        )
+        z, bias, turn_on, error = self._flat
+        phi, sigma_bias, sigma_white = self._coefficients
+        biased_white_noise(z, bias, phi, sigma_bias, sigma_white, turn_on, error)
         return self._error
 
 

@@ -75,3 +75,18 @@ def imu_sample(
             rate = w0 * r[0, c] + w1 * r[1, c] + w2 * r[2, c]
             out[k, 0, c] = acc * sign + error[k, 0, c]
             out[k, 1, c] = rate * sign + error[k, 1, c]
+
+
+@numba.njit(cache=True)
+def field_in_body(
+    rotation_flu_to_enu: np.ndarray, field_enu: np.ndarray, error: np.ndarray, out: np.ndarray
+) -> None:
+    """A world ENU field (N, 3) in body FRD axes plus its sensor error, into ``out`` (N, 3)."""
+    for k in range(field_enu.shape[0]):
+        r = rotation_flu_to_enu[k]
+        f0 = field_enu[k, 0]
+        f1 = field_enu[k, 1]
+        f2 = field_enu[k, 2]
+        for c in range(3):
+            sign = 1.0 if c == 0 else -1.0
+            out[k, c] = (f0 * r[0, c] + f1 * r[1, c] + f2 * r[2, c]) * sign + error[k, c]
