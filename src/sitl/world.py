@@ -32,6 +32,7 @@ from sitl.physics.geomagnetism import GeomagneticField, world_magnetic_model
 from sitl.physics.ground_texture import ground_texture
 from sitl.physics.moving_solids import MOVING_SOLIDS_HZ, MovingSolids
 from sitl.physics.obstacles import BoxObstacle, add_boxes, add_solids
+from sitl.physics.rotor_kernel import commands_from_controls
 from sitl.physics.rotors import RotorModel
 from sitl.physics.spills import OilSpills, add_people
 from sitl.physics.surface_texture import surface_texture
@@ -240,7 +241,6 @@ class _AirframeGroup:
 
     def __post_init__(self) -> None:
         shape = (self.n, len(self.spec.rotors))
-        self.zeros = np.zeros(shape)
         self.ones = np.ones(shape)
         self.max_speed_rad_s = np.full(shape, self.spec.motor.max_speed_rad_s)
         self.controls = np.zeros(shape)
@@ -589,9 +589,7 @@ class World:
             else:
                 u = group.controls
                 u[:] = self._controls[group.rows, : u.shape[1]]
-            np.fmax(u, group.zeros, out=u)  # fmax turns NaN into 0
-            np.fmin(u, group.ones, out=u)
-            np.multiply(u, group.max_speed_rad_s, out=group.rotors.command_rad_s)
+            commands_from_controls(u, group.max_speed_rad_s, group.rotors.command_rad_s)
 
     # -- sensors ------------------------------------------------------------------------------
 

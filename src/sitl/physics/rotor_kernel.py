@@ -67,3 +67,26 @@ def wrench_and_advance(
             else:
                 step = up if up < down else down
             speed_rad_s[k, i] += step
+
+
+@numba.njit(cache=True)
+def commands_from_controls(
+    controls: np.ndarray, max_speed_rad_s: np.ndarray, command_rad_s: np.ndarray
+) -> None:
+    """Clip motor controls to [0, 1] in place (NaN becomes 0) and scale them to rotor speeds.
+
+    Args:
+        controls: ``(N, n)`` HIL_ACTUATOR_CONTROLS values, clipped in place.
+        max_speed_rad_s: ``(N, n)`` rotor speed at control 1 (the supply's limit), rad/s.
+        command_rad_s: ``(N, n)`` out: commanded rotor speeds, rad/s.
+    """
+    n_vehicles, n_rotors = command_rad_s.shape
+    for k in range(n_vehicles):
+        for i in range(n_rotors):
+            u = controls[k, i]
+            if not u > 0.0:  # NaN, or at or below 0
+                u = 0.0
+            elif u > 1.0:
+                u = 1.0
+            controls[k, i] = u
+            command_rad_s[k, i] = u * max_speed_rad_s[k, i]
