@@ -10,9 +10,17 @@ with another ``--dist``) nothing changes.
 
 pytest-xdist's own ``xdist_group`` markers are not used: with pytest 9 the group suffix it
 writes into the node id is lost, and the groups are silently ignored.
+
+Before any test runs, the main process flies one simulated second in a subprocess so that the
+compiled kernels (numba) are in their cache: the workers, and every ``swarmsitl up`` or scenario
+subprocess a test starts, then load them instead of compiling them (tens of seconds on a cold
+machine, which would eat into an end-to-end test's wall-clock timeouts).
 """
 
 from __future__ import annotations
+
+import subprocess
+import sys
 
 import pytest
 
@@ -41,3 +49,24 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | 
             return scope_of(nodeid)
 
     return ModuleAndPacedScheduling(config, log)
+
+
+WARM_KERNELS = (
+    "from harness.simulation import Simulation, SimulationConfig\n"
+    "with Simulation(SimulationConfig(mavlink=False, record_hz=0.0, mocap_port=0)) as sim:\n"
+    "    sim.run_lockstep(1.0)\n"
+)
+"""One simulated second of one vehicle: calls every kernel of the flight loop once."""
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Fill the kernel cache once, in the main process, before xdist starts the workers."""
+    if hasattr(session.config, "workerinput"):  # an xdist worker: the main process did it
+        return
+    try:
+        subprocess.run(
+            [sys.executable, "-c", WARM_KERNELS], capture_output=True, timeout=900, check=True
+        )
+    except (subprocess.CalledProcessError, subprocess.TimeoutExpired) as exc:
+        # Not fatal: the tests compile what they need themselves (and will show the error).
+        print(f"warming the kernel cache failed: {exc}", file=sys.stderr)
