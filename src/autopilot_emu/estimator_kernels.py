@@ -333,9 +333,10 @@ def _fuse_fake_position(
     """
     n, nk = q.shape[0], cov.shape[1]
     t = scalars[S_TIME]
-    # Rows: 0 no aiding, 1 no height aiding, 2 noise variance, 3 innovation, 4.. rows h.
-    work = np.zeros((4 + n, nk))
-    no_aid, no_height, var, innov, h = work[0], work[1], work[2], work[3], work[4:]
+    # Rows: 0 no aiding, 1 no height aiding, 2 noise variance, 3 innovation (per vehicle).
+    work = np.zeros((4, n))  # per vehicle (n columns); the rows h have nk
+    no_aid, no_height, var, innov = work[0], work[1], work[2], work[3]
+    h = np.zeros((n, nk))
     for i in range(n):
         tout = prm[i, P_NOAID_TOUT]
         lost = flags[F_ATT_OK, i] and (t - s1[T_HPOS_AIDED, i]) > tout
@@ -489,9 +490,10 @@ def _mag_step(
         any_use |= mask[i] and flags[F_ATT_OK, i]
     if not any_use:
         return
-    # Rows: 0 accepted, 1 innovation, 2 variance, 3.. measurement rows h.
-    work = np.zeros((3 + n, nk))
-    ok, innovs, variances, h = work[0], work[1], work[2], work[3:]
+    # Rows: 0 accepted, 1 innovation, 2 variance (per vehicle); h: measurement rows.
+    work = np.zeros((3, n))  # per vehicle (n columns); the rows h have nk
+    ok, innovs, variances = work[0], work[1], work[2]
+    h = np.zeros((n, nk))
     for i in range(n):
         if not (mask[i] and flags[F_ATT_OK, i]):
             continue
@@ -558,9 +560,10 @@ def _baro_step(
         any_use |= flags[F_ORIGIN, i] or flags[F_BARO_REF, i]
     if not any_use:
         return
-    # Rows: 0 accepted, 1 innovation, 2 variance, 3.. measurement rows h.
-    work = np.zeros((3 + n, nk))
-    ok, innovs, variances, h = work[0], work[1], work[2], work[3:]
+    # Rows: 0 accepted, 1 innovation, 2 variance (per vehicle); h: measurement rows.
+    work = np.zeros((3, n))  # per vehicle (n columns); the rows h have nk
+    ok, innovs, variances = work[0], work[1], work[2]
+    h = np.zeros((n, nk))
     for i in range(n):
         if not (mask[i] and (flags[F_ORIGIN, i] or flags[F_BARO_REF, i])):
             continue
@@ -638,18 +641,11 @@ def gps_step(
     n, nk = q.shape[0], cov.shape[1]
     t = scalars[S_TIME]
     head = int(scalars[S_HEAD])
-    # Rows: 0 slot, 1 position variance, 2 velocity variance, 3 velocity ok, 4 position ok,
-    # 5 innovation, 6.. measurement rows h.
-    work = np.zeros((6 + n, nk))
-    slot, pos_var, vel_var, ok_v, ok_p, innov, h = (
-        work[0],
-        work[1],
-        work[2],
-        work[3],
-        work[4],
-        work[5],
-        work[6:],
-    )
+    # Rows (one column per vehicle): 0 slot, 1 position variance, 2 velocity variance,
+    # 3 velocity ok, 4 position ok, 5 innovation; the measurement rows h have nk columns.
+    work = np.zeros((6, n))
+    slot, pos_var, vel_var, ok_v, ok_p, innov = work[0], work[1], work[2], work[3], work[4], work[5]
+    h = np.zeros((n, nk))
     for i in range(n):
         flags[F_GPS_GLITCH, i] = False
         if not use[i]:
