@@ -304,8 +304,8 @@ class FleetTelemetry:
         var_n, var_e, var_d = row[1:4]
         s.estimator = EstimatorSnapshot(
             flags=flags,
-            pos_horiz_accuracy_m=math.sqrt(var_n + var_e),
-            pos_vert_accuracy_m=math.sqrt(var_d),
+            pos_horiz_accuracy_m=_std(var_n + var_e),
+            pos_vert_accuracy_m=_std(var_d),
             position_variance_m2=(var_n, var_e, var_d),
             velocity_variance_m2_s2=(row[4], row[5], row[6]),
             origin_lla=(o_lat, o_lon, o_alt) if origin_ok else None,
@@ -456,3 +456,8 @@ def _imu_sample(
         temperature_degc=m.temperature,
         fields_updated=int(m.fields_updated),
     )
+
+
+def _std(variance: float) -> float:
+    """Standard deviation of a variance; NaN for a negative one (as numpy's sqrt), never raises."""
+    return math.sqrt(variance) if variance >= 0.0 else math.nan
