@@ -7,12 +7,14 @@ with the mask set / empty. ``sensors``: the same three as one ``update_sensors``
 fleet does), timed on a second filter fed the same samples. Medians, so other processes on the
 machine matter less.
 
-    PYTHONPATH=src python benchmarks/estimator_calls.py --vehicles 1,10
+    python benchmarks/estimator_calls.py --vehicles 1,10
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import platform
 import time
 
 import numpy as np
@@ -68,9 +70,17 @@ def main() -> None:
     parser.add_argument("--vehicles", default="1,10", help="comma-separated fleet sizes, e.g. 1,10")
     parser.add_argument("--ticks", type=int, default=4000, help="IMU samples timed, e.g. 4000")
     args = parser.parse_args()
+    print(
+        f"machine: {platform.processor() or platform.machine()}; {os.cpu_count()} cores; "
+        f"Python {platform.python_version()}; numpy {np.__version__}"
+    )
+    headline = {}
     for n in (int(v) for v in args.vehicles.split(",")):
         result = run(n, args.ticks)
         print(f"N={n:4d}: " + "  ".join(f"{k} {v:6.1f}" for k, v in result.items()) + "  us/call")
+        headline[f"sensors_us_{n}"] = result["sensors"]
+        headline[f"gps_us_{n}"] = result["gps"]
+    print("RESULT " + " ".join(f"{k}={v:.1f}" for k, v in headline.items()))
 
 
 if __name__ == "__main__":
