@@ -31,7 +31,7 @@ FUSION_GAIN = 3e-2
 """Weight of the voltage-based estimate per update, times (1 - soc_v) (PX4)."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _reset_row(
     i: int, v: float, cur: float, cells: float, r_internal: float, consumed_mah: np.ndarray,
     resistance: np.ndarray, rls: np.ndarray, cov: np.ndarray, cov_norm: np.ndarray,
@@ -49,7 +49,7 @@ def _reset_row(
     cell_filter_v[i] = v / cells + r * cur
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _resistance_row(
     i: int, v: float, cur: float, cells: float, resistance: np.ndarray, rls: np.ndarray,
     cov: np.ndarray, cov_norm: np.ndarray,
@@ -79,7 +79,7 @@ def _resistance_row(
         rls[i, 0] = v + rls[i, 1] * cur
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def battery_kernel(
     voltage_v: np.ndarray, current_a: np.ndarray, time_s: float, dt_s: float,
     n_cells: np.ndarray, capacity_mah: np.ndarray, v_empty: np.ndarray,

@@ -21,7 +21,7 @@ FAILURE_OFF = mavlink2.FAILURE_TYPE_OFF
 FAILURE_WRONG = mavlink2.FAILURE_TYPE_WRONG
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def hil_sensor_kernel(
     raw: np.ndarray,
     mag_failure: np.ndarray,

@@ -15,7 +15,7 @@ import numpy as np
 from autopilot_emu.nan_scalar import fmax, fmin
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def attitude_rate_row(
     i: int,
     q: np.ndarray,
@@ -54,7 +54,7 @@ def attitude_rate_row(
     out[i, 2] = fmin(fmax(r2, -m2), m2)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def attitude_rate_kernel(
     q: np.ndarray,
     q_sp: np.ndarray,

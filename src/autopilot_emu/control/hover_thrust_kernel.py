@@ -26,7 +26,7 @@ VALID_VAR = 1e-3
 VALID_HOLD_S = 2.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def reset_row(
     i: int, initial: np.ndarray, error_init: np.ndarray, hover: np.ndarray,
     variance: np.ndarray, acc_variance: np.ndarray, residual_lpf: np.ndarray,
@@ -42,7 +42,7 @@ def reset_row(
     good_for_s[i] = 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def reset_kernel(
     mask: np.ndarray, initial: np.ndarray, error_init: np.ndarray, hover: np.ndarray,
     variance: np.ndarray, acc_variance: np.ndarray, residual_lpf: np.ndarray,
@@ -57,7 +57,7 @@ def reset_kernel(
             )  # fmt: skip
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def update_row(
     i: int, active: bool, acc_up_m_s2: float, thrust_up: float, velocity_ned_m_s: np.ndarray,
     dt_s: float, initial: np.ndarray, process_noise: np.ndarray, gate: np.ndarray,
@@ -111,7 +111,7 @@ def update_row(
     valid[i] = good and (valid[i] or good_for_s[i] >= VALID_HOLD_S)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def hover_thrust_kernel(
     active: np.ndarray, acc_up_m_s2: np.ndarray, thrust_up: np.ndarray,
     velocity_ned_m_s: np.ndarray, dt_s: float, initial: np.ndarray, process_noise: np.ndarray,
@@ -129,7 +129,7 @@ def hover_thrust_kernel(
         )  # fmt: skip
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def hover_thrust_tick_kernel(
     flying: np.ndarray, armed: np.ndarray, accel_ned_m_s2: np.ndarray, thrust: np.ndarray,
     rotation: np.ndarray, velocity_ned_m_s: np.ndarray, dt_s: float, initial: np.ndarray,

@@ -20,7 +20,7 @@ from autopilot_emu.control.rate_kernel import rate_pid_row
 from autopilot_emu.nan_scalar import fmax, fmin
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def inner_loop_kernel(
     q: np.ndarray,
     rates: np.ndarray,

@@ -17,7 +17,7 @@ import numpy as np
 from autopilot_emu.nan_scalar import fmax, fmin
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _fractions(
     torque: np.ndarray, thrust: np.ndarray, matrix: np.ndarray, thrust_column: np.ndarray,
     out: np.ndarray,
@@ -39,7 +39,7 @@ def _fractions(
     return not nan and (hi > 1.0 or lo < 0.0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _desaturate_row(
     i: int, torque: np.ndarray, thrust: np.ndarray, matrix: np.ndarray,
     thrust_column: np.ndarray, used: np.ndarray, out: np.ndarray,
@@ -72,7 +72,7 @@ def _desaturate_row(
         out[i, r] = fmin(fmax(thr[r] + k * t_y[r], 0.0), 1.0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _output_row(i: int, used: np.ndarray, idle_output: float, out: np.ndarray) -> None:
     """Thrust fractions -> motor outputs (thrust ∝ output²), idle floor, unused outputs 0."""
     for r in range(out.shape[1]):
@@ -80,7 +80,7 @@ def _output_row(i: int, used: np.ndarray, idle_output: float, out: np.ndarray) -
         out[i, r] = fmax(math.sqrt(out[i, r]), idle_output) * used_f
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def mix_kernel(
     torque: np.ndarray,
     thrust: np.ndarray,

@@ -18,7 +18,7 @@ from autopilot_emu.control.trajectory_kernel import trajectory_row
 from autopilot_emu.nan_scalar import fmax, fmin
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def nav_kernel(
     # commander setpoint (N, 3) / (N,)
     sp_pos: np.ndarray, sp_vel: np.ndarray, sp_yaw: np.ndarray, sp_max_xy: np.ndarray,

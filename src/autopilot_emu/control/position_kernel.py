@@ -25,7 +25,7 @@ INT_MAX_XY, INT_MAX_Z = GRAVITY_M_S2, 4.0
 (its anti-windup is the tilt limit); one g is as far as MPC_TILTMAX_AIR = 45 deg can go."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def position_row(
     i: int,
     sp_pos: np.ndarray,
@@ -152,7 +152,7 @@ def position_row(
     thrust_out[i] = thrust_sat
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def attitude_from_body_z_row(
     i: int, bz0: float, bz1: float, bz2: float, yaw_rad: float, q_out: np.ndarray
 ) -> None:
@@ -182,7 +182,7 @@ def attitude_from_body_z_row(
     q_out[i, 3] = math.copysign(z, bx1 - by0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def position_kernel(
     sp_pos: np.ndarray,
     sp_vel: np.ndarray,

@@ -12,7 +12,7 @@ import numpy as np
 from autopilot_emu.nan_scalar import fmax, fmin
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def rate_pid_row(
     i: int,
     rates: np.ndarray,
@@ -45,7 +45,7 @@ def rate_pid_row(
         torque[i, a] = fmin(fmax(t, -1.0), 1.0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def rate_pid_kernel(
     rates: np.ndarray,
     rate_sp: np.ndarray,

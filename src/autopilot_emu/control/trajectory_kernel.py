@@ -15,19 +15,19 @@ import numpy as np
 from autopilot_emu.nan_scalar import fmax, fmin, sign
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def max_speed_from_distance_scalar(distance_m: float, acc_m_s2: float, jerk_m_s3: float) -> float:
     """Highest speed from which a jerk-limited stop still fits in ``distance_m``."""
     b = 4.0 * acc_m_s2 * acc_m_s2 / jerk_m_s3
     return 0.5 * (math.sqrt(b * b + 8.0 * acc_m_s2 * fmax(distance_m, 0.0)) - b)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _finite_or_zero(x: float) -> float:
     return x if math.isfinite(x) else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def trajectory_row(
     i: int,
     target_position: np.ndarray,
@@ -113,7 +113,7 @@ def trajectory_row(
         acc[i, a] = ac + j * dt
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def trajectory_kernel(
     target_position: np.ndarray,
     target_velocity: np.ndarray,

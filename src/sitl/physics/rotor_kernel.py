@@ -10,7 +10,7 @@ import numba
 import numpy as np
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def wrench_and_advance(
     speed_rad_s: np.ndarray,
     command_rad_s: np.ndarray,

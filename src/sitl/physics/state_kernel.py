@@ -10,7 +10,7 @@ import numba
 import numpy as np
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def complete_state(read: np.ndarray, state: np.ndarray, velocity_flu_m_s: np.ndarray) -> None:
     """Copy what PyBullet returned into the state rows, with rotation and body-frame velocity.
 
@@ -58,7 +58,7 @@ def complete_state(read: np.ndarray, state: np.ndarray, velocity_flu_m_s: np.nda
             velocity_flu_m_s[k, 0, c] = v0 * r[c] + v1 * r[3 + c] + v2 * r[6 + c]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def wrench_to_world(wrench_flu: np.ndarray, state: np.ndarray, out: np.ndarray) -> None:
     """Rotate each body's ``[F_flu, tau_flu]`` (N, 6) into world ENU axes, ``out`` (N, 2, 3).
 

@@ -10,7 +10,7 @@ import numba
 import numpy as np
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def biased_white_noise(
     z: np.ndarray,
     bias: np.ndarray,
@@ -32,7 +32,7 @@ def biased_white_noise(
         error_out[k] = z[m + k] * sigma_white[k] + b + turn_on_bias[k]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def imu_sample(
     rotation_flu_to_enu: np.ndarray,
     velocity_enu_m_s: np.ndarray,
@@ -77,7 +77,7 @@ def imu_sample(
             out[k, 1, c] = rate * sign + error[k, 1, c]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def field_in_body(
     rotation_flu_to_enu: np.ndarray, field_enu: np.ndarray, error: np.ndarray, out: np.ndarray
 ) -> None:
