@@ -76,15 +76,19 @@ class NavInput:
     (the commander then uses MPC_THR_HOVER, as the position controller does)."""
 
 
+_NAN3 = np.full(3, np.nan)
+_ZERO3 = np.zeros(3)
+
+
 @dataclass
 class NavOutput:
     """Setpoint for the position controller (NaN components = velocity control)."""
 
-    position_ned_m: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
-    velocity_ff_m_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    position_ned_m: np.ndarray = field(default_factory=_NAN3.copy)
+    velocity_ff_m_s: np.ndarray = field(default_factory=_ZERO3.copy)
     """Velocity feed-forward, or the velocity setpoint on an axis without position (NaN on an
     axis without position either: acceleration control there)."""
-    acceleration_ff_m_s2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    acceleration_ff_m_s2: np.ndarray = field(default_factory=_ZERO3.copy)
     yaw_rad: float = 0.0
     max_speed_xy_m_s: float = 5.0
     max_speed_up_m_s: float = 3.0
@@ -383,7 +387,7 @@ class Commander:
         return self.offboard.receive(setpoint, self._now())
 
     def _offboard_fresh(self) -> bool:
-        return self.offboard.fresh(self._now(), float(self.params.get("COM_OF_LOSS_T")))
+        return self.offboard.fresh(self._now(), self.params.floats()["COM_OF_LOSS_T"])
 
     def _start_offboard(self) -> int:
         """Enter Offboard: only with a fresh setpoint stream and what its setpoints need."""
@@ -533,12 +537,8 @@ class Commander:
     @property
     def fence_enabled(self) -> bool:
         """A geofence is configured (areas, or a maximum distance or height)."""
-        p = self.params
-        return (
-            not self.fence.empty
-            or float(p.get("GF_MAX_HOR_DIST")) > 0
-            or float(p.get("GF_MAX_VER_DIST")) > 0
-        )
+        p = self.params.floats()
+        return not self.fence.empty or p["GF_MAX_HOR_DIST"] > 0 or p["GF_MAX_VER_DIST"] > 0
 
     def _accept_on_ground(self, sub: AutoSubMode) -> int:
         # On the ground RTL/LAND are already done: stay landed (auto-disarm follows).
@@ -578,7 +578,7 @@ class Commander:
         """Advance land detection and the active mode; return the controller setpoint."""
         dt_s = nav.time_s - self._last.time_s if self._last is not None else 0.0
         self._last = nav
-        p = self.params
+        p = self.params.floats()
         if self.home is None and nav.position_ok:
             self.set_home_here()
         self._detect_landing(nav)
@@ -589,10 +589,10 @@ class Commander:
         out = NavOutput(yaw_rad=self._yaw_sp)
         cruise = self._speed_override_m_s
         if not math.isfinite(cruise):
-            cruise = float(p.get("MPC_XY_CRUISE"))
-        out.max_speed_xy_m_s = min(cruise, float(p.get("MPC_XY_VEL_MAX")))
-        out.max_speed_up_m_s = float(p.get("MPC_Z_V_AUTO_UP"))
-        out.max_speed_down_m_s = float(p.get("MPC_Z_V_AUTO_DN"))
+            cruise = p["MPC_XY_CRUISE"]
+        out.max_speed_xy_m_s = min(cruise, p["MPC_XY_VEL_MAX"])
+        out.max_speed_up_m_s = p["MPC_Z_V_AUTO_UP"]
+        out.max_speed_down_m_s = p["MPC_Z_V_AUTO_DN"]
         if not self.armed:
             return out
         offboard = self.main_mode == MainMode.OFFBOARD
@@ -613,7 +613,7 @@ class Commander:
         if offboard:
             self._offboard_output(nav, out, dt_s)
         elif sub == AutoSubMode.TAKEOFF:
-            out.max_speed_up_m_s = float(p.get("MPC_TKO_SPEED"))
+            out.max_speed_up_m_s = p["MPC_TKO_SPEED"]
             if abs(nav.position_ned_m[2] - self._target[2]) < 0.3 and self.in_air:
                 self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
                 self._say(SEVERITY_INFO, "Takeoff complete, holding")
@@ -636,13 +636,13 @@ class Commander:
         velocity loop asks for zero thrust (g / MPC_Z_VEL_P_ACC downwards) and ramps linearly to
         MPC_TKO_SPEED upwards, so a wrong MPC_THR_HOVER guess cannot throw the vehicle up.
         """
-        p = self.params
+        p = self.params.floats()
         if self._takeoff_ramp_start_s is None:
             self._takeoff_ramp_start_s = nav.time_s
-        ramp_s = max(float(p.get("MPC_TKO_RAMP_T")), 1e-3)
+        ramp_s = max(p["MPC_TKO_RAMP_T"], 1e-3)
         frac = min(max((nav.time_s - self._takeoff_ramp_start_s) / ramp_s, 0.0), 1.0)
-        start = GRAVITY_M_S2 / max(float(p.get("MPC_Z_VEL_P_ACC")), 0.1)
-        end = -float(p.get("MPC_TKO_SPEED"))
+        start = GRAVITY_M_S2 / max(p["MPC_Z_VEL_P_ACC"], 0.1)
+        end = -p["MPC_TKO_SPEED"]
         out.position_ned_m[2] = np.nan
         out.velocity_ff_m_s = np.array([0.0, 0.0, start + frac * (end - start)])
         out.max_speed_down_m_s = max(out.max_speed_down_m_s, start)
@@ -746,10 +746,10 @@ class Commander:
         """Outside the geofence areas, or beyond GF_MAX_HOR_DIST / GF_MAX_VER_DIST of home."""
         if not (self.fence_enabled and nav.position_ok and self.home is not None):
             return False
-        p = self.params
+        p = self.params.floats()
         offset = nav.position_ned_m - self.home.position_ned_m
-        max_hor = float(p.get("GF_MAX_HOR_DIST"))
-        max_ver = float(p.get("GF_MAX_VER_DIST"))
+        max_hor = p["GF_MAX_HOR_DIST"]
+        max_ver = p["GF_MAX_VER_DIST"]
         if 0 < max_hor < float(np.hypot(offset[0], offset[1])) or 0 < max_ver < -offset[2]:
             return True
         origin = self._origin()
@@ -770,9 +770,8 @@ class Commander:
     def _land_setpoint(self, nav: NavInput, out: NavOutput) -> None:
         out.position_ned_m[2] = np.nan
         rel_alt = self._relative_alt(nav)
-        speed = float(self.params.get("MPC_LAND_SPEED"))
-        if rel_alt > 10.0:
-            speed = float(self.params.get("MPC_Z_V_AUTO_DN"))
+        p = self.params.floats()
+        speed = p["MPC_Z_V_AUTO_DN"] if rel_alt > 10.0 else p["MPC_LAND_SPEED"]
         out.velocity_ff_m_s = np.array([0.0, 0.0, speed])
         if self.landed_state == LandedState.IN_AIR:
             self.landed_state = LandedState.LANDING
@@ -809,8 +808,9 @@ class Commander:
 
     def _detect_landing(self, nav: NavInput) -> None:
         """PX4-like land detector: low thrust, no vertical motion, for a while."""
-        vz = abs(float(nav.velocity_ned_m_s[2]))
-        vxy = float(np.hypot(nav.velocity_ned_m_s[0], nav.velocity_ned_m_s[1]))
+        vx, vy, vz_signed = nav.velocity_ned_m_s.tolist()
+        vz = abs(vz_signed)
+        vxy = math.hypot(vx, vy)
         if self.landed_state == LandedState.TAKEOFF and not self.armed:
             self.landed_state = LandedState.ON_GROUND
             return
@@ -818,7 +818,7 @@ class Commander:
             if (
                 self.armed
                 and self.landed_state == LandedState.TAKEOFF
-                and (self._relative_alt(nav) > 0.5 or nav.velocity_ned_m_s[2] < -0.5)
+                and (self._relative_alt(nav) > 0.5 or vz_signed < -0.5)
             ):
                 self.landed_state = LandedState.IN_AIR
             return
@@ -850,8 +850,8 @@ class Commander:
         landed_after_flight = (
             self._ground_since_s is not None and self._ground_since_s >= self._arm_time_s
         )
-        limit = float(
-            self.params.get("COM_DISARM_LAND" if landed_after_flight else "COM_DISARM_PRFLT")
-        )
+        limit = self.params.floats()[
+            "COM_DISARM_LAND" if landed_after_flight else "COM_DISARM_PRFLT"
+        ]
         if limit > 0 and nav.time_s - since >= limit:
             self._disarm("Disarmed by landing" if landed_after_flight else "Disarmed: no takeoff")
