@@ -50,6 +50,15 @@ class RtlPhase(Enum):
     LAND = "land"
 
 
+# Enum members as module constants: an enum attribute look-up costs ~0.3 us in Python 3.11 and
+# the 50 Hz tick compares states a dozen times.
+_ON_GROUND, _TAKING_OFF = LandedState.ON_GROUND, LandedState.TAKEOFF
+_IN_AIR, _LANDING = LandedState.IN_AIR, LandedState.LANDING
+_SUB_TAKEOFF, _SUB_MISSION = AutoSubMode.TAKEOFF, AutoSubMode.MISSION
+_SUB_LAND, _SUB_RTL = AutoSubMode.LAND, AutoSubMode.RTL
+_OFFBOARD = MainMode.OFFBOARD
+_RTL_LAND = RtlPhase.LAND
+
 _MIN_THRUST_LANDED = 0.1
 """Collective thrust below which a still vehicle without a learned hover thrust is landed (just
 above the position controller's 0.05 floor)."""
@@ -157,7 +166,7 @@ class Commander:
     @property
     def in_air(self) -> bool:
         """True from takeoff detection until landing is detected."""
-        return self.landed_state != LandedState.ON_GROUND
+        return self.landed_state != _ON_GROUND
 
     def _hover_thrust(self) -> float:
         """The hover thrust in use: the estimate the fleet passes in, else MPC_THR_HOVER."""
@@ -582,8 +591,8 @@ class Commander:
         if self.home is None and nav.position_ok:
             self.set_home_here()
         self._detect_landing(nav)
-        if self.landed_state == LandedState.LANDING and not self._descending:
-            self.landed_state = LandedState.IN_AIR  # Land (or RTL's descent) was left in the air
+        if self.landed_state == _LANDING and not self._descending:
+            self.landed_state = _IN_AIR  # Land (or RTL's descent) was left in the air
         self._check_failsafes(nav)
         self._check_offboard_signal()
         out = NavOutput(yaw_rad=self._yaw_sp)
@@ -595,14 +604,14 @@ class Commander:
         out.max_speed_down_m_s = p["MPC_Z_V_AUTO_DN"]
         if not self.armed:
             return out
-        offboard = self.main_mode == MainMode.OFFBOARD
-        if offboard and self.landed_state in (LandedState.ON_GROUND, LandedState.TAKEOFF):
+        offboard = self.main_mode == _OFFBOARD
+        if offboard and self.landed_state in (_ON_GROUND, _TAKING_OFF):
             # Offboard takes off when its setpoint lifts the vehicle, and gives up if it stops.
             climb = self.offboard.wants_climb(nav.position_ned_m, self._hover_thrust())
-            self.landed_state = LandedState.TAKEOFF if climb else LandedState.ON_GROUND
-        grounded = self.landed_state == LandedState.ON_GROUND
-        if grounded and self.sub_mode != AutoSubMode.TAKEOFF:
-            if self.sub_mode == AutoSubMode.MISSION and self.mission.landing:
+            self.landed_state = _TAKING_OFF if climb else _ON_GROUND
+        grounded = self.landed_state == _ON_GROUND
+        if grounded and self.sub_mode != _SUB_TAKEOFF:
+            if self.sub_mode == _SUB_MISSION and self.mission.landing:
                 self._mission_setpoint(nav, NavOutput())  # the landing item is complete
             self._check_preflight_disarm(nav)
             return out
@@ -612,18 +621,18 @@ class Commander:
         sub = self.sub_mode
         if offboard:
             self._offboard_output(nav, out, dt_s)
-        elif sub == AutoSubMode.TAKEOFF:
+        elif sub == _SUB_TAKEOFF:
             out.max_speed_up_m_s = p["MPC_TKO_SPEED"]
             if abs(nav.position_ned_m[2] - self._target[2]) < 0.3 and self.in_air:
                 self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
                 self._say(SEVERITY_INFO, "Takeoff complete, holding")
-        elif sub == AutoSubMode.LAND:
+        elif sub == _SUB_LAND:
             self._land_setpoint(nav, out)
-        elif sub == AutoSubMode.RTL:
+        elif sub == _SUB_RTL:
             self._rtl_setpoint(nav, out)
-        elif sub == AutoSubMode.MISSION:
+        elif sub == _SUB_MISSION:
             self._mission_setpoint(nav, out)
-        if self.landed_state == LandedState.TAKEOFF and not offboard:
+        if self.landed_state == _TAKING_OFF and not offboard:
             self._takeoff_ramp(nav, out)
         else:
             self._takeoff_ramp_start_s = None
@@ -710,7 +719,7 @@ class Commander:
             FailsafeInput(
                 time_s=nav.time_s,
                 armed=self.armed,
-                in_air=self.in_air and self.landed_state != LandedState.TAKEOFF,
+                in_air=self.in_air and self.landed_state != _TAKING_OFF,
                 landing=self._descending,
                 battery_remaining=nav.battery_remaining,
                 position_ok=nav.position_ok,
@@ -762,9 +771,9 @@ class Commander:
     def _descending(self) -> bool:
         """In the final descent of LAND, RTL or a mission landing."""
         return (
-            self.sub_mode == AutoSubMode.LAND
-            or (self.sub_mode == AutoSubMode.RTL and self._rtl_phase == RtlPhase.LAND)
-            or (self.sub_mode == AutoSubMode.MISSION and self.mission.landing)
+            self.sub_mode == _SUB_LAND
+            or (self.sub_mode == _SUB_RTL and self._rtl_phase == _RTL_LAND)
+            or (self.sub_mode == _SUB_MISSION and self.mission.landing)
         )
 
     def _land_setpoint(self, nav: NavInput, out: NavOutput) -> None:
@@ -811,16 +820,16 @@ class Commander:
         vx, vy, vz_signed = nav.velocity_ned_m_s.tolist()
         vz = abs(vz_signed)
         vxy = math.hypot(vx, vy)
-        if self.landed_state == LandedState.TAKEOFF and not self.armed:
-            self.landed_state = LandedState.ON_GROUND
+        if self.landed_state == _TAKING_OFF and not self.armed:
+            self.landed_state = _ON_GROUND
             return
-        if not self.in_air or self.landed_state == LandedState.TAKEOFF:
+        if not self.in_air or self.landed_state == _TAKING_OFF:
             if (
                 self.armed
-                and self.landed_state == LandedState.TAKEOFF
+                and self.landed_state == _TAKING_OFF
                 and (self._relative_alt(nav) > 0.5 or vz_signed < -0.5)
             ):
-                self.landed_state = LandedState.IN_AIR
+                self.landed_state = _IN_AIR
             return
         descending = self._descending
         if math.isfinite(nav.hover_thrust):
@@ -837,7 +846,7 @@ class Commander:
             if self._landed_candidate_s is None:
                 self._landed_candidate_s = nav.time_s
             if nav.time_s - self._landed_candidate_s >= 1.0:
-                self.landed_state = LandedState.ON_GROUND
+                self.landed_state = _ON_GROUND
                 self._ground_since_s = nav.time_s
                 self._landed_candidate_s = None
                 self._say(SEVERITY_INFO, "Landing detected")
