@@ -232,7 +232,8 @@ class FleetEstimator:
         """(local_position_ok, global_position_ok) in one compiled call."""
         return position_validity(
             float(self._scalars[lay.S_TIME]),
-            self._prm[:, lay.P_NOAID_TOUT],
+            self._prm,
+            lay.P_NOAID_TOUT,
             float(self.config.settle_s),
             self.attitude_ok,
             self.hpos_aided_s,

@@ -13,7 +13,8 @@ import numpy as np
 @numba.njit(cache=True)
 def position_validity(
     time_s: float,
-    noaid_tout_s: np.ndarray,
+    params: np.ndarray,
+    noaid_tout_col: int,
     settle_s: float,
     attitude_ok: np.ndarray,
     hpos_aided_s: np.ndarray,
@@ -21,7 +22,10 @@ def position_validity(
     gps_fused_s: np.ndarray,
     origin_set: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(local_ok, global_ok), each (N,) bool.
+    """(local_ok, global_ok), each (N,) bool; EKF2_NOAID_TOUT is ``params[:, noaid_tout_col]``.
+
+    (The whole (N, K) parameter table is passed, not a column view, so that the kernel has one
+    signature for any N.)
 
     local: attitude aligned, a horizontal position source fused within EKF2_NOAID_TOUT, and the
     first aiding at least ``settle_s`` ago. global: local, an origin, and GNSS fused within
@@ -31,7 +35,7 @@ def position_validity(
     local_ok = np.empty(n, dtype=np.bool_)
     global_ok = np.empty(n, dtype=np.bool_)
     for i in range(n):
-        tout = noaid_tout_s[i]
+        tout = params[i, noaid_tout_col]
         ok = (
             attitude_ok[i]
             and (time_s - hpos_aided_s[i]) <= tout

@@ -27,7 +27,9 @@ def test_each_condition_alone_clears_the_flags() -> None:
     gps[5] = -np.inf
     origin = np.ones(n, dtype=bool)
     origin[4] = False
-    local_ok, global_ok = position_validity(t, tout, 1.0, attitude, hpos, first, gps, origin)
+    local_ok, global_ok = position_validity(
+        t, tout[:, None], 0, 1.0, attitude, hpos, first, gps, origin
+    )
     assert local_ok.tolist() == [True, False, False, False, True, True, False]
     assert global_ok.tolist() == [True, False, False, False, False, False, False]
 
@@ -35,7 +37,7 @@ def test_each_condition_alone_clears_the_flags() -> None:
 def test_boundaries_are_inclusive() -> None:
     one = np.ones(1, dtype=bool)
     local_ok, global_ok = position_validity(
-        5.0, np.array([1.0]), 1.0, one, np.array([4.0]), np.array([4.0]), np.array([4.0]), one
+        5.0, np.array([[1.0]]), 0, 1.0, one, np.array([4.0]), np.array([4.0]), np.array([4.0]), one
     )
     assert local_ok.tolist() == [True] and global_ok.tolist() == [True]
 
