@@ -85,6 +85,9 @@ class FleetBattery:
         self._cov = np.zeros((n, 2, 2))
         self._cov_norm = np.zeros(n)
         self._last_s: float | None = None
+        self._packed_for: BatteryParams | None = None
+        self._packed: tuple[np.ndarray, ...] = ()
+        """The parameters as C-contiguous float64 arrays, for ``_packed_for``."""
         self.params = BatteryParams(
             n_cells=np.full(n, 4.0),
             capacity_mah=np.full(n, -1.0),
@@ -108,11 +111,17 @@ class FleetBattery:
         Compiled (``battery_kernel``); the state arrays are updated in place.
         """
         p = self.params
+        if self._packed_for is not p:  # convert once per parameter set, not per sample
+            self._packed = tuple(
+                _f64(a) for a in (p.n_cells, p.capacity_mah, p.v_empty, p.v_charged, p.r_internal)
+            )
+            self._packed_for = p
+        n_cells, capacity_mah, v_empty, v_charged, r_internal = self._packed
         dt = 0.0 if self._last_s is None else max(time_s - self._last_s, 0.0)
         self._last_s = time_s
         battery_kernel(
-            _f64(voltage_v), _f64(current_a), float(time_s), dt, _f64(p.n_cells),
-            _f64(p.capacity_mah), _f64(p.v_empty), _f64(p.v_charged), _f64(p.r_internal),
+            _f64(voltage_v), _f64(current_a), float(time_s), dt, n_cells,
+            capacity_mah, v_empty, v_charged, r_internal,
             self.voltage_v, self.current_a, self.consumed_mah, self.soc, self.soc_voltage,
             self.internal_resistance_ohm, self.connected_since_s, self._cell_filter_v,
             self._rls, self._cov, self._cov_norm,

@@ -47,6 +47,7 @@ from autopilot_emu.estimator_params import (
     EstimatorParams,
 )
 from autopilot_emu.params import ParamStore
+from autopilot_emu.position_validity_kernel import position_validity
 
 GRAVITY_M_S2 = 9.80665
 _TH, _VEL, _POS, _BG, _BA = 0, 3, 6, 9, 12
@@ -227,23 +228,34 @@ class FleetEstimator:
         """(N, 3, 3) rotation matrices of ``q`` (body FRD -> NED)."""
         return self._r
 
+    def position_validity(self) -> tuple[np.ndarray, np.ndarray]:
+        """(local_position_ok, global_position_ok) in one compiled call."""
+        return position_validity(
+            float(self._scalars[lay.S_TIME]),
+            self._prm,
+            lay.P_NOAID_TOUT,
+            float(self.config.settle_s),
+            self.attitude_ok,
+            self.hpos_aided_s,
+            self.first_aiding_s,
+            self.gps_fused_s,
+            self.origin_set,
+        )
+
     @property
     def local_position_ok(self) -> np.ndarray:
         """(N,) the local position is aided (or dead-reckoned for < EKF2_NOAID_TOUT) and settled."""
-        aided = (self.time_s - self.hpos_aided_s) <= self.params.noaid_tout_s
-        settled = (self.time_s - self.first_aiding_s) >= self.config.settle_s
-        return self.attitude_ok & aided & settled
+        return self.position_validity()[0]
 
     @property
     def position_ok(self) -> np.ndarray:
         """(N,) the position estimate can be flown on (PX4's local position validity)."""
-        return self.local_position_ok
+        return self.position_validity()[0]
 
     @property
     def global_position_ok(self) -> np.ndarray:
         """(N,) the position is also global: an origin and GNSS fused within EKF2_NOAID_TOUT."""
-        gps = (self.time_s - self.gps_fused_s) <= self.params.noaid_tout_s
-        return self.local_position_ok & self.origin_set & gps
+        return self.position_validity()[1]
 
     @property
     def position_variance_m2(self) -> np.ndarray:

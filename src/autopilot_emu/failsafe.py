@@ -87,6 +87,13 @@ BATTERY_TEXTS = {
 }
 
 
+_BATTERY_THRESHOLDS = (
+    ("BAT_LOW_THR", BatteryLevel.LOW),
+    ("BAT_CRIT_THR", BatteryLevel.CRITICAL),
+    ("BAT_EMERGEN_THR", BatteryLevel.EMERGENCY),
+)
+
+
 @dataclass
 class FailsafeInput:
     """One tick's view of the conditions."""
@@ -117,13 +124,7 @@ class FailsafeMonitor:
 
     def update(self, inp: FailsafeInput) -> Action:
         """Announce changes; return the most severe action that became due this tick."""
-        due = [
-            self._datalink(inp),
-            self._battery(inp),
-            self._position(inp),
-            self._fence(inp),
-        ]
-        action = max(due)
+        action = max(self._datalink(inp), self._battery(inp), self._position(inp), self._fence(inp))
         if action > Action.WARN:
             self.texts.append(
                 (SEVERITY_CRITICAL, f"Failsafe activated: switching to {ACTION_NAMES[action]}")
@@ -133,7 +134,7 @@ class FailsafeMonitor:
     def _datalink(self, inp: FailsafeInput) -> Action:
         if inp.gcs_heard_s is None:
             return Action.NONE
-        timeout = float(self.params.get("COM_DL_LOSS_T"))
+        timeout = self.params.floats()["COM_DL_LOSS_T"]
         lost = inp.time_s - inp.gcs_heard_s > timeout
         if lost == self.datalink_lost:
             return Action.NONE
@@ -151,13 +152,10 @@ class FailsafeMonitor:
         if not math.isfinite(remaining):
             return Action.NONE
         p = self.params
+        thresholds = p.floats()
         level = BatteryLevel.OK
-        for threshold, candidate in (
-            ("BAT_LOW_THR", BatteryLevel.LOW),
-            ("BAT_CRIT_THR", BatteryLevel.CRITICAL),
-            ("BAT_EMERGEN_THR", BatteryLevel.EMERGENCY),
-        ):
-            if remaining <= float(p.get(threshold)):
+        for threshold, candidate in _BATTERY_THRESHOLDS:
+            if remaining <= thresholds[threshold]:
                 level = candidate
         if level <= self.battery_level:
             if level == BatteryLevel.OK:

@@ -128,11 +128,12 @@ class FleetTelemetry:
         rows = self._health
         if rows is None:
             est = self._fleet.estimator
+            local_ok, global_ok = est.position_validity()
             rows = self._health = list(
                 zip(
-                    est.position_ok.tolist(),
+                    local_ok.tolist(),
                     est.attitude_ok.tolist(),
-                    est.global_position_ok.tolist(),
+                    global_ok.tolist(),
                     (est.time_s - est.height_aided_s <= est.params.noaid_tout_s).tolist(),
                     est.const_pos_mode.tolist(),
                     est.gps_glitch.tolist(),

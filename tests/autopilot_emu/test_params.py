@@ -202,3 +202,16 @@ def test_spec_exposes_unit_and_description():
     assert spec.unit == "m"
     assert spec.description
     assert spec.min_value == 0.0
+
+
+def test_float_view_follows_every_change():
+    store = ParamStore({"MIS_TAKEOFF_ALT": 4.0})
+    floats = store.floats()
+    assert floats["MIS_TAKEOFF_ALT"] == 4.0
+    assert isinstance(floats["COM_OBL_RC_ACT"], float)
+    assert store.floats() is floats  # kept while nothing changes
+    store.set("MIS_TAKEOFF_ALT", 4.0)  # same value: no change
+    assert store.floats() is floats
+    store.set("MIS_TAKEOFF_ALT", 7.5)
+    assert store.floats()["MIS_TAKEOFF_ALT"] == 7.5
+    assert store.floats()["COM_OBL_RC_ACT"] == float(store.get("COM_OBL_RC_ACT"))
