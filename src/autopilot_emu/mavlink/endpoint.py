@@ -443,7 +443,26 @@ class MavlinkEndpoint:
             raise RuntimeError("endpoint is closed")
         self._now_s = now_s
         self._now_us = round(now_s * 1e6)
-        for _ in range(MAX_DATAGRAMS_PER_POLL if receive else 0):
+        if receive:
+            self._receive(sock, now_s)
+        shaper = self._config.shaper
+        if shaper is not None and shaper.next_due_s <= now_s:
+            for data, address in shaper.due_inbound(now_s):
+                self._on_datagram(data, address)
+        ftp = self._ftp
+        if ftp is not None and ftp.busy:
+            ftp.tick()
+        if now_s >= self._next_work_s or now_s < self._last_poll_s:
+            self._work(now_s)
+        self._last_poll_s = now_s
+        if shaper is not None and shaper.next_due_s <= now_s:
+            for frame in shaper.due_outbound(now_s):
+                self._sendto_peers(frame)
+        self._update_quiet()
+
+    def _receive(self, sock: socket.socket, now_s: float) -> None:
+        """Drain up to MAX_DATAGRAMS_PER_POLL datagrams: handle them, or hand them to the shaper."""
+        for _ in range(MAX_DATAGRAMS_PER_POLL):
             try:
                 data, address = sock.recvfrom(MAX_DATAGRAM_BYTES)
             except BlockingIOError:
@@ -456,19 +475,6 @@ class MavlinkEndpoint:
                 self._on_datagram(data, address)
             else:
                 self._config.shaper.inbound(now_s, data, address)
-        shaper = self._config.shaper
-        if shaper is not None and shaper.next_due_s <= now_s:
-            for data, address in shaper.due_inbound(now_s):
-                self._on_datagram(data, address)
-        if self._ftp is not None and self._ftp.busy:
-            self._ftp.tick()
-        if now_s >= self._next_work_s or now_s < self._last_poll_s:
-            self._work(now_s)
-        self._last_poll_s = now_s
-        if shaper is not None and shaper.next_due_s <= now_s:
-            for frame in shaper.due_outbound(now_s):
-                self._sendto_peers(frame)
-        self._update_quiet()
 
     def _update_quiet(self) -> None:
         """Recompute :attr:`quiet_from_s` / :attr:`quiet_until_s` after the state changed."""

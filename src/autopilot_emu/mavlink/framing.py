@@ -31,10 +31,18 @@ _BODY_HEADER = struct.Struct("<BBBBBBHB")
 _MAGIC_V2_BYTE = bytes((_MAGIC_V2,))
 
 
-def _crc(data: bytes) -> int:
-    """CRC-16/MCRF4XX of ``data``: pymavlink's fastcrc binding when installed, else its own."""
-    fast = mavcrc.mcrf4xx
-    return fast(data, 0xFFFF) if fast is not None else mavcrc.x25crc(data).crc
+def _crc_python(data: bytes, crc: int) -> int:
+    """CRC-16/MCRF4XX of ``data`` carried on from ``crc`` (pymavlink's pure-Python CRC)."""
+    state = mavcrc.x25crc()
+    state.crc = crc
+    state.accumulate(data)
+    return state.crc
+
+
+_crc_from: Callable[[bytes, int], int] = mavcrc.mcrf4xx or _crc_python
+"""CRC-16/MCRF4XX of some bytes carried on from a CRC (0xFFFF to start): pymavlink's fastcrc
+binding when installed. The CRC has no final XOR, so chaining equals one pass over both."""
+_CRC = struct.Struct("<H")
 
 
 @dataclass(frozen=True)
@@ -105,7 +113,7 @@ def encode(message: mavlink2.MAVLink_message, seq: int, sysid: int, compid: int)
         _MAGIC_V2, len(payload), 0, 0, seq, sysid, compid, plan.msg_id_low, plan.msg_id_high
     )
     body = header[1:] + payload
-    return header[:1] + body + _crc(body + plan.crc_extra).to_bytes(2, "little")
+    return header[:1] + body + _CRC.pack(_crc_from(plan.crc_extra, _crc_from(body, 0xFFFF)))
 
 
 @dataclass(frozen=True)
@@ -143,15 +151,15 @@ def encode_fields(fmt: FieldsFormat, values: tuple, seq: int, sysid: int, compid
 
     Byte for byte what pymavlink sends for the message object with these values: payload with
     trailing zeros removed (at least one byte kept), CRC-16/MCRF4XX over the header after the
-    magic byte and the payload, then the CRC extra.
+    magic byte and the payload, then the CRC extra (the CRC carried on from the body's, so the
+    body is not copied once more).
 
     Raises:
         struct.error: a value does not fit its wire type, or the count is wrong.
     """
-    payload = fmt.payload.pack(*values)
-    payload = payload.rstrip(b"\x00") or payload[:1]  # MAVLink 2 truncation, >= 1 byte
+    payload = fmt.payload.pack(*values).rstrip(b"\x00") or b"\x00"  # MAVLink 2 truncation
     body = (
         _BODY_HEADER.pack(len(payload), 0, 0, seq, sysid, compid, fmt.msg_id_low, fmt.msg_id_high)
         + payload
     )
-    return _MAGIC_V2_BYTE + body + _crc(body + fmt.crc_extra).to_bytes(2, "little")
+    return _MAGIC_V2_BYTE + body + _CRC.pack(_crc_from(fmt.crc_extra, _crc_from(body, 0xFFFF)))

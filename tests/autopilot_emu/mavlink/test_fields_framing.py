@@ -9,6 +9,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from mavlink_fakes import FakeVehicle, MavClient, make_endpoint, make_snapshot
 from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.generator import mavcrc
 
 from autopilot_emu.mavlink import framing, messages, streams
 from autopilot_emu.params import ParamStore
@@ -162,3 +163,12 @@ def test_endpoint_sequence_wraps_and_frames_match_pymavlink():
             assert len(frames) > 256
     finally:
         client.close()
+
+
+@settings(max_examples=200, deadline=None)
+@given(head=st.binary(max_size=300), tail=st.binary(min_size=1, max_size=3))
+def test_crc_carried_on_equals_one_pass_fast_and_pure_python(head, tail):
+    """encode_fields chains the CRC over body then CRC extra: equal to one pass over both."""
+    one_pass = mavcrc.x25crc(head + tail).crc  # pymavlink's own CRC, one pass
+    assert framing._crc_from(tail, framing._crc_from(head, 0xFFFF)) == one_pass
+    assert framing._crc_python(tail, framing._crc_python(head, 0xFFFF)) == one_pass
