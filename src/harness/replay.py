@@ -37,7 +37,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pybullet as p
-from matplotlib.path import Path as MplPath
 
 import worlds
 from harness.run_manifest import MANIFEST_FILE, ManifestError, RunManifest, read_manifest
@@ -477,6 +476,8 @@ def paint_ground(
     shade = 0.75 if float(np.mean(rgba[:3])) > 0.5 else 1.45
     lines = np.clip(base * shade + (0 if shade < 1 else 25), 0, 255)
     ground = base + line[..., None] * (lines - base)
+    from matplotlib.path import Path as MplPath  # here: importing matplotlib slows every start
+
     for spill in spills:
         outline = np.asarray(spill.outline_xy_m, dtype=float)
         low, high = outline.min(axis=0), outline.max(axis=0)
