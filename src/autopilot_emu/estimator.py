@@ -49,9 +49,9 @@ from autopilot_emu.estimator_params import (
 from autopilot_emu.params import ParamStore
 from autopilot_emu.position_validity_kernel import position_validity
 
-GRAVITY_M_S2 = 9.80665
-_TH, _VEL, _POS, _BG, _BA = 0, 3, 6, 9, 12
-"""First index of each block of the 15-element error state."""
+GRAVITY_M_S2 = kernels.GRAVITY_M_S2
+_TH, _VEL, _POS, _BG, _BA = kernels.TH, kernels.VEL, kernels.POS, kernels.BG, kernels.BA
+"""First index of each block of the 15-element error state (the kernels' layout)."""
 _K = 15
 
 
