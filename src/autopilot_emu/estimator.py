@@ -325,7 +325,11 @@ class FleetEstimator:
         pressure_alt: np.ndarray | None = None,
         has_baro: np.ndarray | None = None,
     ) -> None:
-        """Run the kernel's stages; a stage's unused inputs are placeholders."""
+        """Run the stages in the ``stages`` bits (MAG, IMU, BARO) in one kernel call.
+
+        The kernel ignores the inputs of stages not selected; without a barometer sample, zeros
+        and an all-false mask stand in for it.
+        """
         if pressure_alt is None:
             pressure_alt, has_baro = self._zero1, self._no
         rates = self.rates_rad_s

@@ -296,3 +296,16 @@ def command_long(
     return mavlink2.MAVLink_command_long_message(
         target_system, target_component, command, confirmation, *padded
     )
+
+
+INT_RANGES = {
+    "int8_t": (-(2**7), 2**7 - 1),
+    "uint8_t": (0, 2**8 - 1),
+    "int16_t": (-(2**15), 2**15 - 1),
+    "uint16_t": (0, 2**16 - 1),
+    "int32_t": (-(2**31), 2**31 - 1),
+    "uint32_t": (0, 2**32 - 1),
+    "int64_t": (-(2**63), 2**63 - 1),
+    "uint64_t": (0, 2**64 - 1),
+}
+"""Lowest and highest value of each MAVLink integer wire type (for property tests)."""

@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import pytest
 from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
+from mavlink_fakes import INT_RANGES
 from pymavlink.dialects.v20 import common as mavlink2
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
@@ -115,22 +116,12 @@ _SPECIAL_FLOATS = (
     math.inf,
     -math.inf,
 )
-_INT_RANGES = {
-    "int8_t": (-(2**7), 2**7 - 1),
-    "uint8_t": (0, 2**8 - 1),
-    "int16_t": (-(2**15), 2**15 - 1),
-    "uint16_t": (0, 2**16 - 1),
-    "int32_t": (-(2**31), 2**31 - 1),
-    "uint32_t": (0, 2**32 - 1),
-    "int64_t": (-(2**63), 2**63 - 1),
-    "uint64_t": (0, 2**64 - 1),
-}
 
 # --- strategies ------------------------------------------------------------------------------
 
 
 def _int_values(type_name: str) -> st.SearchStrategy[int]:
-    low, high = _INT_RANGES[type_name]
+    low, high = INT_RANGES[type_name]
     edges = sorted({low, high, 0, 1, min(high, 2**31 - 1)})
     return st.one_of(st.sampled_from(edges), st.integers(low, high))
 

@@ -7,7 +7,7 @@ import struct
 import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
-from mavlink_fakes import FakeVehicle, MavClient, make_endpoint, make_snapshot
+from mavlink_fakes import INT_RANGES, FakeVehicle, MavClient, make_endpoint, make_snapshot
 from pymavlink.dialects.v20 import common as mavlink2
 from pymavlink.generator import mavcrc
 
@@ -16,23 +16,13 @@ from autopilot_emu.params import ParamStore
 
 CONTEXT = messages.MessageContext(sysid=7, params=ParamStore(), epoch_start_us=0)
 HOT = sorted(messages.FIELDS)
-_INTS = {
-    "int8_t": (-(2**7), 2**7 - 1),
-    "uint8_t": (0, 2**8 - 1),
-    "int16_t": (-(2**15), 2**15 - 1),
-    "uint16_t": (0, 2**16 - 1),
-    "int32_t": (-(2**31), 2**31 - 1),
-    "uint32_t": (0, 2**32 - 1),
-    "int64_t": (-(2**63), 2**63 - 1),
-    "uint64_t": (0, 2**64 - 1),
-}
 
 
 def _value(type_name: str) -> st.SearchStrategy:
     """Any value of a MAVLink wire type, zero often (the payload truncation's case)."""
     if type_name == "float":
         return st.just(0.0) | st.floats(width=32)
-    low, high = _INTS[type_name]
+    low, high = INT_RANGES[type_name]
     return st.just(0) | st.sampled_from((low, high)) | st.integers(low, high)
 
 
