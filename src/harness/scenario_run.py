@@ -10,8 +10,10 @@ vehicle's autopilot runs PX4's data-link-loss failsafe).
 
 Time: the simulation's clock is published to the companions in ``SWARMSITL_CLOCK_FILE``
 (``companion.clock``), paced or not. A lockstep run goes as fast as the CPU allows once every
-companion has reached its vehicle; until then it runs at real time, so that a program starting up
-(MAVSDK's server takes a wall second or two) does not miss the first simulated minute.
+companion has reached its vehicle, up to COM_DL_LOSS_T / 2 s per wall second (5x with PX4's
+default) so that the companions' wall-clock heartbeats never look lost; until then it runs at
+real time, so that a program starting up (MAVSDK's server takes a wall second or two) does not
+miss the first simulated minute.
 """
 
 from __future__ import annotations
@@ -65,6 +67,8 @@ TRACEBACK_CHARS = 6000
 """Longest traceback kept in the report per companion."""
 STOP_GRACE_S = 5.0
 """Wall seconds a companion gets to exit after SIGTERM before it is killed."""
+COMPANION_HEARTBEAT_PERIOD_S = 1.0
+"""Wall seconds between a companion's HEARTBEATs (MAVSDK's, as PX4's GCS link expects)."""
 
 
 @dataclass(frozen=True)
@@ -428,6 +432,17 @@ class ScenarioRun:
             disarmed_since[0] = sim.time_s
         return sim.time_s - disarmed_since[0] >= DONE_HOLD_S
 
+    def _lockstep_cap(self) -> float:
+        """Fastest lockstep speed, simulated s per wall s: COM_DL_LOSS_T / 2 heartbeat periods.
+
+        Companions send HEARTBEAT on a wall clock (MAVSDK once a wall second); a simulation
+        faster than this would see more than half of COM_DL_LOSS_T (simulated) pass between two
+        of them and could declare a live companion lost (data-link-loss failsafe).
+        """
+        assert self.sim is not None
+        timeout_s = min(store.floats()["COM_DL_LOSS_T"] for store in self.sim.fleet.params)
+        return max(1.0, timeout_s / (2.0 * COMPANION_HEARTBEAT_PERIOD_S))
+
     def _loop(self, on_progress: Callable[[ScenarioRun], None] | None) -> None:
         sim = self.sim
         assert sim is not None and self._clock is not None
@@ -456,7 +471,8 @@ class ScenarioRun:
                 break
             if not warmed and self._heard_all():
                 warmed = True
-            pace = speed if speed is not None else (None if warmed else 1.0)
+                t0_sim, t0_wall = sim.time_s, time.monotonic()  # the cap counts from here
+            pace = speed if speed is not None else (self._lockstep_cap() if warmed else 1.0)
             if pace is not None:
                 ahead = (sim.time_s - t0_sim) / pace - (time.monotonic() - t0_wall)
                 if ahead > 0.0005:
