@@ -15,7 +15,7 @@ import numba
 import numpy as np
 
 from autopilot_emu.control.attitude_kernel import attitude_rate_row
-from autopilot_emu.control.mixer_kernel import _desaturate_row, _fractions, _output_row
+from autopilot_emu.control.mixer_kernel import _desaturate_row, _fractions_row, _output_row
 from autopilot_emu.control.rate_kernel import rate_pid_row
 from autopilot_emu.nan_scalar import fmax, fmin
 
@@ -63,9 +63,8 @@ def inner_loop_kernel(
             i, rates, rate_sp, rate_p, rate_i, rate_d, dt_s, active, integrator_limit,
             integral, prev_rates, torque,
         )  # fmt: skip
-    saturated = _fractions(torque, thrust, matrix, thrust_column, outputs)
     for i in range(n):
-        if saturated:
+        if _fractions_row(i, torque, thrust, matrix, thrust_column, outputs):
             _desaturate_row(i, torque, thrust, matrix, thrust_column, used, outputs)
         _output_row(i, used, idle_output, outputs)
         if not armed[i]:

@@ -1,10 +1,11 @@
 """Compiled control allocation: torque and collective thrust -> motor outputs, for the fleet.
 
 Shared by :meth:`autopilot_emu.control.mixer.Mixer.mix` and the fleet's fused per-IMU-sample
-kernel. Two passes, as the numpy mixer: the thrust fractions of every vehicle first; if any
-fraction of the fleet leaves 0..1 (and none is NaN, which hides the fleet's max / min in numpy),
-every vehicle is desaturated (roll/pitch kept by shifting the collective thrust, yaw scaled into
-what is left); then outputs = max(sqrt(fraction), idle) on used rotors, 0 elsewhere.
+kernel. Per vehicle: its thrust fractions first; if one of them leaves 0..1 (and none is NaN),
+the vehicle's outputs are desaturated (roll/pitch kept by shifting the collective thrust, yaw
+scaled into what is left); then outputs = max(sqrt(fraction), idle) on used rotors, 0
+elsewhere. Vehicles never affect each other (an earlier version decided saturation for the
+whole fleet at once, which coupled them).
 """
 
 from __future__ import annotations
@@ -18,24 +19,27 @@ from autopilot_emu.nan_scalar import fmax, fmin
 
 
 @numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _fractions(
-    torque: np.ndarray, thrust: np.ndarray, matrix: np.ndarray, thrust_column: np.ndarray,
-    out: np.ndarray,
+def _fractions_row(
+    i: int, torque: np.ndarray, thrust: np.ndarray, matrix: np.ndarray,
+    thrust_column: np.ndarray, out: np.ndarray,
 ) -> bool:  # fmt: skip
-    """Unsaturated thrust fractions into ``out``; True when the fleet needs desaturation."""
+    """Vehicle i's unsaturated thrust fractions into ``out[i]``; True when it needs desaturation.
+
+    Each vehicle is mixed on its own, as each PX4 instance mixes its own outputs: one vehicle's
+    saturation never touches another's outputs.
+    """
     hi, lo, nan = -np.inf, np.inf, False
-    for i in range(out.shape[0]):
-        t0, t1, t2, thr = torque[i, 0], torque[i, 1], torque[i, 2], thrust[i]
-        for r in range(out.shape[1]):
-            m = matrix[i, r]
-            f = thr * thrust_column[i, r] + (m[0] * t0 + m[1] * t1 + m[2] * t2)
-            out[i, r] = f
-            if f != f:
-                nan = True
-            elif f > hi:
-                hi = f
-            if f < lo:
-                lo = f
+    t0, t1, t2, thr = torque[i, 0], torque[i, 1], torque[i, 2], thrust[i]
+    for r in range(out.shape[1]):
+        m = matrix[i, r]
+        f = thr * thrust_column[i, r] + (m[0] * t0 + m[1] * t1 + m[2] * t2)
+        out[i, r] = f
+        if f != f:
+            nan = True
+        elif f > hi:
+            hi = f
+        if f < lo:
+            lo = f
     return not nan and (hi > 1.0 or lo < 0.0)
 
 
@@ -91,8 +95,7 @@ def mix_kernel(
     out: np.ndarray,
 ) -> None:
     """Motor outputs (N, MAX_ROTORS) into ``out`` for torque (N, 3) and thrust (N,)."""
-    saturated = _fractions(torque, thrust, matrix, thrust_column, out)
     for i in range(out.shape[0]):
-        if saturated:
+        if _fractions_row(i, torque, thrust, matrix, thrust_column, out):
             _desaturate_row(i, torque, thrust, matrix, thrust_column, used, out)
         _output_row(i, used, idle_output, out)

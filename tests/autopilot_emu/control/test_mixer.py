@@ -120,3 +120,21 @@ def test_fleet_builds_each_vehicles_mixer_from_its_params_and_rebuilds_on_change
     hexa, quad = (np.array(m.controls) for m in out)
     assert np.all(hexa[:6] > 0) and np.all(hexa[6:] == 0)  # armed idle on six motors
     assert np.all(quad[:4] > 0) and np.all(quad[4:] == 0)
+
+
+def test_one_vehicles_saturation_leaves_the_others_outputs_alone():
+    """Each vehicle is mixed alone (as each PX4 mixes its own): a saturated neighbour changes
+    nothing in another vehicle's outputs.
+
+    Vehicle 1 is inside 0..1 only thanks to its yaw torque (its roll/pitch part alone would go
+    below 0 on a rotor): desaturating it, as the fleet-wide decision once did, would move it.
+    """
+    geometry = [RotorGeometry.from_rows(TYPHOON_H480_ROTORS)] * 2
+    torque = np.array([[0.0, 0.0, 0.0], [-0.02497803, -0.03995277, -0.00233834]])
+    thrust = np.array([0.4, 0.05115775])
+    calm = Mixer(geometry).mix(torque, thrust)
+    alone = Mixer(geometry[:1]).mix(torque[1:], thrust[1:])
+    np.testing.assert_array_equal(alone[0], calm[1])
+    torque[0], thrust[0] = (1.0, 0.0, 1.0), 0.95  # vehicle 0 saturates
+    stormy = Mixer(geometry).mix(torque, thrust)
+    np.testing.assert_array_equal(stormy[1], calm[1])
