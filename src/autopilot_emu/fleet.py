@@ -375,7 +375,9 @@ class AutopilotFleet:
         self, t_usec: int
     ) -> list[mavlink2.MAVLink_hil_actuator_controls_message]:
         build = mavlink2.MAVLink_hil_actuator_controls_message
-        outputs, armed, tail = self.outputs.tolist(), self.armed.tolist(), self._controls_tail
+        # float32, as HIL_ACTUATOR_CONTROLS carries them: in memory or packed, the same numbers.
+        outputs = self.outputs.astype(np.float32).tolist()
+        armed, tail = self.armed.tolist(), self._controls_tail
         return [
             build(t_usec, outputs[i] + tail, _MODE_ARMED if armed[i] else _MODE_DISARMED, 0)
             for i in range(self.n)

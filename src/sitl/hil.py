@@ -1,6 +1,6 @@
-"""The PX4 simulator messages: HIL_SENSOR, HIL_GPS, BATTERY_STATUS and DISTANCE_SENSOR out.
+"""The PX4 simulator messages the simulator sends, and HIL_ACTUATOR_CONTROLS, which it reads.
 
-HIL_ACTUATOR_CONTROLS comes in.
+Out: HIL_SENSOR, HIL_GPS, HIL_STATE_QUATERNION, BATTERY_STATUS and DISTANCE_SENSOR.
 
 Units and frames are MAVLink's: body FRD, m/s^2, rad/s, gauss, hPa, degE7, mm, cm, cm/s, cdeg.
 ``time_usec`` is simulation time. Messages are built only when a sensor is due.
@@ -16,6 +16,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 from sitl.sensors.baro import BaroSample
 from sitl.sensors.gps import GpsSample
 from sitl.sensors.rangefinder import MAV_DISTANCE_SENSOR_ULTRASOUND, RangeReadings
+from sitl.truth import TruthState
 
 FIELDS_IMU = (
     mavlink2.HIL_SENSOR_UPDATED_XACC
@@ -83,6 +84,9 @@ def hil_sensor_messages(
 ) -> list[mavlink2.MAVLink_hil_sensor_message]:
     """One HIL_SENSOR per vehicle.
 
+    The float fields hold float32 values, as the wire carries them: handed over in memory or
+    packed for TCP, the autopilot reads the same numbers.
+
     Args:
         time_usec: simulation time, us.
         imu_mag_frd: ``(N, 9)``, body FRD: specific force (m/s^2), angular rate (rad/s),
@@ -94,10 +98,10 @@ def hil_sensor_messages(
     return [
         make(time_usec, *row, p_hpa, 0.0, alt_m, t_c, fields_updated, 0)
         for row, p_hpa, alt_m, t_c in zip(
-            imu_mag_frd.tolist(),
-            baro.abs_pressure_hpa.tolist(),
-            baro.pressure_alt_m.tolist(),
-            baro.temperature_c.tolist(),
+            imu_mag_frd.astype(np.float32).tolist(),
+            baro.abs_pressure_hpa.astype(np.float32).tolist(),
+            baro.pressure_alt_m.astype(np.float32).tolist(),
+            baro.temperature_c.astype(np.float32).tolist(),
             strict=True,
         )
     ]
@@ -254,3 +258,46 @@ def distance_sensor_messages(
             )
         )
     return out
+
+
+G_MG = 9.80665 / 1000.0
+"""One milli-g, m/s^2 (HIL_STATE_QUATERNION accelerations are in mG)."""
+
+
+def hil_state_quaternion_messages(
+    time_usec: int, truth: TruthState, specific_force_frd_m_s2: np.ndarray
+) -> list[mavlink2.MAVLink_hil_state_quaternion_message]:
+    """One HIL_STATE_QUATERNION per vehicle: the true state, PX4's ground truth.
+
+    Attitude body FRD -> NED (w, x, y, z); body rates FRD, rad/s; latitude and longitude degE7,
+    altitude mm AMSL; velocity NED cm/s; air speeds cm/s (the true air-relative speed in both);
+    accelerations the specific force in body FRD, mG (what the accelerometer measures without
+    noise is not kept: the latest HIL_SENSOR's is given, ``specific_force_frd_m_s2`` (N, 3)).
+    PX4's simulator_mavlink publishes it as ``vehicle_*_groundtruth``; nothing in the flight
+    stack reads those topics.
+    """
+    q = truth.quaternion_ned_frd_wxyz.tolist()
+    rates = truth.angular_velocity_body_frd_rad_s.tolist()
+    lat = np.rint(truth.lat_deg * 1e7).astype(np.int64).tolist()
+    lon = np.rint(truth.lon_deg * 1e7).astype(np.int64).tolist()
+    alt = np.rint(truth.alt_amsl_m * 1e3).astype(np.int64).tolist()
+    vel = np.clip(np.rint(truth.velocity_ned_m_s * 100.0), -32768, 32767).astype(np.int64)
+    air = np.linalg.norm(truth.velocity_enu_m_s - truth.wind_enu_m_s, axis=1)
+    air_cms = np.clip(np.rint(air * 100.0), 0, 65535).astype(np.int64).tolist()
+    acc = np.clip(np.rint(specific_force_frd_m_s2 / G_MG), -32768, 32767).astype(np.int64)
+    make = mavlink2.MAVLink_hil_state_quaternion_message
+    return [
+        make(
+            time_usec,
+            q[i],
+            *rates[i],
+            lat[i],
+            lon[i],
+            alt[i],
+            *vel[i].tolist(),
+            air_cms[i],
+            air_cms[i],
+            *acc[i].tolist(),
+        )
+        for i in range(len(q))
+    ]

@@ -18,6 +18,14 @@ order), so the comparison allows a tolerance instead of bit equality, in two tie
   moves a flight by 3.5 mm and 1.2 rad/s; with every kernel compiled the worst seen was 2.5 mm
   and 1.6 rad/s, bounded (it does not grow with flight time).
 
+Re-recorded at issue 13, when behaviour was meant to change twice: the HIL messages carry
+float32 values in memory as on the wire (so that the TCP mode flies the very same flight,
+``tests/harness/test_external_autopilot.py``), and each vehicle's mixer decides saturation on its
+own (it was decided for the whole fleet, which coupled vehicles). Against the previous recording
+the calm Typhoons moved by at most 2.8 mm (float32 rounding); the mixed fleet by 1.2 cm and
+197 rad/s of rotor speed at spool-up, where the x500's saturation had been desaturating the
+Typhoons' outputs.
+
 Regenerate (only when behaviour is meant to change, and say so in the commit):
 ``python tests/harness/test_lockstep_golden.py --record``.
 """
