@@ -83,15 +83,23 @@ class FlightRecorder:
         self._next_s = t + 1.0 / self.rate_hz
         truth = self.sim.world.truth
         fleet = self.sim.fleet
-        n = fleet.n
-        est = fleet.estimator.position_ned_m
-        state = np.array(
-            [
-                (c.armed, int(c.main_mode), int(c.sub_mode), int(c.landed_state))
-                for c in fleet.commanders
-            ],
-            dtype=float,
-        )
+        n = truth.position_enu_m.shape[0]
+        if fleet is None:  # an external autopilot: its state is not visible here
+            est, state, thrust = (
+                np.full((n, 3), np.nan),
+                np.full((n, 4), np.nan),
+                np.full(n, np.nan),
+            )
+        else:
+            est = fleet.estimator.position_ned_m
+            state = np.array(
+                [
+                    (c.armed, int(c.main_mode), int(c.sub_mode), int(c.landed_state))
+                    for c in fleet.commanders
+                ],
+                dtype=float,
+            )
+            thrust = fleet.thrust
         block = np.column_stack(
             (
                 np.full(n, t),
@@ -106,7 +114,7 @@ class FlightRecorder:
                 truth.wind_enu_m_s,
                 est,
                 state,
-                fleet.thrust,
+                thrust,
                 np.full(n, time.time()),
                 truth.quaternion_xyzw,
             )

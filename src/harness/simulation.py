@@ -42,6 +42,7 @@ from harness.recorder import FlightRecorder
 from sitl.devices.camera_manager import CameraManager, CameraProtocol, JpegStore
 from sitl.devices.link_router import LinkRouter
 from sitl.devices.mjpeg_server import MjpegServer
+from sitl.hil_server import HIL_PORT_BASE, HilServer, HilServerConfig
 from sitl.links.shaper import MavlinkLinkShaper
 from sitl.physics.wind import WindConfig
 from sitl.sensors.camera import CameraFrame, CameraSpec
@@ -51,6 +52,10 @@ from sitl.world import World, WorldConfig
 log = logging.getLogger(__name__)
 
 _PAYLOAD = "-payload"
+INTERNAL = "internal"
+"""The autopilots run in this process; HIL messages are handed over in memory."""
+EXTERNAL = "external"
+"""The autopilots are other processes (PX4 SITL, HITL, ``swarmsitl autopilot``) on TCP 4560+i."""
 POSITION_HOOK_HZ = 10.0
 """Rate of the ``Simulation.on_positions`` hooks, Hz of simulation time."""
 PAYLOAD_STREAM_RATES_HZ: dict[str, float] = {
@@ -98,6 +103,10 @@ class PortPlan:
     payload_base: int = 14030
     """Port of vehicle 0's camera, where the payload link sends (PX4 SITL: 14030+i, the Gazebo
     camera's MAVLink port); 0: no payload link and no MAVLink camera."""
+    hil_base: int = HIL_PORT_BASE
+    """TCP port the simulator listens on for vehicle 0's external autopilot (+i; PX4's
+    simulator port 4560+i); used only with ``SimulationConfig.autopilot = "external"``; 0: the
+    OS picks."""
 
     def __post_init__(self) -> None:
         for name in (
@@ -108,6 +117,7 @@ class PortPlan:
             "video_base",
             "payload_listen_base",
             "payload_base",
+            "hil_base",
         ):
             if not 0 <= getattr(self, name) <= 65535:
                 raise ValueError(f"{name} must be 0..65535, got {getattr(self, name)}")
@@ -197,6 +207,12 @@ class SimulationConfig:
     router: LinkRouter | Callable[[], LinkRouter] | None = None
     """The paced UDP router of node messaging, or a factory of it, polled with the MAVLink
     links on the simulation clock (the simulation closes it); None: no router."""
+    autopilot: str = INTERNAL
+    """``internal``: one emulated autopilot per vehicle in this process, with its MAVLink links.
+    ``external``: the simulator listens on TCP ``ports.hil_base + i`` and speaks PX4's
+    simulator protocol (``sitl.hil_server``) with whatever autopilot connects (PX4 SITL, a
+    Pixhawk in HITL, ``swarmsitl autopilot``); that autopilot owns the MAVLink links, its
+    parameters and its failsafes, so ``mavlink``, ``params`` and link models do not apply."""
 
     def __post_init__(self) -> None:
         links = links_config(self.links_file)
@@ -221,6 +237,10 @@ class SimulationConfig:
                 )
             object.__setattr__(
                 self, "vehicle_params", tuple(check_params(p) for p in self.vehicle_params)
+            )
+        if self.autopilot not in (INTERNAL, EXTERNAL):
+            raise ValueError(
+                f"autopilot must be {INTERNAL!r} or {EXTERNAL!r}, got {self.autopilot!r}"
             )
         ratio = self.physics_hz / self.mavlink_poll_hz
         if abs(ratio - round(ratio)) > 1e-9 or ratio < 1:
@@ -301,25 +321,20 @@ class Simulation:
                 **config.world_overrides,
             )
         )
-        stores = [ParamStore() for _ in range(n)]
         self.airframe_params_skipped: set[str] = set()
         """Parameters of the airframes' ``px4`` sections this autopilot does not know (skipped)."""
-        for i, (store, spec) in enumerate(zip(stores, self.world.airframes, strict=True)):
-            self.airframe_params_skipped |= apply_airframe_params(store, spec)
-            if self.world.config.rangefinders:
-                apply_rangefinder_params(store, spec)
-            for name, value in config.params.items():
-                store.set(name, value)
-            for name, value in (config.vehicle_params[i] if config.vehicle_params else {}).items():
-                store.set(name, value)
-        if self.airframe_params_skipped:
-            log.warning(
-                "airframe parameters unknown to the autopilot, not set: %s",
-                ", ".join(sorted(self.airframe_params_skipped)),
-            )
-        self.fleet = AutopilotFleet(FleetConfig(n_vehicles=n), params=stores)
-        for i, p in enumerate(self.fleet.params):
-            p.set("MAV_SYS_ID", i + 1)
+        self.fleet: AutopilotFleet | None = None
+        """The in-process autopilots (None with an external autopilot)."""
+        self.hil: HilServer | None = None
+        """The simulator's TCP side of PX4's simulator protocol (external autopilot only)."""
+        if config.autopilot == EXTERNAL:
+            try:
+                self._external_init()
+            except BaseException:
+                self.world.close()
+                raise
+        else:
+            self._internal_init()
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
         self.shapers: dict[tuple[int, str], MavlinkLinkShaper] = {}
@@ -337,7 +352,7 @@ class Simulation:
         if config.out_dir is not None:
             config.out_dir.mkdir(parents=True, exist_ok=True)
         try:
-            if config.mavlink:
+            if config.mavlink and self.fleet is not None:
                 for i in range(n):
                     self.endpoints.extend(self._links(i))
         except BaseException:
@@ -391,6 +406,44 @@ class Simulation:
         self._closed = False
         self.phase_seconds: dict[str, float] | None = None
         """Wall seconds per phase of ``step`` once ``time_phases()`` was called."""
+
+    def _internal_init(self) -> None:
+        """One emulated autopilot per vehicle, with the airframes' and the config's parameters."""
+        config, n = self.config, self.config.n_vehicles
+        stores = [ParamStore() for _ in range(n)]
+        for i, (store, spec) in enumerate(zip(stores, self.world.airframes, strict=True)):
+            self.airframe_params_skipped |= apply_airframe_params(store, spec)
+            if self.world.config.rangefinders:
+                apply_rangefinder_params(store, spec)
+            for name, value in config.params.items():
+                store.set(name, value)
+            for name, value in (config.vehicle_params[i] if config.vehicle_params else {}).items():
+                store.set(name, value)
+        if self.airframe_params_skipped:
+            log.warning(
+                "airframe parameters unknown to the autopilot, not set: %s",
+                ", ".join(sorted(self.airframe_params_skipped)),
+            )
+        self.fleet = AutopilotFleet(FleetConfig(n_vehicles=n), params=stores)
+        for i, p in enumerate(self.fleet.params):
+            p.set("MAV_SYS_ID", i + 1)
+
+    def _external_init(self) -> None:
+        """Listen for the external autopilots on TCP (PX4's simulator protocol)."""
+        config = self.config
+        if config.params or config.vehicle_params:
+            log.warning(
+                "external autopilot: parameters are the autopilot's own, not applied here: %s",
+                ", ".join(sorted({*config.params, *(k for p in config.vehicle_params for k in p)})),
+            )
+        self.hil = HilServer(
+            HilServerConfig(
+                n_vehicles=config.n_vehicles,
+                bind_addr=config.ports.bind_addr,
+                port_base=config.ports.hil_base,
+            ),
+            lambda: self.world.time_s,
+        )
 
     def _links(self, i: int) -> list[MavlinkEndpoint]:
         """Vehicle i's MAVLink links, as PX4 SITL: onboard first, then the ground station's."""
@@ -557,6 +610,9 @@ class Simulation:
         if self.phase_seconds is not None:
             self._step_timed()
             return
+        if self.hil is not None:
+            self._step_external()
+            return
         self.world.step(self._actuators)
         self._actuators = None  # None: the world keeps every command
         sensors, gps = self.world.poll_sensors()
@@ -580,6 +636,41 @@ class Simulation:
             self._poll_links(self.world.time_s)
         if self.recorder is not None:
             self.recorder.maybe_record()
+
+    def _step_external(self) -> None:
+        """``step`` with the autopilots across TCP: the same data path, in the same order."""
+        hil = self.hil
+        world = self.world
+        world.step(self._actuators)
+        sensors, gps = world.poll_sensors()
+        if gps is not None:
+            hil.send_gps(gps)
+        if sensors is not None:
+            hil.send_sensors(sensors)
+        if self.mocap is not None:
+            self.mocap.publish(world.poll_mocap())
+        frames = world.poll_cameras()
+        if frames is not None:
+            self._on_frames(frames)
+        battery = world.poll_battery()
+        if battery is not None:
+            hil.send_battery(battery)
+        ranges = world.poll_rangefinders()
+        if ranges is not None:
+            hil.send_distance_sensors(ranges)
+        hil.send_state(world.time_s, lambda: world.truth)
+        self._actuators = hil.actuators()  # lockstep: waits for the replies to HIL_SENSOR
+        self._step_count += 1
+        if self.router and self._step_count % self._poll_every == 0:
+            self._poll_links(world.time_s)
+        if self.recorder is not None:
+            self.recorder.maybe_record()
+
+    def wait_for_autopilots(
+        self, should_stop: Callable[[], bool] = lambda: False, timeout_s: float | None = None
+    ) -> bool:
+        """With an external autopilot: block until every vehicle's has connected (else True)."""
+        return True if self.hil is None else self.hil.wait_for_autopilots(should_stop, timeout_s)
 
     def _poll_links(self, now_s: float) -> None:
         """Poll every MAVLink link; only those whose socket has data read it."""
@@ -703,6 +794,8 @@ class Simulation:
         if getattr(self, "_closed", False):
             return
         self._closed = True
+        if getattr(self, "hil", None) is not None:
+            self.hil.close()
         for ep in self.endpoints:
             try:
                 ep.close()
