@@ -18,7 +18,7 @@ import logging
 import select
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from autopilot_emu.fleet import AutopilotFleet, FleetConfig
@@ -40,11 +40,11 @@ class ExternalAutopilotConfig:
 
     instance: int = 0
     """PX4's instance number: system id instance+1, ports base+instance."""
-    simulator: SimulatorLinkConfig = SimulatorLinkConfig()
+    simulator: SimulatorLinkConfig = field(default_factory=SimulatorLinkConfig)
     frame: str = "typhoon_h480"
     """Airframe whose parameters the autopilot starts with (PX4's SYS_AUTOSTART): a
     ``sitl/vehicles`` folder name or an airframe folder path; it must match the simulator's."""
-    ports: PortPlan = PortPlan()
+    ports: PortPlan = field(default_factory=PortPlan)
     """The MAVLink ports (onboard and ground-station links; the HIL and camera fields unused)."""
     out_dir: Path | None = None
     """Where the links' tlogs and the FTP root go; None: no tlogs, FTP off."""
