@@ -93,6 +93,7 @@ def test_ctrl_c_saves_what_a_client_set_over_mavlink(tmp_path):
     client_params.params holds it (and the tlog and truth.csv are written as always)."""
     out = tmp_path / "run"
     errors: list[BaseException] = []
+    up_returned = threading.Event()
 
     def client() -> None:
         try:
@@ -105,7 +106,7 @@ def test_ctrl_c_saves_what_a_client_set_over_mavlink(tmp_path):
                     1, 1, b"RTL_RETURN_ALT", value, MAV_PARAM_TYPE_REAL32
                 )
                 deadline = time.monotonic() + 60.0
-                while time.monotonic() < deadline:
+                while time.monotonic() < deadline and not up_returned.is_set():
                     sock.sendto(msg.pack(mav), ("127.0.0.1", UP_PORT))
                     try:
                         data = sock.recv(65535)
@@ -118,7 +119,8 @@ def test_ctrl_c_saves_what_a_client_set_over_mavlink(tmp_path):
         except BaseException as exc:
             errors.append(exc)
         finally:
-            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C
+            if not up_returned.is_set():  # up still runs (its handler notes the signal)
+                os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C
 
     args = ["up", "--duration", "600", "--gcs-port", "0", "--no-camera", "--out", str(out)]
     args += ["--listen-port", str(UP_PORT), "--sdk-port", str(UP_SDK_PORT)]
@@ -127,6 +129,7 @@ def test_ctrl_c_saves_what_a_client_set_over_mavlink(tmp_path):
     try:
         result = CliRunner().invoke(app, args)
     finally:
+        up_returned.set()
         thread.join()
     assert not errors, errors
     assert result.exit_code == 0, result.output

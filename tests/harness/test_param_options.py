@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from autopilot_emu.param_file import ParamFileError, parse_param_file
@@ -23,9 +25,9 @@ def _file(tmp_path, name, rows):
 
 
 def test_option_forms():
-    assert parse_params_option("a.params") == (None, parse_params_option("a.params")[1])
-    assert parse_params_option("2=a.params")[0] == 2
-    assert parse_params_option("ALL=a.params")[0] == "all"
+    assert parse_params_option("a.params") == (None, Path("a.params"))
+    assert parse_params_option("2=a.params") == (2, Path("a.params"))
+    assert parse_params_option("ALL=a.params") == ("all", Path("a.params"))
     target, path = parse_params_option("runs/x=1/a.params")  # '=' inside a path
     assert target is None and str(path) == "runs/x=1/a.params"
 
