@@ -214,6 +214,7 @@ class ParamStore:
         self._values: dict[str, ParamValue] = {spec.name: spec.default for spec in self._specs}
         self._version = 0
         self._floats: dict[str, float] | None = None
+        self._client_set: set[str] = set()
         for name, value in (overrides or {}).items():
             self.set(name, value)
         self._version = 0
@@ -291,6 +292,24 @@ class ParamStore:
             self._version += 1
             self._floats = None
         return stored
+
+    def set_from_client(self, name: str, value: ParamValue) -> ParamValue:
+        """:meth:`set` on behalf of a MAVLink client (PARAM_SET); the name joins :attr:`client_set`.
+
+        Raises:
+            ParamError: as :meth:`set` (nothing is noted then).
+        """
+        stored = self.set(name, value)
+        self._client_set.add(name)
+        return stored
+
+    @property
+    def client_set(self) -> tuple[str, ...]:
+        """Names MAVLink clients set (:meth:`set_from_client`), in param_index order.
+
+        What a run saves on exit, so that the next one can start from them.
+        """
+        return tuple(name for name in self._names if name in self._client_set)
 
 
 def param_column(stores: list[ParamStore], name: str, scale: float = 1.0) -> np.ndarray:

@@ -23,6 +23,8 @@ from harness.link_options import NO_LINK, check_link_model, describe, links_conf
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun, parse_roles
+from harness.param_options import CLIENT_PARAMS_FILE, PARAMS_HELP
+from harness.params_cli import load_params_or_exit, params_app, print_params_load
 from harness.replay_cli import replay
 from harness.run_cli import GrpcPort, ListenPort, Out, PayloadPort, SdkPort, Seed, Speed, run
 from harness.scenarios import scenario_path
@@ -419,6 +421,9 @@ def up(
             "world's: helideck, land_base, safe_point, start, agent_start_<i>]",
         ),
     ] = None,
+    params: Annotated[
+        list[str] | None, typer.Option(metavar="[SYSID=|all=]FILE", help=PARAMS_HELP)
+    ] = None,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -457,6 +462,9 @@ def up(
 
     Example:  swarmsitl up -n 2 --lockstep --out runs/ci   (as fast as possible; companions:
     SWARMSITL_CLOCK_FILE=runs/ci/clock python my_companion.py, waits via companion.clock)
+
+    Example:  swarmsitl up -n 3 --params all=tuning.params   (a QGroundControl file, every
+    vehicle; what clients set goes to RUN/client_params.params, which --params takes back)
     """
     frames = parse_frames(frame, vehicles)
     link = parse_link_model(link, "--link", links)
@@ -484,6 +492,7 @@ def up(
             f"--mocap {mocap:g}: must be 0 or divide the {physics_hz:g} Hz physics rate"
         )
     setup = world_options(world, launch_area, vehicles, spacing)
+    params_load = load_params_or_exit(params, vehicles)
     run_dir = out or default_run_dir()
     net_run = None
     if roles is not None:
@@ -519,6 +528,7 @@ def up(
         if wind_given or setup is None
         else setup.wind,
         params=setup.params if setup is not None else {},
+        vehicle_params=params_load.vehicle_params if params_load is not None else (),
         world_overrides={
             **(world_overrides(setup, explicit_mocap=mocap > 0) if setup is not None else {}),
             **({"cameras": True, "camera": camera_spec} if camera else {}),
@@ -578,6 +588,7 @@ def up(
         )
     if setup is not None:
         print_world(setup, world, cfg, sim)
+    print_params_load(params_load)
     for i, (uri, spec) in enumerate(zip(sim.video_uris, sim.world.camera_specs, strict=True)):
         if uri is not None and spec is not None:
             console.print(
@@ -681,6 +692,14 @@ def up(
         f"stopped at t = {sim.time_s:.1f} s simulated ({sim.time_s / wall:.2f}x real time "
         f"achieved, {'lockstep' if lockstep else f'{speed:g}x asked'}); tlogs in {run_dir}"
     )
+    client_set = sum(len(p.client_set) for p in sim.fleet.params)
+    if client_set:
+        console.print(
+            f"{client_set} parameter(s) set by clients saved to {run_dir / CLIENT_PARAMS_FILE} "
+            "(--params takes them back)",
+            markup=False,
+            highlight=False,
+        )
 
 
 @app.command()
@@ -822,6 +841,7 @@ app.command("run")(run)
 app.command("cloud")(cloud)
 app.command("replay")(replay)
 app.command("net-demo")(net_demo)
+app.add_typer(params_app, name="params")
 
 
 def main() -> None:

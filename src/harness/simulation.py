@@ -38,6 +38,7 @@ from harness.link_options import (
     mavlink_shaper,
 )
 from harness.mocap_publisher import MocapPublisher
+from harness.param_options import save_client_params
 from harness.recorder import FlightRecorder
 from sitl.devices.camera_manager import CameraManager, CameraProtocol, JpegStore
 from sitl.devices.link_router import LinkRouter
@@ -813,6 +814,8 @@ class Simulation:
                 camera.close()
         if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
             self.recorder.write_csv(self.config.out_dir / "truth.csv")
+        if self.config.out_dir is not None:  # last: a failure here costs no other output
+            save_client_params(self.config.out_dir, self.fleet.params)
         if self._scratch is not None:
             self._scratch.cleanup()
         self.world.close()

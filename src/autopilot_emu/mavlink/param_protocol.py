@@ -111,7 +111,7 @@ class ParamProtocol:
                     PARAM_ERROR_TYPE_MISMATCH,
                     f"{name} has MAV_PARAM_TYPE {stored_type}, PARAM_SET sent {msg.param_type}",
                 )
-            self._params.set(name, decode_param_value(msg.param_value, stored_type))
+            self._params.set_from_client(name, decode_param_value(msg.param_value, stored_type))
         except ParamError as error:
             self._error(source, name, -1, error)
             return

@@ -157,3 +157,16 @@ def test_sixteen_character_names_work(client, endpoint, vehicle):
     assert "COM_DISARM_PRFLT" in vehicle.params.names and len("COM_DISARM_PRFLT") == 16
     reply = _read(client, endpoint, "COM_DISARM_PRFLT")
     assert (reply.param_id, reply.param_value) == ("COM_DISARM_PRFLT", 10.0)
+
+
+def test_a_client_set_is_noted_for_saving_and_a_refused_one_is_not(client, endpoint, vehicle):
+    """PARAM_SET that stores a value puts the name in client_set (what a run saves on exit);
+    refused sets (range, type) and the autopilot's own writes do not."""
+    _set(client, endpoint, "MIS_TAKEOFF_ALT", 7.5, MAV_PARAM_TYPE_REAL32)
+    _set(client, endpoint, "RTL_RETURN_ALT", 1000.0, MAV_PARAM_TYPE_REAL32)  # out of range
+    _set(client, endpoint, "SYS_AUTOSTART", 4001.0, MAV_PARAM_TYPE_REAL32)  # wrong type
+    _set(client, endpoint, "BAT1_N_CELLS", 6, MAV_PARAM_TYPE_INT32)
+    vehicle.params.set("EKF2_MAG_DECL", 3.0)
+    assert vehicle.params.client_set == tuple(
+        sorted(("MIS_TAKEOFF_ALT", "BAT1_N_CELLS"), key=vehicle.params.index_of)
+    )
