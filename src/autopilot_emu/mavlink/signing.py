@@ -77,6 +77,7 @@ UNSIGNED_ACCEPTED = frozenset(
 REJECT_LOG_INTERVAL_S = 10.0
 """A link logs rejected frames at most once per this many wall seconds (with a count)."""
 
+_sha256 = hashlib.sha256
 _MAGIC_V2 = 0xFD
 _MAGIC_V1 = 0xFE
 
@@ -130,9 +131,13 @@ def load_key_file(path: Path) -> bytes:
     return parse_key(data, str(path))
 
 
-def timestamp_now(unix_time_s: float) -> int:
-    """The signing timestamp of Unix time ``unix_time_s``, 10 us units since 2015."""
-    return max(0, int((unix_time_s - EPOCH_2015_UNIX_S) * TIMESTAMP_UNITS_PER_S))
+_NS_PER_UNIT = 1_000_000_000 // TIMESTAMP_UNITS_PER_S
+_EPOCH_2015_UNITS = EPOCH_2015_UNIX_S * TIMESTAMP_UNITS_PER_S
+
+
+def timestamp_now(unix_time_ns: int) -> int:
+    """The signing timestamp of Unix time ``unix_time_ns``, 10 us units since 2015."""
+    return max(0, unix_time_ns // _NS_PER_UNIT - _EPOCH_2015_UNITS)
 
 
 class Verdict(Enum):
@@ -182,33 +187,35 @@ class LinkSigner:
 
     Args:
         streams: the vehicle's shared signing state (key, streams).
-        unix_time_s: wall clock of the timestamps (injectable for tests).
+        unix_time_ns: wall clock of the timestamps, Unix ns (injectable for tests).
         monotonic_s: clock of the rate limit of rejection log lines.
     """
 
     def __init__(
         self,
         streams: SigningStreams,
-        unix_time_s: Callable[[], float] = time.time,
+        unix_time_ns: Callable[[], int] = time.time_ns,
         monotonic_s: Callable[[], float] = time.monotonic,
     ) -> None:
         self._streams = streams
         self._key = streams.key
         self.link_id = streams.new_link_id()
         self._link_id_byte = bytes((self.link_id,))
-        self._unix_time_s = unix_time_s
+        self._unix_time_ns = unix_time_ns
         self._monotonic_s = monotonic_s
-        self.timestamp = timestamp_now(unix_time_s())
+        self.timestamp = timestamp_now(unix_time_ns())
         """The newest timestamp this link signed with or accepted, 10 us units since 2015."""
         self._next_log_s = -float("inf")
         self._unlogged = 0
 
     def sign(self, frame: bytes) -> bytes:
         """``frame`` (MAVLink 2, incompat flag 0x01 set before its CRC) with its signature."""
-        timestamp = max(self.timestamp + 1, timestamp_now(self._unix_time_s()))
+        timestamp = self._unix_time_ns() // _NS_PER_UNIT - _EPOCH_2015_UNITS
+        if timestamp <= self.timestamp:
+            timestamp = self.timestamp + 1
         self.timestamp = timestamp
         signed = frame + self._link_id_byte + timestamp.to_bytes(6, "little")
-        return signed + hashlib.sha256(self._key + signed).digest()[:6]
+        return signed + _sha256(self._key + signed).digest()[:6]
 
     def encode(self, message: mavlink2.MAVLink_message, seq: int, sysid: int, compid: int) -> bytes:
         """:func:`framing.encode`, signed."""

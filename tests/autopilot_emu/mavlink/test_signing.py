@@ -106,8 +106,8 @@ def test_missing_key_file_is_a_signing_key_error(tmp_path):
 
 def test_outgoing_timestamps_are_monotonic_and_never_behind_the_latest_accepted():
     """Same wall-clock instant: +1 per frame; a newer accepted timestamp moves the next up."""
-    now_s = EPOCH_2015_UNIX_S + 1000.0
-    signer = LinkSigner(SigningStreams(KEY), unix_time_s=lambda: now_s)
+    now_ns = (EPOCH_2015_UNIX_S + 1000) * 10**9
+    signer = LinkSigner(SigningStreams(KEY), unix_time_ns=lambda: now_ns)
     fmt = framing.fields_format(mavlink2.MAVLINK_MSG_ID_HEARTBEAT)
     values = (0, 2, 12, 0, 0, 3)
 
@@ -350,7 +350,7 @@ def test_relayed_frames_keep_their_senders_signature():
 def test_signature_matches_the_mavlink_definition():
     """SHA-256 over key, header, payload, CRC, link id and timestamp; first 6 bytes."""
     streams_ = SigningStreams(KEY)
-    signer = LinkSigner(streams_, unix_time_s=lambda: EPOCH_2015_UNIX_S + 5.0)
+    signer = LinkSigner(streams_, unix_time_ns=lambda: (EPOCH_2015_UNIX_S + 5) * 10**9)
     message = mavlink2.MAVLink_ping_message(1, 2, 0, 0)
     frame = signer.encode(message, 3, 1, 1)
     unsigned = frame[:-SIGNATURE_BYTES]
