@@ -607,7 +607,8 @@ def up(
         console.print(
             "MAVLink 2 signing: every link signs its frames and accepts only frames signed with "
             f"the key of {escape(str(signing_key_file)) if signing_key_file else 'the passphrase'}"
-            " (unsigned RADIO_STATUS, ADSB_VEHICLE, COLLISION excepted, as PX4)"
+            " (unsigned RADIO_STATUS, ADSB_VEHICLE, COLLISION excepted, as PX4); clients must "
+            "sign with it (pymavlink: setup_signing; MAVSDK cannot sign, its commands are dropped)"
         )
     if sim.mocap is not None:
         console.print(
