@@ -7,6 +7,8 @@ import logging
 import time
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from mavlink_fakes import FakeVehicle, MavClient, command_long, has, make_endpoint
 from pymavlink.dialects.v20 import common as mavlink2
 
@@ -358,6 +360,43 @@ def test_signature_matches_the_mavlink_definition():
     assert frame[-13] == signer.link_id == 0
     assert int.from_bytes(frame[-12:-6], "little") == 500_001
     assert frame[-6:] == hashlib.sha256(KEY + frame[:-6]).digest()[:6]
+
+
+def test_mangled_signed_frames_never_raise_and_never_get_through(signed_client):
+    """Any byte changed or cut in a signed command: dropped and counted, never an exception."""
+    vehicle = FakeVehicle()
+    template = command_long(ARM, 1)
+
+    with make_endpoint(vehicle, stream_rates_hz={"HEARTBEAT": 0}, signing_key=KEY) as endpoint:
+
+        @settings(
+            max_examples=150,
+            deadline=None,
+            database=None,
+            derandomize=True,
+            suppress_health_check=[HealthCheck.function_scoped_fixture],
+        )
+        @given(st.integers(0, 10_000), st.integers(1, 255), st.integers(0, 60))
+        def mangle(position: int, flip: int, cut: int) -> None:
+            frame = bytearray(template.pack(signed_client.mav))
+            frame[position % len(frame)] ^= flip
+            data = bytes(frame[: len(frame) - cut] if cut < len(frame) else frame)
+            received = endpoint.stats.datagrams_received
+            signed_client.send_raw(endpoint, data)
+            _poll_until(endpoint, lambda: endpoint.stats.datagrams_received > received)
+
+        mangle()
+        assert endpoint.stats.commands_handled == 0
+        assert endpoint.stats.handler_errors == 0
+        rejected = (
+            endpoint.stats.parse_errors
+            + endpoint.stats.frames_bad_signature
+            + endpoint.stats.frames_unsigned_rejected
+            + endpoint.stats.frames_replay_rejected
+            + endpoint.stats.unknown_messages
+        )
+        assert rejected >= endpoint.stats.datagrams_received == 150
+    assert _arm_calls(vehicle) == 0
 
 
 def _wait_for(condition, max_wait_s: float = 5.0) -> None:
