@@ -28,6 +28,12 @@ from harness.params_cli import load_params_or_exit, params_app, print_params_loa
 from harness.replay_cli import replay
 from harness.run_cli import GrpcPort, ListenPort, Out, PayloadPort, SdkPort, Seed, Speed, run
 from harness.scenarios import scenario_path
+from harness.signing_options import (
+    SIGNING_KEY_HELP,
+    SIGNING_PASSPHRASE_HELP,
+    signing_key,
+    unauthenticated_warning,
+)
 from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from harness.wind_options import (
@@ -253,7 +259,21 @@ def up(
             "simulation time from RUN/clock (SWARMSITL_CLOCK_FILE, companion.clock)",
         ),
     ] = False,
-    bind: Annotated[str, typer.Option(help="address the vehicles listen on")] = "127.0.0.1",
+    bind: Annotated[
+        str,
+        typer.Option(
+            help="address the vehicles listen on; anything but loopback exposes them to the "
+            "network, so add --signing-key (e.g. --bind 0.0.0.0 --signing-key key.hex)"
+        ),
+    ] = "127.0.0.1",
+    signing_key_file: Annotated[
+        Path | None,
+        typer.Option("--signing-key", metavar="FILE", dir_okay=False, help=SIGNING_KEY_HELP),
+    ] = None,
+    signing_passphrase: Annotated[
+        str | None,
+        typer.Option(metavar="TEXT", help=SIGNING_PASSPHRASE_HELP),
+    ] = None,
     sdk_port: Annotated[
         int, typer.Option(help="onboard link: MAVSDK port of vehicle 0 (+i)")
     ] = 14540,
@@ -465,7 +485,18 @@ def up(
 
     Example:  swarmsitl up -n 3 --params all=tuning.params   (a QGroundControl file, every
     vehicle; what clients set goes to RUN/client_params.params, which --params takes back)
+
+    Example:  swarmsitl up --bind 0.0.0.0 --signing-key key.hex   (MAVLink 2 signing on every
+    link; key.hex from: openssl rand -hex 32 > key.hex)
     """
+    try:
+        key = signing_key(signing_key_file, signing_passphrase)
+    except ValueError as exc:
+        console.print(f"[red]error:[/red] {escape(str(exc))}")
+        raise typer.Exit(2) from exc
+    exposed = unauthenticated_warning(bind, key)
+    if exposed is not None:
+        console.print(f"[yellow]warning:[/yellow] {escape(exposed)}")
     frames = parse_frames(frame, vehicles)
     link = parse_link_model(link, "--link", links)
     gcs_link = parse_link_model(gcs_link, "--gcs-link", links)
@@ -545,6 +576,7 @@ def up(
         gcs_link=gcs_link,
         links_file=links,
         router=net_run.router if net_run is not None else None,
+        signing_key=key,
     )
     sim = open_simulation(cfg)
     table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
@@ -581,6 +613,13 @@ def up(
             f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
         )
     console.print(table)
+    if key is not None:
+        console.print(
+            "MAVLink 2 signing: every link signs its frames and accepts only frames signed with "
+            f"the key of {escape(str(signing_key_file)) if signing_key_file else 'the passphrase'}"
+            " (unsigned RADIO_STATUS, ADSB_VEHICLE, COLLISION excepted, as PX4); clients must "
+            "sign with it (pymavlink: setup_signing; MAVSDK cannot sign, its commands are dropped)"
+        )
     if sim.mocap is not None:
         console.print(
             f"motion capture: {sim.world.config.mocap_hz:g} Hz, vehicle i's poses to udp "

@@ -214,6 +214,10 @@ class SimulationConfig:
     simulator protocol (``sitl.hil_server``) with whatever autopilot connects (PX4 SITL, a
     Pixhawk in HITL, ``swarmsitl autopilot``); that autopilot owns the MAVLink links, its
     parameters and its failsafes, so ``mavlink``, ``params`` and link models do not apply."""
+    signing_key: bytes | None = None
+    """MAVLink 2 signing key (32 bytes) of every vehicle link: each signs what it sends and
+    handles only correctly signed frames (``autopilot_emu.mavlink.signing``; the MAVLink
+    cameras sign too); None: no signing."""
 
     def __post_init__(self) -> None:
         links = links_config(self.links_file)
@@ -226,6 +230,8 @@ class SimulationConfig:
                 f"frames: give one airframe for all vehicles or one per vehicle "
                 f"({self.n_vehicles}), got {self.frames!r}"
             )
+        if self.signing_key is not None and len(self.signing_key) != 32:
+            raise ValueError(f"signing_key must have 32 bytes, got {len(self.signing_key)}")
         if "airframe" in self.world_overrides:
             raise ValueError("set the airframe with frames, not world_overrides")
         if self.params:
@@ -501,6 +507,7 @@ class Simulation:
                     )
                     if model != NO_LINK
                     else 0.0,
+                    signing_key=self.config.signing_key,
                 )
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
                 if payload:
@@ -546,7 +553,11 @@ class Simulation:
         ports = self.config.ports
         link = self._payload_links[i]
         return CameraManager(
-            protocol, ports.bind_addr, ports.payload_port(i), link.local_address[1]
+            protocol,
+            ports.bind_addr,
+            ports.payload_port(i),
+            link.local_address[1],
+            signing_key=self.config.signing_key,
         )
 
     def _video_server(self, i: int) -> MjpegServer:

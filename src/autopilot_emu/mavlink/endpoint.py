@@ -19,7 +19,10 @@ PX4 does. Frames for or from the vehicle's other components (a camera) are relay
 links (:mod:`autopilot_emu.mavlink.forwarding`). Malformed input is counted in
 :attr:`MavlinkEndpoint.stats` and logged, never raised; errors while sending are counted and
 otherwise ignored. With a :class:`~autopilot_emu.mavlink.shaping.LinkShaper` in the config, both
-directions are held until the modelled link (a UART, a radio) delivers them.
+directions are held until the modelled link (a UART, a radio) delivers them. With a signing key
+in the config the link signs every frame it sends and handles only correctly signed frames
+(:mod:`autopilot_emu.mavlink.signing`); frames relayed from the vehicle's other links pass
+verbatim, signature included, as PX4 relays them.
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ from autopilot_emu.mavlink.setpoints import (
     decode_local,
 )
 from autopilot_emu.mavlink.shaping import LinkShaper
+from autopilot_emu.mavlink.signing import KEY_BYTES, LinkSigner, Verdict
 from autopilot_emu.mavlink.streams import (
     STREAMABLE,
     StreamProfile,
@@ -170,6 +174,9 @@ class EndpointConfig:
     """The modelled link (UART, radio) this endpoint's traffic crosses: every frame sent and
     every datagram received is held until the shaper says it arrived (see
     :mod:`autopilot_emu.mavlink.shaping`); None: sent and handled at once."""
+    signing_key: bytes | None = None
+    """MAVLink 2 signing key (32 bytes): sign every frame sent, handle only correctly signed
+    frames (:mod:`autopilot_emu.mavlink.signing`); None: no signing, every frame handled."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255 or not 1 <= self.compid <= 255:
@@ -180,6 +187,10 @@ class EndpointConfig:
             raise ValueError(f"gps_rate_hz must be positive, got {self.gps_rate_hz}")
         if not self.datarate_bytes_s >= 0:
             raise ValueError(f"datarate_bytes_s must be >= 0, got {self.datarate_bytes_s}")
+        if self.signing_key is not None and len(self.signing_key) != KEY_BYTES:
+            raise ValueError(
+                f"signing_key must have {KEY_BYTES} bytes, got {len(self.signing_key)}"
+            )
         if not self.distance_sensor_rate_hz >= 0:
             raise ValueError(
                 f"distance_sensor_rate_hz must be >= 0, got {self.distance_sensor_rate_hz}"
@@ -224,6 +235,14 @@ class EndpointStats:
     """Exceptions raised while handling a received message."""
     encode_errors: int = 0
     """Exceptions raised while building or packing an outgoing message."""
+    frames_unsigned_rejected: int = 0
+    """Signed link: unsigned frames (and MAVLink 1 frames) dropped unhandled."""
+    frames_bad_signature: int = 0
+    """Signed link: frames whose signature does not verify (another key), dropped."""
+    frames_replay_rejected: int = 0
+    """Signed link: correctly signed frames with an old timestamp (replays), dropped."""
+    frames_unsigned_accepted: int = 0
+    """Signed link: unsigned RADIO_STATUS / ADSB_VEHICLE / COLLISION, handled (as PX4)."""
 
 
 def _resolve(host: str, port: int) -> tuple[str, int]:
@@ -272,6 +291,15 @@ class MavlinkEndpoint:
         self._mav.robust_parsing = True
         self._seq = 0
         """Sequence number of the next frame sent."""
+        self._signer = (
+            LinkSigner(self._hub.signing(config.signing_key))
+            if config.signing_key is not None
+            else None
+        )
+        self._encode = framing.encode if self._signer is None else self._signer.encode
+        self._encode_fields = (
+            framing.encode_fields if self._signer is None else self._signer.encode_fields
+        )
         self._context = messages.MessageContext(
             sysid=config.sysid,
             params=vehicle.params,
@@ -543,7 +571,7 @@ class MavlinkEndpoint:
         """Frame ``message`` with our ids and the next sequence number; send it to every peer."""
         config = self._config
         try:
-            frame = framing.encode(message, self._seq, config.sysid, config.compid)
+            frame = self._encode(message, self._seq, config.sysid, config.compid)
         except Exception:
             self.stats.encode_errors += 1
             logger.exception("cannot pack %s", message.get_type())
@@ -569,7 +597,7 @@ class MavlinkEndpoint:
             values = fields(snapshot, self._context)
             if values is None:
                 return
-            frame = framing.encode_fields(fmt, values, self._seq, config.sysid, config.compid)
+            frame = self._encode_fields(fmt, values, self._seq, config.sysid, config.compid)
         except Exception:
             self.stats.encode_errors += 1
             logger.exception("cannot build message %d", msg_id)
@@ -725,11 +753,14 @@ class MavlinkEndpoint:
             parser.buf_index = 0
             parser.expected_length = mavlink2.HEADER_LEN_V1 + 2
         learned = False
+        signer = self._signer
         for msg in frames:
             msg_id = msg.get_msgId()
             if msg_id == mavlink2.MAVLINK_MSG_ID_BAD_DATA:
                 self.stats.parse_errors += 1
                 logger.debug("bad data from %s: %s", address, getattr(msg, "reason", ""))
+                continue
+            if signer is not None and not self._admit(signer, msg, address):
                 continue
             self.stats.frames_received += 1
             if msg_id == mavlink2.MAVLINK_MSG_ID_UNKNOWN:
@@ -758,6 +789,30 @@ class MavlinkEndpoint:
                 self.stats.handler_errors += 1
                 logger.exception("error handling %s from %s", msg.get_type(), address)
             self._hub.touched()
+
+    def _admit(
+        self, signer: LinkSigner, msg: mavlink2.MAVLink_message, address: tuple[str, int]
+    ) -> bool:
+        """Signed link: whether to handle ``msg``; rejections counted and logged (rate-limited).
+
+        A rejected frame is not handled, logged to the tlog, forwarded, nor does its sender
+        become a peer.
+        """
+        verdict = signer.check(msg.get_msgbuf())
+        if verdict is Verdict.SIGNED:
+            return True
+        stats = self.stats
+        if verdict is Verdict.UNSIGNED_ALLOWED:
+            stats.frames_unsigned_accepted += 1
+            return True
+        if verdict is Verdict.UNSIGNED:
+            stats.frames_unsigned_rejected += 1
+        elif verdict is Verdict.BAD_SIGNATURE:
+            stats.frames_bad_signature += 1
+        else:
+            stats.frames_replay_rejected += 1
+        signer.log_rejection(verdict, msg.get_type(), address)
+        return False
 
     def _learn_peer(self, address: tuple[str, int]) -> None:
         peer = (address[0], address[1])

@@ -20,6 +20,13 @@ broadcasts of every system (a ground station's HEARTBEAT reaches MAVSDK, MAVSDK'
 ground station); here the ground stations and SDKs of different links never see each other,
 which keeps each client's view of the network what it would be on a direct link to the vehicle.
 Broadcasts from other systems (target_component 0) are therefore not forwarded either.
+SETUP_SIGNING is never forwarded (the MAVLink signing spec; PX4's ``handle_message``).
+
+On signed links (:mod:`autopilot_emu.mavlink.signing`) a relayed frame keeps its sender's
+signature: PX4 resends the received message as it is (``_mavlink_resend_uart``), it does not
+re-sign. Only frames a signed link accepted are relayed, so they are signed with the vehicle's
+key, except the few PX4 accepts unsigned (RADIO_STATUS, ADSB_VEHICLE, COLLISION), which stay
+unsigned. A link without signing relays a signed frame with its signature too.
 """
 
 from __future__ import annotations
@@ -34,6 +41,8 @@ Relay = Callable[[bytes], None]
 
 def should_forward(msg: mavlink2.MAVLink_message, sysid: int, compid: int) -> bool:
     """Whether a frame received by the autopilot ``sysid``/``compid`` goes to its other links."""
+    if msg.get_msgId() == mavlink2.MAVLINK_MSG_ID_SETUP_SIGNING:
+        return False
     src_system = msg.get_srcSystem()
     target_system = getattr(msg, "target_system", 0)
     target_component = getattr(msg, "target_component", 0)

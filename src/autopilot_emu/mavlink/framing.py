@@ -9,8 +9,8 @@ read with one precomputed ``attrgetter`` per message class. :func:`encode_fields
 hot streams' field values directly (:data:`autopilot_emu.mavlink.messages.FIELDS`), without a
 pymavlink object at all.
 
-Frames are never signed: the endpoint does not sign (no SETUP_SIGNING), so incompat flags and
-compat flags are always 0, as pymavlink's when its ``signing`` is off.
+Compat flags are always 0. Incompat flags are 0, or 0x01 on a signed link: the flag is covered by
+the CRC, so it is set here and :mod:`autopilot_emu.mavlink.signing` appends the signature.
 """
 
 from __future__ import annotations
@@ -91,8 +91,12 @@ def _plan(cls: type) -> _Plan:
     return plan
 
 
-def encode(message: mavlink2.MAVLink_message, seq: int, sysid: int, compid: int) -> bytes:
-    """The MAVLink 2 frame of ``message`` (unsigned), byte for byte what pymavlink would send.
+def encode(
+    message: mavlink2.MAVLink_message, seq: int, sysid: int, compid: int, incompat_flags: int = 0
+) -> bytes:
+    """The MAVLink 2 frame of ``message``, byte for byte what pymavlink would send.
+
+    ``incompat_flags`` 0x01 marks a frame that will be signed (the signature is not added here).
 
     Raises:
         struct.error: a field does not fit its wire type (as pymavlink's ``pack``).
@@ -110,7 +114,15 @@ def encode(message: mavlink2.MAVLink_message, seq: int, sysid: int, compid: int)
     payload = plan.payload.pack(*values)
     payload = payload.rstrip(b"\x00") or payload[:1]  # MAVLink 2 truncation, >= 1 byte
     header = _HEADER.pack(
-        _MAGIC_V2, len(payload), 0, 0, seq, sysid, compid, plan.msg_id_low, plan.msg_id_high
+        _MAGIC_V2,
+        len(payload),
+        incompat_flags,
+        0,
+        seq,
+        sysid,
+        compid,
+        plan.msg_id_low,
+        plan.msg_id_high,
     )
     body = header[1:] + payload
     return header[:1] + body + _CRC.pack(_crc_from(plan.crc_extra, _crc_from(body, 0xFFFF)))
@@ -146,20 +158,24 @@ def fields_format(msg_id: int) -> FieldsFormat:
     )
 
 
-def encode_fields(fmt: FieldsFormat, values: tuple, seq: int, sysid: int, compid: int) -> bytes:
-    """The unsigned MAVLink 2 frame of a message given as wire-order field values.
+def encode_fields(
+    fmt: FieldsFormat, values: tuple, seq: int, sysid: int, compid: int, incompat_flags: int = 0
+) -> bytes:
+    """The MAVLink 2 frame of a message given as wire-order field values.
 
     Byte for byte what pymavlink sends for the message object with these values: payload with
     trailing zeros removed (at least one byte kept), CRC-16/MCRF4XX over the header after the
     magic byte and the payload, then the CRC extra (the CRC carried on from the body's, so the
-    body is not copied once more).
+    body is not copied once more). ``incompat_flags`` as in :func:`encode`.
 
     Raises:
         struct.error: a value does not fit its wire type, or the count is wrong.
     """
     payload = fmt.payload.pack(*values).rstrip(b"\x00") or b"\x00"  # MAVLink 2 truncation
     body = (
-        _BODY_HEADER.pack(len(payload), 0, 0, seq, sysid, compid, fmt.msg_id_low, fmt.msg_id_high)
+        _BODY_HEADER.pack(
+            len(payload), incompat_flags, 0, seq, sysid, compid, fmt.msg_id_low, fmt.msg_id_high
+        )
         + payload
     )
     return _MAGIC_V2_BYTE + body + _CRC.pack(_crc_from(fmt.crc_extra, _crc_from(body, 0xFFFF)))

@@ -16,6 +16,7 @@ from collections import deque
 from collections.abc import Callable
 
 from autopilot_emu.mavlink.forwarding import ForwardingGroup
+from autopilot_emu.mavlink.signing import SigningStreams
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
 from autopilot_emu.mission.camera_items import ComponentCommand
 
@@ -52,6 +53,19 @@ class LinkHub:
         self.forwarding = ForwardingGroup()
         """The links that relay frames for the vehicle's other components to each other."""
         self._command_queues: list[deque[ComponentCommand]] = []
+        self._signing: SigningStreams | None = None
+
+    def signing(self, key: bytes) -> SigningStreams:
+        """The signing state the vehicle's signed links share (created by the first one).
+
+        Raises:
+            ValueError: another link of the vehicle signs with another key.
+        """
+        if self._signing is None:
+            self._signing = SigningStreams(key)
+        elif self._signing.key != key:
+            raise ValueError("the links of one vehicle must share one signing key")
+        return self._signing
 
     # --- telemetry -------------------------------------------------------------------------
 

@@ -41,6 +41,7 @@ import logging
 import math
 import shutil
 import socket
+import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
@@ -557,6 +558,10 @@ class _UdpWriter:
             self.send_errors += 1
 
 
+_SIGNING_EPOCH_UNIX_S = 1_420_070_400
+"""2015-01-01 00:00 UTC: MAVLink 2 signing timestamps count 10 us units from it."""
+
+
 class CameraManager:
     """The camera's MAVLink node on UDP: :class:`CameraProtocol` on the payload link.
 
@@ -565,13 +570,21 @@ class CameraManager:
         bind_addr: address to bind (the vehicle's).
         port: UDP port to bind (PX4 SITL: 14030 + i, the payload link's remote port).
         vehicle_port: the vehicle's payload link port to send to (PX4 SITL: 14280 + i).
+        signing_key: the vehicle's MAVLink 2 signing key (32 bytes): sign every frame and
+            accept only signed ones (pymavlink's signing, link id 0, timestamps from the wall
+            clock as the MAVLink spec asks); None: no signing.
 
     Raises:
         OSError: ``port`` is taken (the message names it).
     """
 
     def __init__(
-        self, protocol: CameraProtocol, bind_addr: str, port: int, vehicle_port: int
+        self,
+        protocol: CameraProtocol,
+        bind_addr: str,
+        port: int,
+        vehicle_port: int,
+        signing_key: bytes | None = None,
     ) -> None:
         self.protocol = protocol
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -593,6 +606,11 @@ class CameraManager:
             self._writer, srcSystem=protocol.sysid, srcComponent=protocol.compid
         )
         self._mav.robust_parsing = True
+        if signing_key is not None:
+            signing = self._mav.signing
+            signing.secret_key = signing_key
+            signing.sign_outgoing = True
+            signing.timestamp = int((time.time() - _SIGNING_EPOCH_UNIX_S) * 100_000)
 
     @property
     def local_address(self) -> tuple[str, int]:

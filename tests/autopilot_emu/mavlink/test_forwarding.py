@@ -41,6 +41,8 @@ HEARTBEAT = mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_CAMERA, 8, 0, 0
         (command_long(2000, target_system=2, target_component=100), (245, 190), False),
         (HEARTBEAT, (255, 190), False),  # a ground station's heartbeat
         (HEARTBEAT, (1, 1), False),  # our own frame looped back
+        # SETUP_SIGNING is never forwarded (MAVLink signing spec), even for the camera
+        (mavlink2.MAVLink_setup_signing_message(1, 100, [7] * 32, 1), (255, 190), False),
     ],
 )
 def test_what_is_forwarded(msg, src, expected):
