@@ -18,6 +18,15 @@ from rich.table import Table
 
 import worlds
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
+from harness.autopilot_cli import (
+    AUTOPILOT_HELP,
+    HIL_PORT_HELP,
+    autopilot,
+    external_status,
+    print_external_table,
+    print_hil_stats,
+    wait_for_autopilots,
+)
 from harness.launch import StopFlag, console, default_run_dir, open_simulation
 from harness.link_options import NO_LINK, check_link_model, describe, links_config
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
@@ -35,7 +44,7 @@ from harness.signing_options import (
     unauthenticated_warning,
 )
 from harness.sim_clock import ClockFile
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.simulation import EXTERNAL, INTERNAL, PortPlan, Simulation, SimulationConfig
 from harness.wind_options import (
     GUSTS_HELP,
     TURBULENCE_HELP,
@@ -46,6 +55,7 @@ from harness.wind_options import (
     wind_config,
 )
 from harness.world_setup import WorldSetup, world_setup
+from sitl.hil_server import HIL_PORT_BASE
 from sitl.sensors.camera import MOUNT_PITCH_DEG, RENDER_S_PER_PIXEL, CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
 from sitl.vehicles.multirotor import airframe_yaml_path, load_airframe
@@ -444,6 +454,8 @@ def up(
     params: Annotated[
         list[str] | None, typer.Option(metavar="[SYSID=|all=]FILE", help=PARAMS_HELP)
     ] = None,
+    autopilot: Annotated[str, typer.Option(help=AUTOPILOT_HELP)] = INTERNAL,
+    hil_port: Annotated[int, typer.Option(min=0, max=65535, help=HIL_PORT_HELP)] = HIL_PORT_BASE,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -488,7 +500,14 @@ def up(
 
     Example:  swarmsitl up --bind 0.0.0.0 --signing-key key.hex   (MAVLink 2 signing on every
     link; key.hex from: openssl rand -hex 32 > key.hex)
+
+    Example:  swarmsitl up -n 2 --autopilot external   (the simulator waits on TCP 4560, 4561
+    for PX4 SITL or: swarmsitl autopilot --instance 0 / --instance 1; docs/px4.md)
     """
+    if autopilot not in (INTERNAL, EXTERNAL):
+        raise typer.BadParameter(
+            f"{autopilot!r}: expected {INTERNAL} or {EXTERNAL}", param_hint="--autopilot"
+        )
     try:
         key = signing_key(signing_key_file, signing_passphrase)
     except ValueError as exc:
@@ -545,6 +564,7 @@ def up(
         video_base=video_port,
         payload_listen_base=payload_listen_port,
         payload_base=payload_port,
+        hil_base=hil_port,
     )
     wind_given = wind is not None or turbulence is not None or gusts is not None
     cfg = SimulationConfig(
@@ -577,42 +597,47 @@ def up(
         links_file=links,
         router=net_run.router if net_run is not None else None,
         signing_key=key,
+        autopilot=autopilot,
     )
     sim = open_simulation(cfg)
-    table = Table(title=f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}")
-    modelled = link != NO_LINK or (gcs_link != NO_LINK and ports.gcs_port)
-    columns = (
-        "sysid",
-        "airframe",
-        "onboard link",
-        "MAVSDK connects with",
-        "GCS link",
-        *(("link models (onboard / GCS)",) if modelled else ()),
-        "home lat, lon, alt",
-    )
-    for col in columns:
-        table.add_column(col, no_wrap=True)
-    for i in range(vehicles):
-        lat, lon, alt = sim.world.home_geodetic(i)
-        gcs = (
-            f"{bind}:{ports.gcs_listen_port(i)} -> {ports.peer_addr}:{ports.gcs_port}"
-            if ports.gcs_port
-            else "off"
+    if sim.hil is not None:
+        print_external_table(sim, run_dir, "lockstep" if lockstep else f"speed {speed:g}x")
+    else:
+        title = f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}"
+        table = Table(title=title)
+        modelled = link != NO_LINK or (gcs_link != NO_LINK and ports.gcs_port)
+        columns = (
+            "sysid",
+            "airframe",
+            "onboard link",
+            "MAVSDK connects with",
+            "GCS link",
+            *(("link models (onboard / GCS)",) if modelled else ()),
+            "home lat, lon, alt",
         )
-        models = (
-            f"{describe(link, links_config(links))} / "
-            f"{describe(gcs_link, links_config(links)) if ports.gcs_port else '-'}"
-        )
-        table.add_row(
-            str(i + 1),
-            sim.world.airframes[i].name,
-            f"{bind}:{ports.listen_port(i)} -> {ports.peer_addr}:{ports.sdk_port(i)}",
-            f"udpin://0.0.0.0:{ports.sdk_port(i)}",
-            gcs,
-            *((models,) if modelled else ()),
-            f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
-        )
-    console.print(table)
+        for col in columns:
+            table.add_column(col, no_wrap=True)
+        for i in range(vehicles):
+            lat, lon, alt = sim.world.home_geodetic(i)
+            gcs = (
+                f"{bind}:{ports.gcs_listen_port(i)} -> {ports.peer_addr}:{ports.gcs_port}"
+                if ports.gcs_port
+                else "off"
+            )
+            models = (
+                f"{describe(link, links_config(links))} / "
+                f"{describe(gcs_link, links_config(links)) if ports.gcs_port else '-'}"
+            )
+            table.add_row(
+                str(i + 1),
+                sim.world.airframes[i].name,
+                f"{bind}:{ports.listen_port(i)} -> {ports.peer_addr}:{ports.sdk_port(i)}",
+                f"udpin://0.0.0.0:{ports.sdk_port(i)}",
+                gcs,
+                *((models,) if modelled else ()),
+                f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
+            )
+        console.print(table)
     if key is not None:
         console.print(
             "MAVLink 2 signing: every link signs its frames and accepts only frames signed with "
@@ -654,6 +679,9 @@ def up(
             f"seconds per wall second at --speed {speed:g}; lighten it with --camera-hz, "
             "--camera-size, or --no-camera"
         )
+    if sim.hil is not None and not wait_for_autopilots(sim):
+        sim.close()
+        raise typer.Exit(1)
     t_start = time.monotonic()
     clock = ClockFile(run_dir / "clock")
     procs: dict[str, subprocess.Popen] = {}
@@ -692,11 +720,14 @@ def up(
         now = time.monotonic()
         if now - shown[0] >= 0.5:
             shown[0] = now
-            armed = sum(c.armed for c in sim.fleet.commanders)
-            flying = sum(c.in_air for c in sim.fleet.commanders)
+            if sim.fleet is None:
+                state = external_status(sim)
+            else:
+                armed = sum(c.armed for c in sim.fleet.commanders)
+                flying = sum(c.in_air for c in sim.fleet.commanders)
+                state = f"{armed} armed, {flying} in the air"
             status.update(
-                f"t = {sim.time_s:8.1f} s simulated ({sim.time_s / (now - t_start):.2f}x), "
-                f"{armed} armed, {flying} in the air"
+                f"t = {sim.time_s:8.1f} s simulated ({sim.time_s / (now - t_start):.2f}x), {state}"
             )
         return flag.stop
 
@@ -723,6 +754,8 @@ def up(
             signal.signal(s, h)
     wall = max(time.monotonic() - t_start, 1e-9)
     print_link_loads(sim)
+    if sim.hil is not None:
+        print_hil_stats(sim)
     if net_run is not None:
         write_net_report(
             net_run, sim.time_s, run_dir / "net_report.json", {"seed": seed, "speed": speed}
@@ -731,7 +764,7 @@ def up(
         f"stopped at t = {sim.time_s:.1f} s simulated ({sim.time_s / wall:.2f}x real time "
         f"achieved, {'lockstep' if lockstep else f'{speed:g}x asked'}); tlogs in {run_dir}"
     )
-    client_set = sum(len(p.client_set) for p in sim.fleet.params)
+    client_set = 0 if sim.fleet is None else sum(len(p.client_set) for p in sim.fleet.params)
     if client_set:
         console.print(
             f"{client_set} parameter(s) set by clients saved to {run_dir / CLIENT_PARAMS_FILE} "
@@ -879,6 +912,7 @@ def first_flight(
 app.command("run")(run)
 app.command("cloud")(cloud)
 app.command("replay")(replay)
+app.command("autopilot")(autopilot)
 app.command("net-demo")(net_demo)
 app.add_typer(params_app, name="params")
 

@@ -27,6 +27,7 @@ from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.params import ParamStore
 from autopilot_emu.simulator_link import SimulatorLink, SimulatorLinkConfig
+from harness.param_options import save_client_params
 from harness.simulation import PortPlan, apply_airframe_params, apply_rangefinder_params
 from sitl.vehicles.multirotor import load_airframe
 from sitl.world import WorldConfig
@@ -141,10 +142,16 @@ class ExternalAutopilot:
         return "stopped"
 
     def close(self) -> None:
-        """Close the links (flushing tlogs) and the simulator connection."""
+        """Close the links (flushing tlogs), the simulator connection, and save what clients set.
+
+        With an out_dir, ``client_params.params`` gets the parameters MAVLink clients set (as
+        ``swarmsitl up`` writes it; ``--params`` of the next run takes it back).
+        """
         for ep in self.endpoints:
             try:
                 ep.close()
             except OSError as exc:
                 log.warning("closing endpoint failed: %s", exc)
         self.link.close()
+        if self.config.out_dir is not None:
+            save_client_params(self.config.out_dir, self.fleet.params, self.config.instance + 1)

@@ -130,18 +130,21 @@ def load_params_options(specs: Sequence[str], n_vehicles: int) -> ParamsLoad:
     return ParamsLoad(tuple(per_vehicle), tuple(notes), tuple(files))
 
 
-def save_client_params(out_dir: Path, stores: Sequence[ParamStore]) -> Path | None:
+def save_client_params(
+    out_dir: Path, stores: Sequence[ParamStore], first_sysid: int = 1
+) -> Path | None:
     """Write the parameters MAVLink clients set to ``out_dir/client_params.params``.
 
-    Vehicle i's rows carry system id i+1. Never raises: this runs while a run closes, after its
-    tlogs and recordings are written, and a failure (a full disk) is logged and returns None.
+    Vehicle i's rows carry system id ``first_sysid`` + i. Never raises: this runs while a run
+    closes, after its tlogs and recordings are written, and a failure (a full disk) is logged and
+    returns None.
     """
     path = out_dir / CLIENT_PARAMS_FILE
     try:
         rows = [
             row
             for i, store in enumerate(stores)
-            for row in store_rows(i + 1, store, store.client_set)
+            for row in store_rows(first_sysid + i, store, store.client_set)
         ]
         text = format_param_file(
             rows,

@@ -825,8 +825,8 @@ class Simulation:
                 camera.close()
         if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
             self.recorder.write_csv(self.config.out_dir / "truth.csv")
-        if self.config.out_dir is not None:  # last: a failure here costs no other output
-            save_client_params(self.config.out_dir, self.fleet.params)
+        if self.config.out_dir is not None and self.fleet is not None:
+            save_client_params(self.config.out_dir, self.fleet.params)  # last: costs no output
         if self._scratch is not None:
             self._scratch.cleanup()
         self.world.close()

@@ -1,0 +1,200 @@
+"""``swarmsitl autopilot``: our emulator as an external autopilot, and ``up``'s external mode.
+
+``swarmsitl up --autopilot external`` makes the simulator listen on TCP 4560+i for PX4's
+simulator protocol; ``swarmsitl autopilot --instance i`` (or PX4 SITL, or a Pixhawk in HITL
+through a bridge) is then the autopilot of vehicle i. See docs/px4.md.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from autopilot_emu.params import ParamError
+from autopilot_emu.simulator_link import SimulatorLinkConfig
+from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
+from harness.launch import StopFlag, console
+from harness.simulation import PortPlan, Simulation
+from sitl.hil_server import HIL_PORT_BASE
+
+AUTOPILOT_HELP = (
+    "internal: one emulated autopilot per vehicle in this process (default); external: the "
+    "simulator listens on TCP --hil-port+i for PX4's simulator protocol and waits for an "
+    "autopilot per vehicle (swarmsitl autopilot, PX4 SITL, HITL), which owns the MAVLink links "
+    "(e.g. --autopilot external, then: swarmsitl autopilot --instance 0)"
+)
+HIL_PORT_HELP = "TCP port of vehicle 0's external autopilot (+i per vehicle; PX4: 4560+instance)"
+
+
+def print_external_table(sim: Simulation, run_dir: Path, speed_text: str) -> None:
+    """What each vehicle's external autopilot connects to, and how to start one."""
+    table = Table(title=f"swarmsitl: {sim.config.n_vehicles} vehicle(s), external autopilots, "
+                  f"{speed_text}, run dir {run_dir}")  # fmt: skip
+    for col in ("vehicle", "airframe", "simulator (PX4 protocol)", "start its autopilot with",
+                "home lat, lon, alt"):  # fmt: skip
+        table.add_column(col, no_wrap=True)
+    bind = sim.config.ports.bind_addr
+    for i, port in enumerate(sim.hil.ports()):
+        lat, lon, alt = sim.world.home_geodetic(i)
+        table.add_row(
+            str(i + 1),
+            sim.world.airframes[i].name,
+            f"tcp {bind}:{port}",
+            f"swarmsitl autopilot --instance {i}"
+            + ("" if port == HIL_PORT_BASE + i else f" --connect tcp:127.0.0.1:{port}"),
+            f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
+        )
+    console.print(table)
+    console.print(
+        "PX4 SITL instead: PX4_SYS_AUTOSTART=6011 build/px4_sitl_default/bin/px4 -i <i> -d "
+        "(instance i connects to 4560+i; docs/px4.md). MAVLink clients talk to the autopilots."
+    )
+
+
+def print_hil_stats(sim: Simulation) -> None:
+    """One line per vehicle: what its HIL connection carried and how it ended."""
+    for i, st in enumerate(sim.hil.stats()):
+        console.print(
+            f"vehicle {i + 1} HIL: {st.connections} connection(s), {st.actuator_messages} "
+            f"HIL_ACTUATOR_CONTROLS in, {st.bytes_out} B out, {st.disconnects} disconnect(s), "
+            f"{st.stalls} stall(s), {st.refused} refused, {st.bad_frames} malformed"
+        )
+
+
+def external_status(sim: Simulation) -> str:
+    """One status line of the external autopilots' connections."""
+    connected = sum(sim.hil.connected)
+    lost = sum(s.disconnects + s.stalls for s in sim.hil.stats())
+    return f"{connected}/{sim.config.n_vehicles} autopilots connected" + (
+        f", {lost} lost" if lost else ""
+    )
+
+
+def wait_for_autopilots(sim: Simulation) -> bool:
+    """Wait (Ctrl-C ends it) until every vehicle's autopilot has connected; False if stopped."""
+    flag = StopFlag()
+    old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with console.status("waiting for the autopilots to connect ...") as status:
+            done = sim.wait_for_autopilots(
+                lambda: status.update(f"waiting: {external_status(sim)} ...") or flag.stop
+            )
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+    if not done:
+        console.print("stopped before every autopilot connected")
+    return done
+
+
+def _parse_connect(spec: str | None, instance: int) -> tuple[str, int]:
+    if spec is None:
+        return "127.0.0.1", HIL_PORT_BASE + instance
+    kind, _, rest = spec.partition(":")
+    host, _, port = rest.rpartition(":")
+    if kind != "tcp" or not host or not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise typer.BadParameter(
+            f"{spec!r}: expected tcp:HOST:PORT, e.g. tcp:127.0.0.1:4560", param_hint="--connect"
+        )
+    return host, int(port)
+
+
+def autopilot(
+    instance: Annotated[
+        int, typer.Option(min=0, max=254, help="PX4 instance: system id i+1, ports base+i")
+    ] = 0,
+    connect: Annotated[
+        str | None,
+        typer.Option(
+            metavar="tcp:HOST:PORT",
+            help="the simulator's port of this vehicle [default: tcp:127.0.0.1:4560+instance]",
+        ),
+    ] = None,
+    frame: Annotated[
+        str,
+        typer.Option(help="airframe whose parameters it starts with; must be the simulator's"),
+    ] = "typhoon_h480",
+    bind: Annotated[str, typer.Option(help="address the MAVLink links listen on")] = "127.0.0.1",
+    sdk_port: Annotated[
+        int, typer.Option(help="onboard link sends to this port + instance (MAVSDK)")
+    ] = 14540,
+    listen_port: Annotated[int, typer.Option(help="onboard link listens on this + instance")] = (
+        14580
+    ),
+    gcs_port: Annotated[int, typer.Option(help="ground-station port (0: no GCS link)")] = 14550,
+    gcs_listen_port: Annotated[
+        int, typer.Option(help="GCS link listens on this + instance")
+    ] = 18570,
+    out: Annotated[
+        Path | None, typer.Option(help="where tlogs and the FTP root go [default: none]")
+    ] = None,
+    no_lockstep: Annotated[
+        bool,
+        typer.Option(
+            "--no-lockstep", help="do not flag lockstep: the simulator never waits for replies"
+        ),
+    ] = False,
+    connect_timeout: Annotated[
+        float, typer.Option(help="give up after this many wall seconds without a simulator")
+    ] = 0.0,
+) -> None:
+    """Run one emulated PX4 autopilot against a simulator over PX4's TCP simulator protocol.
+
+    It does what PX4 SITL instance i does: connects to the simulator on TCP 4560+i (retrying
+    until it is accepted), sends a HEARTBEAT, asks for HIL_STATE_QUATERNION, and answers every
+    HIL_SENSOR with HIL_ACTUATOR_CONTROLS (lockstep); its MAVLink links are PX4 SITL's (onboard
+    14580+i -> 14540+i, ground station 18570+i -> 14550), system id i+1. It ends when the
+    simulator closes the connection, or on Ctrl-C.
+
+    Example:  swarmsitl up --autopilot external   (in one terminal), then
+              swarmsitl autopilot --instance 0   (in another; MAVSDK: udpin://0.0.0.0:14540)
+
+    Example:  swarmsitl autopilot --instance 2 --connect tcp:sim-host:4562 --frame x500
+    """
+    host, port = _parse_connect(connect, instance)
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        ap = ExternalAutopilot(
+            ExternalAutopilotConfig(
+                instance=instance,
+                simulator=SimulatorLinkConfig(host=host, port=port, lockstep=not no_lockstep),
+                frame=frame,
+                ports=PortPlan(
+                    bind_addr=bind,
+                    sdk_base=sdk_port,
+                    listen_base=listen_port,
+                    gcs_port=gcs_port,
+                    gcs_listen_base=gcs_listen_port,
+                ),
+                out_dir=out,
+            )
+        )
+    except (OSError, ValueError, ParamError) as exc:
+        console.print(f"[red]error:[/red] {escape(str(exc))}")
+        raise typer.Exit(2) from exc
+    gcs = f", ground station {bind}:{gcs_listen_port + instance} -> {gcs_port}" if gcs_port else ""
+    console.print(
+        f"autopilot of vehicle {instance + 1} ({frame}): simulator tcp {host}:{port}; MAVLink "
+        f"onboard {bind}:{listen_port + instance} -> {sdk_port + instance}{gcs}"
+    )
+    flag = StopFlag()
+    old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        ended = ap.run(lambda: flag.stop, connect_timeout if connect_timeout > 0 else None)
+    finally:
+        ap.close()
+        for s, h in old.items():
+            signal.signal(s, h)
+    stats = ap.link.stats
+    console.print(
+        f"{ended} at t = {ap.link.time_s:.1f} s simulated: {stats.sensor_messages} HIL_SENSOR, "
+        f"{stats.actuator_messages} HIL_ACTUATOR_CONTROLS, {stats.bad_frames} malformed"
+    )
+    if ended == "no simulator":
+        raise typer.Exit(1)
