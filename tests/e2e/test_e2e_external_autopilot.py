@@ -8,8 +8,10 @@ link as to PX4 SITL. Paced and lockstep.
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -100,3 +102,28 @@ def test_classic_mavsdk_takes_off_with_an_external_autopilot(tmp_path, mode):
     assert "simulator closed" in ap_log.read_text()
     assert (tmp_path / "autopilot" / "vehicle1.tlog").stat().st_size > 0
     assert (tmp_path / "run" / "truth.csv").stat().st_size > 0
+
+
+def test_a_raw_pymavlink_script_is_the_autopilot(tmp_path):
+    """examples/px4_protocol_hover.py (pymavlink only, PX4's greeting and replies) climbs to 3 m
+    and hovers level: the TCP protocol is PX4's, not a private one of ours."""
+    port = HIL_PORT + 1
+    up = cli_command(
+        "up", "--autopilot", "external", "--hil-port", port, "--lockstep", "--no-camera",
+        "--out", tmp_path / "run", "--gcs-port", 0, "--duration", 600,
+    )  # fmt: skip
+    with _process(up, tmp_path / "up.log") as sim:
+        script = REPO_ROOT / "examples" / "px4_protocol_hover.py"
+        done = subprocess.run(
+            [sys.executable, str(script), "--connect", f"tcp:127.0.0.1:{port}", "--alt", "3"],
+            capture_output=True, text=True, timeout=300, cwd=REPO_ROOT, env=cli_env(),
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr + (tmp_path / "up.log").read_text()
+        result = json.loads(done.stdout.strip().splitlines()[-1])
+        sim.send_signal(signal.SIGINT)
+        assert sim.wait(timeout=60) == 0
+    assert result["HIL_SENSOR"] >= 5000  # 20 simulated seconds at 250 Hz, each answered
+    assert result["HIL_STATE_QUATERNION"] >= 3900  # the 5 ms PX4 asks for
+    assert 2.7 < result["final_m"] < 3.3
+    assert result["tilt_deg"] < 5.0
+    assert "1 disconnect(s)" in (tmp_path / "up.log").read_text()  # the script hung up at 20 s
