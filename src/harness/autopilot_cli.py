@@ -20,7 +20,8 @@ from autopilot_emu.params import ParamError
 from autopilot_emu.simulator_link import SimulatorLinkConfig
 from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
 from harness.launch import StopFlag, console
-from harness.simulation import PortPlan, Simulation
+from harness.simulation import EXTERNAL, PortPlan, Simulation
+from sitl.hil_serial import parse_serial
 from sitl.hil_server import HIL_PORT_BASE
 
 AUTOPILOT_HELP = (
@@ -30,6 +31,36 @@ AUTOPILOT_HELP = (
     "(e.g. --autopilot external, then: swarmsitl autopilot --instance 0)"
 )
 HIL_PORT_HELP = "TCP port of vehicle 0's external autopilot (+i per vehicle; PX4: 4560+instance)"
+HIL_SERIAL_HELP = (
+    "HITL: vehicle i's Pixhawk on this serial port instead of TCP (repeat: one per vehicle); "
+    "its other MAVLink traffic is relayed to --gcs-port and --sdk-port+i; real time only "
+    "(e.g. --autopilot external --hil-serial /dev/ttyACM0:921600; docs/px4.md)"
+)
+
+
+def check_hil_serial(
+    devices: list[str], vehicles: int, autopilot: str, speed: float, lockstep: bool
+) -> None:
+    """``--hil-serial``: one valid DEVICE[:BAUD] per vehicle, an external autopilot, real time."""
+    if not devices:
+        return
+    hint = "--hil-serial"
+    if autopilot != EXTERNAL:
+        raise typer.BadParameter("needs --autopilot external", param_hint=hint)
+    if len(devices) != vehicles:
+        raise typer.BadParameter(
+            f"give one device per vehicle ({vehicles}), got {len(devices)}", param_hint=hint
+        )
+    for spec in devices:
+        try:
+            parse_serial(spec)
+        except ValueError as exc:
+            raise typer.BadParameter(str(exc), param_hint=hint) from exc
+    if lockstep or speed != 1.0:
+        raise typer.BadParameter(
+            "a board in HITL runs on its own clock: run at --speed 1, without --lockstep",
+            param_hint=hint,
+        )
 
 
 def print_external_table(sim: Simulation, run_dir: Path, speed_text: str) -> None:
@@ -39,22 +70,34 @@ def print_external_table(sim: Simulation, run_dir: Path, speed_text: str) -> Non
     for col in ("vehicle", "airframe", "simulator (PX4 protocol)", "start its autopilot with",
                 "home lat, lon, alt"):  # fmt: skip
         table.add_column(col, no_wrap=True)
-    bind = sim.config.ports.bind_addr
     for i, port in enumerate(sim.hil.ports()):
         lat, lon, alt = sim.world.home_geodetic(i)
+        start = (
+            "a Pixhawk in HITL (SYS_HITL 1)"
+            if port == 0
+            else f"swarmsitl autopilot --instance {i}"
+            + ("" if port == HIL_PORT_BASE + i else f" --connect tcp:127.0.0.1:{port}")
+        )
         table.add_row(
             str(i + 1),
             sim.world.airframes[i].name,
-            f"tcp {bind}:{port}",
-            f"swarmsitl autopilot --instance {i}"
-            + ("" if port == HIL_PORT_BASE + i else f" --connect tcp:127.0.0.1:{port}"),
+            sim.hil.describe(i),
+            start,
             f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
         )
     console.print(table)
-    console.print(
-        "PX4 SITL instead: PX4_SYS_AUTOSTART=6011 build/px4_sitl_default/bin/px4 -i <i> -d "
-        "(instance i connects to 4560+i; docs/px4.md). MAVLink clients talk to the autopilots."
-    )
+    ports = sim.config.ports
+    if sim.config.hil_serial:
+        console.print(
+            f"HITL: each board's other MAVLink traffic is relayed to udp {ports.peer_addr}:"
+            f"{ports.gcs_port} (ground station) and {ports.peer_addr}:{ports.sdk_base}+i "
+            "(offboard API), and what they send back to the board (docs/px4.md)"
+        )
+    else:
+        console.print(
+            "PX4 SITL instead: PX4_SYS_AUTOSTART=6011 build/px4_sitl_default/bin/px4 -i <i> -d "
+            "(instance i connects to 4560+i; docs/px4.md). MAVLink clients talk to the autopilots."
+        )
 
 
 def print_hil_stats(sim: Simulation) -> None:

@@ -21,7 +21,9 @@ from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from harness.autopilot_cli import (
     AUTOPILOT_HELP,
     HIL_PORT_HELP,
+    HIL_SERIAL_HELP,
     autopilot,
+    check_hil_serial,
     external_status,
     print_external_table,
     print_hil_stats,
@@ -456,6 +458,9 @@ def up(
     ] = None,
     autopilot: Annotated[str, typer.Option(help=AUTOPILOT_HELP)] = INTERNAL,
     hil_port: Annotated[int, typer.Option(min=0, max=65535, help=HIL_PORT_HELP)] = HIL_PORT_BASE,
+    hil_serial: Annotated[
+        list[str] | None, typer.Option(metavar="DEVICE[:BAUD]", help=HIL_SERIAL_HELP)
+    ] = None,
 ) -> None:
     """Start N emulated PX4 multirotors and serve MAVLink until Ctrl-C.
 
@@ -508,6 +513,7 @@ def up(
         raise typer.BadParameter(
             f"{autopilot!r}: expected {INTERNAL} or {EXTERNAL}", param_hint="--autopilot"
         )
+    check_hil_serial(hil_serial or [], vehicles, autopilot, speed, lockstep)
     try:
         key = signing_key(signing_key_file, signing_passphrase)
     except ValueError as exc:
@@ -598,6 +604,7 @@ def up(
         router=net_run.router if net_run is not None else None,
         signing_key=key,
         autopilot=autopilot,
+        hil_serial=tuple(hil_serial or ()),
     )
     sim = open_simulation(cfg)
     if sim.hil is not None:

@@ -214,6 +214,10 @@ class SimulationConfig:
     simulator protocol (``sitl.hil_server``) with whatever autopilot connects (PX4 SITL, a
     Pixhawk in HITL, ``swarmsitl autopilot``); that autopilot owns the MAVLink links, its
     parameters and its failsafes, so ``mavlink``, ``params`` and link models do not apply."""
+    hil_serial: tuple[str, ...] = ()
+    """With an external autopilot: one serial device per vehicle (``/dev/ttyACM0[:BAUD]``, a
+    Pixhawk in HITL) instead of the TCP ports; the board's other MAVLink traffic is relayed to
+    ``ports.gcs_port`` and ``ports.sdk_base + i`` (``sitl.hil_serial``)."""
     signing_key: bytes | None = None
     """MAVLink 2 signing key (32 bytes) of every vehicle link: each signs what it sends and
     handles only correctly signed frames (``autopilot_emu.mavlink.signing``; the MAVLink
@@ -249,6 +253,8 @@ class SimulationConfig:
             raise ValueError(
                 f"autopilot must be {INTERNAL!r} or {EXTERNAL!r}, got {self.autopilot!r}"
             )
+        if self.hil_serial and self.autopilot != EXTERNAL:
+            raise ValueError("hil_serial needs autopilot='external' (a board flies the vehicle)")
         ratio = self.physics_hz / self.mavlink_poll_hz
         if abs(ratio - round(ratio)) > 1e-9 or ratio < 1:
             raise ValueError(
@@ -443,11 +449,16 @@ class Simulation:
                 "external autopilot: parameters are the autopilot's own, not applied here: %s",
                 ", ".join(sorted({*config.params, *(k for p in config.vehicle_params for k in p)})),
             )
+        ports = config.ports
         self.hil = HilServer(
             HilServerConfig(
                 n_vehicles=config.n_vehicles,
-                bind_addr=config.ports.bind_addr,
-                port_base=config.ports.hil_base,
+                bind_addr=ports.bind_addr,
+                port_base=ports.hil_base,
+                serial=config.hil_serial,
+                relay_addr=ports.peer_addr,
+                relay_gcs_port=ports.gcs_port,
+                relay_sdk_base=ports.sdk_base,
             ),
             lambda: self.world.time_s,
         )

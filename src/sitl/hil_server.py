@@ -54,6 +54,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
 from sitl import hil
+from sitl.hil_serial import SerialPort, UdpRelay, parse_serial
 from sitl.truth import TruthState
 
 log = logging.getLogger(__name__)
@@ -64,6 +65,8 @@ SIM_COMPID = 51
 """Component id of the simulator's own messages (PX4 does not check it)."""
 OUT_BUFFER_LIMIT_BYTES = 4 * 1024 * 1024
 """Bytes queued for a peer that does not read before it is dropped as stalled."""
+_LISTEN, _CONNECTION, _RELAY = "listen", "connection", "relay"
+"""What a polled descriptor is: a listening port, an autopilot's connection, a HITL relay."""
 _STOPPED = mavlink2.MAVLink_hil_actuator_controls_message(0, [0.0] * 16, 0, 0)
 """What a vehicle whose autopilot is lost gets: disarmed, every motor stopped."""
 
@@ -89,6 +92,15 @@ class HilServerConfig:
     actuator_timeout_s: float = 1.0
     """Autopilots not in lockstep: simulated seconds without an actuator message after which
     the motors stop."""
+    serial: tuple[str, ...] = ()
+    """HITL: one serial device per vehicle (``/dev/ttyACM0`` or ``/dev/ttyACM0:921600``), a
+    Pixhawk's USB port, instead of the TCP ports (``sitl.hil_serial``); empty: TCP."""
+    relay_addr: str = "127.0.0.1"
+    """HITL: where the board's other MAVLink traffic is relayed (ground station, offboard API)."""
+    relay_gcs_port: int = 14550
+    """HITL: UDP port of the ground station the board's traffic goes to; 0: none."""
+    relay_sdk_base: int = 14540
+    """HITL: UDP port (+i) of vehicle i's offboard API the board's traffic goes to; 0: none."""
 
     def __post_init__(self) -> None:
         if self.n_vehicles < 1:
@@ -98,6 +110,13 @@ class HilServerConfig:
         for name in ("stall_timeout_s", "actuator_timeout_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if self.serial:
+            if len(self.serial) != self.n_vehicles:
+                raise ValueError(
+                    f"serial: one device per vehicle ({self.n_vehicles}), got {len(self.serial)}"
+                )
+            for spec in self.serial:
+                parse_serial(spec)
 
 
 @dataclass
@@ -122,8 +141,12 @@ class _Peer:
     """One vehicle's HIL port and its current autopilot connection."""
 
     index: int
-    listener: socket.socket
-    sock: socket.socket | None = None
+    listener: socket.socket | None
+    """The TCP port it listens on (None: a serial peer)."""
+    sock: socket.socket | SerialPort | None = None
+    relay: UdpRelay | None = None
+    """HITL: the UDP side of the board's other MAVLink traffic."""
+    where: str = ""
     address: tuple[str, int] | None = None
     mav: mavlink2.MAVLink = field(default=None)  # type: ignore[assignment]
     out: bytearray = field(default_factory=bytearray)
@@ -155,16 +178,22 @@ class HilServer:
         self.config = config
         self._time_s = sim_time_s
         self.peers: list[_Peer] = []
+        self._poller = select.poll()
+        self._by_fd: dict[int, tuple[_Peer, str]] = {}
         try:
             for i in range(config.n_vehicles):
-                self.peers.append(_Peer(i, self._listen(i)))
+                if config.serial:
+                    self.peers.append(self._open_serial(i))
+                else:
+                    listener = self._listen(i)
+                    self.peers.append(
+                        _Peer(i, listener, where=f"tcp {config.bind_addr}:"
+                              f"{listener.getsockname()[1]}")
+                    )  # fmt: skip
+                    self._register(self.peers[-1], listener, _LISTEN)
         except BaseException:
             self.close()
             raise
-        self._poller = select.poll()
-        self._by_fd: dict[int, tuple[_Peer, bool]] = {}
-        for p in self.peers:
-            self._register(p, p.listener, listener=True)
         self._next_heartbeat_s = 0.0
         self._last_accel = np.zeros((config.n_vehicles, 3))
         self._pending_reply = False
@@ -191,19 +220,50 @@ class HilServer:
         sock.setblocking(False)
         return sock
 
-    def _register(self, peer: _Peer, sock: socket.socket, listener: bool) -> None:
-        self._poller.register(sock.fileno(), select.POLLIN)
-        self._by_fd[sock.fileno()] = (peer, listener)
+    def _open_serial(self, i: int) -> _Peer:
+        """Vehicle i's board on its serial port, with its UDP relay (HITL)."""
+        cfg = self.config
+        device, baud = parse_serial(cfg.serial[i])
+        port = SerialPort(device, baud)
+        relay_peers = []
+        if cfg.relay_gcs_port:
+            relay_peers.append((cfg.relay_addr, cfg.relay_gcs_port))
+        if cfg.relay_sdk_base:
+            relay_peers.append((cfg.relay_addr, cfg.relay_sdk_base + i))
+        peer = _Peer(i, None, where=f"serial {device} at {baud} baud")
+        try:
+            peer.relay = UdpRelay(cfg.bind_addr, tuple(relay_peers))
+        except BaseException:
+            port.close()
+            raise
+        self._register(peer, peer.relay, _RELAY)
+        self._attach(peer, port, (device, baud))
+        return peer
 
-    def _unregister(self, sock: socket.socket) -> None:
+    def _register(
+        self, peer: _Peer, sock: socket.socket | SerialPort | UdpRelay, kind: str
+    ) -> None:
+        self._poller.register(sock.fileno(), select.POLLIN)
+        self._by_fd[sock.fileno()] = (peer, kind)
+
+    def _unregister(self, sock: socket.socket | SerialPort) -> None:
         fd = sock.fileno()
         if fd in self._by_fd:
             self._poller.unregister(fd)
             del self._by_fd[fd]
 
     def ports(self) -> list[int]:
-        """The TCP port each vehicle listens on."""
-        return [p.listener.getsockname()[1] for p in self.peers]
+        """The TCP port each vehicle listens on (0 for a serial vehicle)."""
+        return [0 if p.listener is None else p.listener.getsockname()[1] for p in self.peers]
+
+    def describe(self, i: int) -> str:
+        """Where vehicle i's autopilot connects: ``tcp ADDR:PORT`` or ``serial DEVICE at BAUD``."""
+        return self.peers[i].where
+
+    def relay_address(self, i: int) -> tuple[str, int] | None:
+        """HITL: the UDP address vehicle i's relay sends from (clients may send to it)."""
+        relay = self.peers[i].relay
+        return None if relay is None else relay.sock.getsockname()
 
     @property
     def connected(self) -> list[bool]:
@@ -246,6 +306,11 @@ class HilServer:
             return
         sock.setblocking(False)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._attach(peer, sock, address)
+
+    def _attach(
+        self, peer: _Peer, sock: socket.socket | SerialPort, address: tuple[str, int]
+    ) -> None:
         peer.sock, peer.address = sock, address
         peer.mav = mavlink2.MAVLink(None, srcSystem=peer.index + 1, srcComponent=SIM_COMPID)
         peer.mav.robust_parsing = True
@@ -254,8 +319,8 @@ class HilServer:
         peer.latest = None
         peer.state_interval_s = 0.0
         peer.stats.connections += 1
-        self._register(peer, sock, listener=False)
-        log.info("vehicle %d: autopilot connected from %s:%d", peer.index + 1, *address)
+        self._register(peer, sock, _CONNECTION)
+        log.info("vehicle %d: autopilot on %s (%s:%d)", peer.index + 1, peer.where, *address)
 
     def _drop(self, peer: _Peer, why: str, stall: bool = False) -> None:
         """Close the peer's connection; its motors stop."""
@@ -272,8 +337,10 @@ class HilServer:
             peer.stats.disconnects += 1
         log.error(
             "vehicle %d: autopilot %s at t = %.3f s simulated; its motors stop (ESC signal "
-            "lost) until an autopilot connects to TCP port %d again",
-            peer.index + 1, why, self._time_s(), peer.listener.getsockname()[1],
+            "lost) %s",
+            peer.index + 1, why, self._time_s(),
+            "for the rest of the run (serial)" if peer.listener is None
+            else f"until an autopilot connects to {peer.where} again",
         )  # fmt: skip
 
     def _service(self, timeout_s: float) -> None:
@@ -282,9 +349,15 @@ class HilServer:
             entry = self._by_fd.get(fd)
             if entry is None:
                 continue
-            peer, listener = entry
-            if listener:
+            peer, kind = entry
+            if kind == _LISTEN:
                 self._accept(peer)
+            elif kind == _RELAY:
+                for datagram in peer.relay.receive():
+                    if peer.sock is not None:
+                        peer.out += datagram
+                if peer.sock is not None and peer.out:
+                    self._flush(peer)
             elif peer.sock is not None and peer.sock.fileno() == fd:
                 self._read(peer)
 
@@ -305,8 +378,11 @@ class HilServer:
             peer.stats.bad_frames += 1
             log.warning("vehicle %d: unparseable HIL input (%s)", peer.index + 1, exc)
             return
+        relay = peer.relay
         for msg in messages:
             self._on_message(peer, msg)
+            if relay is not None and msg.get_type() != "BAD_DATA":
+                relay.forward(msg.get_msgbuf())
 
     def _on_message(self, peer: _Peer, msg: mavlink2.MAVLink_message) -> None:
         kind = msg.get_type()
@@ -480,4 +556,7 @@ class HilServer:
             if p.sock is not None:
                 p.sock.close()
                 p.sock = None
-            p.listener.close()
+            if p.listener is not None:
+                p.listener.close()
+            if p.relay is not None:
+                p.relay.close()
