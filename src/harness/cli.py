@@ -514,6 +514,24 @@ def up(
             f"{autopilot!r}: expected {INTERNAL} or {EXTERNAL}", param_hint="--autopilot"
         )
     check_hil_serial(hil_serial or [], vehicles, autopilot, speed, lockstep)
+    if autopilot == EXTERNAL:
+        ignored = [
+            name
+            for name, given in (
+                ("--link", link != NO_LINK),
+                ("--gcs-link", gcs_link != NO_LINK),
+                ("--signing-key", bool(signing_key_file or signing_passphrase)),
+                ("--params", bool(params)),
+                ("--stream-rate", bool(stream_rate)),
+            )
+            if given
+        ]
+        if ignored:
+            console.print(
+                f"[yellow]warning:[/yellow] {', '.join(ignored)} configure the internal "
+                "autopilot's links and parameters; with --autopilot external the autopilots own "
+                "them (set them there)"
+            )
     try:
         key = signing_key(signing_key_file, signing_passphrase)
     except ValueError as exc:

@@ -1,0 +1,58 @@
+"""`up --autopilot` and `--hil-serial` validation; `swarmsitl autopilot`'s options."""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from harness.cli import app
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["up", "--autopilot", "px5"], "expected internal or external"),
+        (["up", "--hil-serial", "/dev/ttyACM0"], "needs --autopilot external"),
+        (
+            ["up", "-n", "2", "--autopilot", "external", "--hil-serial", "/dev/ttyACM0"],
+            "one device per vehicle (2), got 1",
+        ),
+        (
+            ["up", "--autopilot", "external", "--hil-serial", "/dev/ttyACM0:1234"],
+            "baud 1234",
+        ),
+        (
+            ["up", "--autopilot", "external", "--hil-serial", "/dev/ttyACM0", "--lockstep"],
+            "--speed 1",
+        ),
+        (["autopilot", "--connect", "udp:127.0.0.1:4560"], "expected tcp:HOST:PORT"),
+        (["autopilot", "--connect", "tcp:host:99999"], "expected tcp:HOST:PORT"),
+    ],
+)
+def test_bad_options_exit_2_naming_the_problem(args, message):
+    result = CliRunner().invoke(app, args, env={"COLUMNS": "200"})
+    assert result.exit_code == 2
+    assert message in " ".join(result.output.split()), result.output
+
+
+def test_autopilot_without_a_simulator_gives_up_after_its_timeout(tmp_path):
+    """Nothing listens on the port: it retries as PX4 does, then exits 1 (no hang)."""
+    result = CliRunner().invoke(
+        app,
+        ["autopilot", "--connect", "tcp:127.0.0.1:1", "--connect-timeout", "1",
+         "--listen-port", "0", "--gcs-port", "0", "--sdk-port", "48290"],
+    )  # fmt: skip
+    assert result.exit_code == 1, result.output
+    assert "no simulator" in result.output
+
+
+def test_autopilot_with_an_unknown_airframe_exits_2():
+    result = CliRunner().invoke(app, ["autopilot", "--frame", "concorde"])
+    assert result.exit_code == 2
+    assert "concorde" in result.output
+
+
+def test_help_has_examples():
+    for cmd in (["autopilot", "--help"], ["up", "--help"]):
+        out = CliRunner().invoke(app, cmd, env={"COLUMNS": "200"}).output
+        assert "Example:" in out and "autopilot" in out
