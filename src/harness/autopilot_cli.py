@@ -20,6 +20,7 @@ from autopilot_emu.params import ParamError
 from autopilot_emu.simulator_link import SimulatorLinkConfig
 from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
 from harness.launch import StopFlag, console
+from harness.params_cli import load_params_or_exit
 from harness.simulation import EXTERNAL, PortPlan, Simulation
 from sitl.hil_serial import parse_serial
 from sitl.hil_server import HIL_PORT_BASE
@@ -30,6 +31,8 @@ AUTOPILOT_HELP = (
     "autopilot per vehicle (swarmsitl autopilot, PX4 SITL, HITL), which owns the MAVLink links "
     "(e.g. --autopilot external, then: swarmsitl autopilot --instance 0)"
 )
+MAX_SYSID = 255
+"""MAVLink system ids a parameter file may name."""
 HIL_PORT_HELP = "TCP port of vehicle 0's external autopilot (+i per vehicle; PX4: 4560+instance)"
 HIL_SERIAL_HELP = (
     "HITL: vehicle i's Pixhawk on this serial port instead of TCP (repeat: one per vehicle); "
@@ -186,6 +189,14 @@ def autopilot(
     connect_timeout: Annotated[
         float, typer.Option(help="give up after this many wall seconds without a simulator")
     ] = 0.0,
+    params: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="[SYSID=|all=]FILE",
+            help="QGroundControl .params file(s) as up --params; this vehicle's rows load "
+            "(e.g. --params run/client_params.params)",
+        ),
+    ] = None,
 ) -> None:
     """Run one emulated PX4 autopilot against a simulator over PX4's TCP simulator protocol.
 
@@ -201,6 +212,9 @@ def autopilot(
     Example:  swarmsitl autopilot --instance 2 --connect tcp:sim-host:4562 --frame x500
     """
     host, port = _parse_connect(connect, instance)
+    # Every system id a file may name: this instance takes its own rows (system id i+1).
+    loaded = load_params_or_exit(params, MAX_SYSID)
+    own = {} if loaded is None else loaded.vehicle_params[instance]
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     try:
         ap = ExternalAutopilot(
@@ -216,16 +230,23 @@ def autopilot(
                     gcs_listen_base=gcs_listen_port,
                 ),
                 out_dir=out,
+                params=tuple(own.items()),
             )
         )
     except (OSError, ValueError, ParamError) as exc:
         console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(2) from exc
-    gcs = f", ground station {bind}:{gcs_listen_port + instance} -> {gcs_port}" if gcs_port else ""
+    links = [
+        f"{name} {ep.local_address[0]}:{ep.local_address[1]} -> "
+        + ", ".join(f"{h}:{p}" for h, p in ep.peers)
+        for name, ep in zip(("onboard", "ground station"), ap.endpoints, strict=False)
+    ]
     console.print(
         f"autopilot of vehicle {instance + 1} ({frame}): simulator tcp {host}:{port}; MAVLink "
-        f"onboard {bind}:{listen_port + instance} -> {sdk_port + instance}{gcs}"
+        + "; ".join(links)
     )
+    if loaded is not None:
+        console.print(f"{len(own)} parameter(s) from {', '.join(map(str, loaded.files))}")
     flag = StopFlag()
     old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
     try:

@@ -49,8 +49,8 @@ class ExternalAutopilotConfig:
     """The MAVLink ports (onboard and ground-station links; the HIL and camera fields unused)."""
     out_dir: Path | None = None
     """Where the links' tlogs and the FTP root go; None: no tlogs, FTP off."""
-    params: tuple[tuple[str, float], ...] = ()
-    """Parameters set after the airframe's (name, value)."""
+    params: tuple[tuple[str, float | int], ...] = ()
+    """Parameters set after the airframe's (name, value), e.g. from a QGroundControl file."""
 
     def __post_init__(self) -> None:
         if not 0 <= self.instance <= 254:

@@ -6,6 +6,8 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
+from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
+from harness.simulation import PortPlan
 
 
 @pytest.mark.parametrize(
@@ -56,3 +58,30 @@ def test_help_has_examples():
     for cmd in (["autopilot", "--help"], ["up", "--help"]):
         out = CliRunner().invoke(app, cmd, env={"COLUMNS": "200"}).output
         assert "Example:" in out and "autopilot" in out
+
+
+def test_the_autopilot_loads_its_own_rows_of_a_parameter_file(tmp_path):
+    """A fleet file: instance 1 (system id 2) takes the rows of vehicle 2 only."""
+    path = tmp_path / "fleet.params"
+    path.write_text("# fleet\n1\t1\tMPC_XY_CRUISE\t7.5\t9\n2\t1\tMPC_XY_CRUISE\t3.5\t9\n")
+    result = CliRunner().invoke(
+        app,
+        ["autopilot", "--instance", "1", "--params", str(path), "--connect", "tcp:127.0.0.1:1",
+         "--connect-timeout", "0.5", "--listen-port", "0", "--gcs-port", "0",
+         "--sdk-port", "48290"],
+    )  # fmt: skip
+    assert result.exit_code == 1, result.output  # no simulator, after loading
+    assert "1 parameter(s) from" in result.output
+    ap = ExternalAutopilot(
+        ExternalAutopilotConfig(
+            instance=1,
+            params=(("MPC_XY_CRUISE", 3.5),),
+            ports=PortPlan(listen_base=0, gcs_port=0, sdk_base=48290),
+        )
+    )
+    try:
+        store = ap.fleet.params[0]
+        assert store.get("MPC_XY_CRUISE") == pytest.approx(3.5)
+        assert store.get("MAV_SYS_ID") == 2
+    finally:
+        ap.close()
