@@ -42,8 +42,10 @@ logger = logging.getLogger(__name__)
 Address = tuple[str, int]
 """Where a frame came from / goes to: a UDP (host, port), or (device path, 0) on a pty."""
 
-PTY_READ_BYTES = 4096
-"""Bytes read from the pty per ``recvfrom`` (the endpoint drains up to 64 reads per poll)."""
+PTY_READ_BYTES = 256
+"""Bytes read from the pty per ``recvfrom`` (the endpoint drains up to 64 reads per poll). Below
+a link model's largest datagram (280 B, a signed MAVLink 2 frame): a modelled UART takes each
+read as one transfer, and would refuse a larger one as oversize."""
 SERIAL_BAUD = 921600
 """Baud rate set on the pty (PX4 TELEM2 to a companion: ``mavlink start -b 921600``); a pty
 has no line rate of its own, the link model (``--link uart``) enforces the byte budget."""
