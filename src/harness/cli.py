@@ -721,6 +721,13 @@ def up(
                 f"mavlink_connection({str(path)!r}, baud={SERIAL_BAUD}))",
                 soft_wrap=True,
             )
+    for k, dest in enumerate(udp_outs, start=1):
+        where = f"{dest.host}:{dest.port}" + ("+i" if dest.per_vehicle else " (every vehicle)")
+        console.print(
+            f"UDP output {k}: vehicle i's extra link (normal profile) sends to {where}; "
+            f"tlogs vehicleN-udp{k}.tlog",
+            soft_wrap=True,
+        )
     if setup is not None:
         print_world(setup, world, cfg, sim)
     print_params_load(params_load)
