@@ -235,7 +235,8 @@ def test_every_client_sees_one_vehicle(bench):
     """A mode set from the onboard link shows in every link's HEARTBEAT; a mission uploaded
     from the extra UDP link is read back over the serial port; a parameter set over the serial
     port is announced on the two UDP links; a COMMAND_ACK goes to its sender alone; each
-    client's HEARTBEAT reaches the others (PX4's forwarding)."""
+    client's HEARTBEAT reaches the others and a message for one client reaches that client
+    alone (PX4's forwarding)."""
     onboard, extra, serial = bench.clients
     beat = mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_ONBOARD_CONTROLLER, 8, 0, 0, 4, 3)
     for client in bench.clients:
@@ -249,6 +250,11 @@ def test_every_client_sees_one_vehicle(bench):
         {m.get_srcSystem() for m in c.inbox if m.get_type() == "HEARTBEAT"} for c in bench.clients
     ]
     assert senders == [{1, 250, 191}, {1, 245, 191}, {1, 245, 250}]
+    # a companion's message for the client on the extra link reaches it, and only it
+    serial.send(mavlink2.MAVLink_command_long_message(250, 190, 31010, 0, 1, 2, 3, 4, 5, 6, 7))
+    got = bench.wait_type(extra, "COMMAND_LONG", command=31010)
+    assert (got.get_srcSystem(), got.target_system) == (191, 250)
+    assert not [m for m in onboard.inbox if m.get_type() == "COMMAND_LONG"]
 
     loiter = custom_mode(MainMode.AUTO, AutoSubMode.LOITER)
     assert (
