@@ -210,7 +210,7 @@ def test_the_serial_port_never_carries_more_than_921600_baud(tmp_path):
         arrivals: list[tuple[float, int]] = []
         while sim.time_s < 4.0:
             sim.step()
-            got = _read_all(fd)
+            got = len(_read_all_bytes(fd))
             if got:
                 arrivals.append((sim.time_s, got))
     finally:
@@ -299,13 +299,46 @@ def test_every_client_sees_one_vehicle(bench):
     assert bench.sim.fleet.params[0].get("MPC_XY_VEL_MAX") == 7.25
 
 
-def _read_all(fd: int) -> int:
-    total = 0
+def test_with_a_signing_key_the_serial_port_and_udp_outputs_sign(tmp_path):
+    """``--signing-key`` covers the extra links too: every frame on them is signed."""
+    client = UdpClient(250)
+    sim = Simulation(
+        SimulationConfig(
+            n_vehicles=1,
+            seed=2,
+            record_hz=0,
+            ports=PortPlan(listen_base=0, sdk_base=free_udp_port(), gcs_port=0),
+            serial=True,
+            udp_outs=(UdpOut("127.0.0.1", client.port),),
+            signing_key=bytes(range(32)),
+        )
+    )
+    fd = os.open(sim.serial_ports[0], os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    serial_bytes = b""
+    try:
+        while sim.time_s < 1.0:
+            sim.step()
+            serial_bytes += _read_all_bytes(fd)
+        client.drain()
+    finally:
+        os.close(fd)
+        client.close()
+        sim.close()
+    parser = mavlink2.MAVLink(None)
+    parser.robust_parsing = True
+    frames = [m for m in parser.parse_buffer(serial_bytes) or [] if m.get_type() != "BAD_DATA"]
+    for msgs in (frames, client.inbox):
+        assert msgs
+        assert all(m.get_msgbuf()[2] & mavlink2.MAVLINK_IFLAG_SIGNED for m in msgs)
+
+
+def _read_all_bytes(fd: int) -> bytes:
+    out = b""
     while True:
         try:
             chunk = os.read(fd, 65536)
         except BlockingIOError:
-            return total
+            return out
         if not chunk:
-            return total
-        total += len(chunk)
+            return out
+        out += chunk
