@@ -18,6 +18,7 @@ from rich.table import Table
 
 import worlds
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
+from autopilot_emu.mavlink.transport import SERIAL_BAUD
 from harness.autopilot_cli import (
     AUTOPILOT_HELP,
     HIL_PORT_HELP,
@@ -29,6 +30,7 @@ from harness.autopilot_cli import (
     print_hil_stats,
     wait_for_autopilots,
 )
+from harness.client_links import parse_udp_out
 from harness.launch import StopFlag, console, default_run_dir, open_simulation
 from harness.link_options import NO_LINK, check_link_model, describe, links_config
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
@@ -445,6 +447,25 @@ def up(
             "(e.g. --world my_world.yaml, or --world example:offshore for a shipped one)",
         ),
     ] = None,
+    serial: Annotated[
+        bool,
+        typer.Option(
+            "--serial",
+            help="give each vehicle a serial port as PX4's TELEM2 to a companion (onboard "
+            "profile, 921600 baud, always behind the uart link model: 92160 B/s): a pty behind "
+            "RUN/vehicleN.serial, e.g. MAVSDK serial://RUN/vehicle1.serial:921600 "
+            "(docs/links.md)",
+        ),
+    ] = False,
+    udp_out: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="HOST:PORT[+i]",
+            help="one more MAVLink link per vehicle (PX4 normal profile, forwarding on) sending "
+            "to HOST:PORT, the same port for every vehicle as 14550 (HOST:PORT+i: vehicle i to "
+            "PORT+i); repeatable, e.g. --udp-out 127.0.0.1:14600 (docs/links.md)",
+        ),
+    ] = None,
     launch_area: Annotated[
         str | None,
         typer.Option(
@@ -491,6 +512,12 @@ def up(
 
     Example:  swarmsitl up --link uart --gcs-link sik   (MAVLink as over TELEM2 and a radio)
 
+    Example:  swarmsitl up --serial --out runs/s   (companion: MAVSDK
+    serial://runs/s/vehicle1.serial:921600, pymavlink mavlink_connection(path, baud=921600))
+
+    Example:  swarmsitl up --udp-out 127.0.0.1:14600   (a third client per vehicle, e.g.
+    pymavlink udpin:0.0.0.0:14600, beside MAVSDK on 14540 and a GCS on 14550)
+
     Example:  swarmsitl up -n 3 --net edge,edge,fog   (then, per companion:
     SWARMSITL_NET=<run>/net.yaml SWARMSITL_NODE=edge1 python my_companion.py)
 
@@ -523,6 +550,8 @@ def up(
                 ("--signing-key", bool(signing_key_file or signing_passphrase)),
                 ("--params", bool(params)),
                 ("--stream-rate", bool(stream_rate)),
+                ("--serial", serial),
+                ("--udp-out", bool(udp_out)),
             )
             if given
         ]
@@ -541,6 +570,10 @@ def up(
     if exposed is not None:
         console.print(f"[yellow]warning:[/yellow] {escape(exposed)}")
     frames = parse_frames(frame, vehicles)
+    try:
+        udp_outs = tuple(parse_udp_out(spec) for spec in udp_out or [])
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--udp-out") from exc
     link = parse_link_model(link, "--link", links)
     gcs_link = parse_link_model(gcs_link, "--gcs-link", links)
     roles = None
@@ -623,6 +656,8 @@ def up(
         signing_key=key,
         autopilot=autopilot,
         hil_serial=tuple(hil_serial or ()),
+        serial=serial,
+        udp_outs=udp_outs,
     )
     sim = open_simulation(cfg)
     if sim.hil is not None:
@@ -638,6 +673,8 @@ def up(
             "MAVSDK connects with",
             "GCS link",
             *(("link models (onboard / GCS)",) if modelled else ()),
+            *(("serial (uart)",) if serial else ()),
+            *(("UDP out",) if udp_outs else ()),
             "home lat, lon, alt",
         )
         for col in columns:
@@ -660,6 +697,8 @@ def up(
                 f"udpin://0.0.0.0:{ports.sdk_port(i)}",
                 gcs,
                 *((models,) if modelled else ()),
+                *((f"RUN/{Path(str(sim.serial_ports[i])).name}",) if serial else ()),
+                *((", ".join(d.describe(i) for d in udp_outs),) if udp_outs else ()),
                 f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
             )
         console.print(table)
@@ -674,6 +713,20 @@ def up(
         console.print(
             f"motion capture: {sim.world.config.mocap_hz:g} Hz, vehicle i's poses to udp "
             f"{ports.peer_addr}:{mocap_port}+i (bridge: python -m companion.scripts.mocap_bridge)"
+        )
+    for i, path in enumerate(sim.serial_ports):
+        if path is not None:
+            console.print(
+                f"serial port of vehicle {i + 1}: serial://{path}:{SERIAL_BAUD} (pymavlink: "
+                f"mavlink_connection({str(path)!r}, baud={SERIAL_BAUD}))",
+                soft_wrap=True,
+            )
+    for k, dest in enumerate(udp_outs, start=1):
+        where = f"{dest.host}:{dest.port}" + ("+i" if dest.per_vehicle else " (every vehicle)")
+        console.print(
+            f"UDP output {k}: vehicle i's extra link (normal profile) sends to {where}; "
+            f"tlogs vehicleN-udp{k}.tlog",
+            soft_wrap=True,
         )
     if setup is not None:
         print_world(setup, world, cfg, sim)

@@ -26,7 +26,9 @@ ONBOARD = 0
 """Path index of the companion <-> autopilot link."""
 GCS = 1
 """Path index of the ground-station link."""
-PATH_NAMES = ("onboard", "gcs")
+SERIAL = 2
+"""Path index of the serial port (``up --serial``: TELEM2 to a companion)."""
+PATH_NAMES = ("onboard", "gcs", "serial")
 
 
 @lru_cache(maxsize=8)

@@ -28,6 +28,7 @@ from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from autopilot_emu.params import MAV_PARAM_TYPE_INT32, ParamError, ParamStore
 from autopilot_emu.rangefinder import ROTATION_DOWNWARD
+from harness.client_links import UdpOut, client_links
 from harness.link_options import (
     GCS,
     NO_LINK,
@@ -205,6 +206,11 @@ class SimulationConfig:
     vehicle_params: tuple[dict[str, float], ...] = ()
     """Autopilot parameters per vehicle (one dict per vehicle, in vehicle order), set after
     ``params`` (a scenario's roles: ``harness.scenario``); empty: none."""
+    serial: bool = False
+    """Give every vehicle a serial port too (a pty behind ``<out_dir>/vehicle<N>.serial``,
+    PX4's TELEM2 to a companion; ``harness.client_links``)."""
+    udp_outs: tuple[UdpOut, ...] = ()
+    """Extra UDP links of every vehicle (``up --udp-out``; ``harness.client_links``)."""
     router: LinkRouter | Callable[[], LinkRouter] | None = None
     """The paced UDP router of node messaging, or a factory of it, polled with the MAVLink
     links on the simulation clock (the simulation closes it); None: no router."""
@@ -351,7 +357,9 @@ class Simulation:
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
         self.shapers: dict[tuple[int, str], MavlinkLinkShaper] = {}
-        """The modelled MAVLink links by (vehicle index, ``onboard`` or ``gcs``)."""
+        """The modelled MAVLink links by (vehicle index, ``onboard``, ``gcs`` or ``serial``)."""
+        self.serial_ports: list[str | None] = [None] * n
+        """What a client opens for each vehicle's serial port (None: no ``serial``)."""
         self.router: LinkRouter | None = None
         self._position_hooks: list[Callable[[float, np.ndarray], None]] = []
         self._frame_hooks: list[Callable[[list[CameraFrame]], None]] = []
@@ -523,6 +531,8 @@ class Simulation:
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
                 if payload:
                     self._payload_links[i] = links[-1]
+            if self.config.serial or self.config.udp_outs:
+                links.extend(client_links(self, i, hub, ftp_root, self._rangefinder_rate_hz(i)))
         except BaseException:
             for link in links:
                 link.close()

@@ -492,11 +492,16 @@ class RawLink:
         beats = []
         for _ in range(count):
             hb = self.wait_for(
-                lambda m: m.get_type() == "HEARTBEAT" and m.get_srcComponent() == 1, timeout_s
+                lambda m: m.get_type() == "HEARTBEAT" and from_autopilot(m), timeout_s
             )
             assert hb is not None, f"no HEARTBEAT within {timeout_s} s"
             beats.append(hb)
         return beats
+
+
+def from_autopilot(msg, sysid: int = 1) -> bool:
+    """Sent by the autopilot itself (other clients' frames are forwarded between links too)."""
+    return msg.get_srcSystem() == sysid and msg.get_srcComponent() == 1
 
 
 def command_long(

@@ -25,6 +25,7 @@ from e2e_support import (
     MavProxy,
     RawLink,
     download_items,
+    from_autopilot,
     module_ports,
     running_swarm,
 )
@@ -102,7 +103,7 @@ def wait_ready(lk: RawLink) -> None:
 def wait_heartbeat(lk: RawLink, mp: MavProxy, predicate, what: str, timeout_s: float = ACK_WAIT_S):
     lk.drain()
     hb = lk.wait_for(
-        lambda m: m.get_type() == "HEARTBEAT" and m.get_srcComponent() == 1 and predicate(m),
+        lambda m: m.get_type() == "HEARTBEAT" and from_autopilot(m) and predicate(m),
         timeout_s,
     )
     if hb is None:
@@ -174,7 +175,10 @@ def land_and_disarm(mp: MavProxy, lk: RawLink) -> None:
     set_mode(mp, "LAND")
     lk.drain()
     disarmed = lk.wait_for(
-        lambda m: m.get_type() == "HEARTBEAT" and not m.base_mode & ARMED_FLAG, 60 / SPEED + 15
+        lambda m: (
+            m.get_type() == "HEARTBEAT" and from_autopilot(m) and not m.base_mode & ARMED_FLAG
+        ),
+        60 / SPEED + 15,
     )
     if disarmed is None:
         mp.send("disarm force")

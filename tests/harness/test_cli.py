@@ -112,3 +112,27 @@ def test_bad_gps_outage_options_are_refused(spec):
     result = CliRunner().invoke(app, ["up", "--gps-outage", spec, "--duration", "1"])
     assert result.exit_code == 2
     assert "--gps-outage" in result.output
+
+
+@pytest.mark.parametrize("spec", ["14600", "host:", "127.0.0.1:99999", "127.0.0.1:14600+2"])
+def test_bad_udp_out_is_refused_with_a_reason(spec):
+    result = CliRunner().invoke(app, ["up", "--udp-out", spec, "--duration", "1"])
+    assert result.exit_code == 2  # a usage error, before anything starts
+    assert "--udp-out" in "".join(result.output.replace("│", "").split())
+
+
+def test_up_with_serial_and_udp_out_prints_both(tmp_path):
+    """--serial prints the serial:// URL of each vehicle's port (the symlink is removed on exit),
+    --udp-out the destination of each vehicle's extra link, which writes its own tlog."""
+    args = ["up", "--speed", "50", "--duration", "0.5", "--gcs-port", "0", "--no-camera", "-n", "2"]
+    args += ["--out", str(tmp_path), "--sdk-port", "0", "--listen-port", "0", "--serial"]
+    result = CliRunner().invoke(app, [*args, "--udp-out", "127.0.0.1:9+i"])
+    assert result.exit_code == 0, result.output
+    flat = "".join(result.output.split())
+    for n in (1, 2):
+        assert f"serial://{tmp_path}/vehicle{n}.serial:921600" in flat
+        assert (tmp_path / f"vehicle{n}-serial.tlog").stat().st_size > 0
+        assert (tmp_path / f"vehicle{n}-udp1.tlog").stat().st_size > 0
+        assert not (tmp_path / f"vehicle{n}.serial").is_symlink()
+    assert "UDPoutput1:vehiclei'sextralink(normalprofile)sendsto127.0.0.1:9+i" in flat
+    assert "seriallinkofvehicle1(uart)" in flat

@@ -15,8 +15,11 @@ message is built only when its stream is due. A poll with no traffic and nothing
 failing ``recvfrom`` and one comparison.
 
 Every frame goes to the configured peers and to every address MAVLink has been received from, as
-PX4 does. Frames for or from the vehicle's other components (a camera) are relayed between its
-links (:mod:`autopilot_emu.mavlink.forwarding`). Malformed input is counted in
+PX4 does, except a COMMAND_ACK, which goes to the address the command came from alone. Frames for
+or from other components and systems (a camera, a ground station) are relayed between the
+vehicle's links (:mod:`autopilot_emu.mavlink.forwarding`); a parameter one link sets is announced
+on all. The link is a UDP socket, or a serial port (a pseudo-terminal,
+:mod:`autopilot_emu.mavlink.transport`). Malformed input is counted in
 :attr:`MavlinkEndpoint.stats` and logged, never raised; errors while sending are counted and
 otherwise ignored. With a :class:`~autopilot_emu.mavlink.shaping.LinkShaper` in the config, both
 directions are held until the modelled link (a UART, a radio) delivers them. With a signing key
@@ -48,7 +51,7 @@ from autopilot_emu.mavlink.commands import (
     CommandRequest,
 )
 from autopilot_emu.mavlink.distance_sensor import DistanceSensorForwarder, latest_messages
-from autopilot_emu.mavlink.forwarding import should_forward
+from autopilot_emu.mavlink.forwarding import required_target, should_forward
 from autopilot_emu.mavlink.ftp import FtpServer
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.mission_protocol import MissionProtocol
@@ -69,6 +72,7 @@ from autopilot_emu.mavlink.streams import (
     profile_streams,
 )
 from autopilot_emu.mavlink.tlog import TlogWriter
+from autopilot_emu.mavlink.transport import Transport
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot, VehiclePort
 from autopilot_emu.mavlink.vision import (
     VisionError,
@@ -261,6 +265,9 @@ class MavlinkEndpoint:
         wall_clock_s: monotonic clock of the peers' retransmission timers (command duplicates,
             mission-transfer retries and timeouts); injectable for tests.
         hub: what this link shares with the vehicle's other links (None: a link of its own).
+        transport: what the link speaks over (a serial port:
+            :class:`~autopilot_emu.mavlink.transport.PtyTransport`, whose one peer replaces
+            ``config.peers``); None: a UDP socket on ``config.bind_addr:listen_port``.
 
     Raises:
         PortInUseError: ``config.listen_port`` is already bound.
@@ -273,6 +280,7 @@ class MavlinkEndpoint:
         config: EndpointConfig,
         wall_clock_s: Callable[[], float] = time.monotonic,
         hub: LinkHub | None = None,
+        transport: Transport | None = None,
     ) -> None:
         if hub is not None and hub.vehicle is not vehicle:
             raise ValueError("the link hub serves another vehicle")
@@ -349,8 +357,12 @@ class MavlinkEndpoint:
         }
         self._setpoint_problems: set[str] = set()
         self._vision_problems: set[str] = set()
-        self._configured_peers = list(
-            dict.fromkeys(_resolve(host, port) for host, port in config.peers)
+        self._stream = transport is not None and transport.is_stream
+        """The link is a byte stream (serial): a frame may span reads."""
+        self._configured_peers = (
+            [transport.getsockname()]
+            if self._stream
+            else list(dict.fromkeys(_resolve(host, port) for host, port in config.peers))
         )
         self._learned_peers: OrderedDict[tuple[str, int], None] = OrderedDict()
         self._peers = list(self._configured_peers)
@@ -377,7 +389,11 @@ class MavlinkEndpoint:
         self._next_rate_update_us = 0
         self._statustext_id = 0
         self._check_sysid_param()
-        self._sock: socket.socket | None = self._bind(config.bind_addr, config.listen_port)
+        self._sock: socket.socket | Transport | None = (
+            transport if transport is not None else self._bind(config.bind_addr, config.listen_port)
+        )
+        self._sender: tuple[str, int] | None = None
+        """Address of the datagram being handled (COMMAND_ACKs go back to it alone)."""
         self._forwarded = False
         """The frame being handled was relayed to the vehicle's other links."""
         self._forward_member = self._hub.forwarding.join(self._relay) if config.forwarding else None
@@ -539,6 +555,8 @@ class MavlinkEndpoint:
             self._mission_events(reached)
             for command in self._hub.component_commands(self._cursor):
                 self._send_component_command(command)
+            for name in self._hub.changed_params(self._cursor):
+                self._send(self._params.value_message(name))
         if self._params.list_pending:
             self._params.send_list_batch()
         if self._missions.busy:
@@ -567,8 +585,11 @@ class MavlinkEndpoint:
 
     # --- sending -----------------------------------------------------------------------------
 
-    def _send(self, message: mavlink2.MAVLink_message) -> None:
-        """Frame ``message`` with our ids and the next sequence number; send it to every peer."""
+    def _send(self, message: mavlink2.MAVLink_message, to: tuple[str, int] | None = None) -> None:
+        """Frame ``message`` with our ids and the next sequence number; send it to every peer.
+
+        ``to``: to that address alone (see :meth:`_transmit`).
+        """
         config = self._config
         try:
             frame = self._encode(message, self._seq, config.sysid, config.compid)
@@ -579,7 +600,7 @@ class MavlinkEndpoint:
         self._seq = (self._seq + 1) & 0xFF
         self.stats.frames_sent += 1
         self._bytes_out += len(frame)
-        self._transmit(frame)
+        self._transmit(frame, to)
 
     def _send_fields(
         self,
@@ -620,19 +641,23 @@ class MavlinkEndpoint:
         self.stats.frames_relayed += 1
         self._transmit(frame)
 
-    def _transmit(self, frame: bytes) -> None:
-        """Send an encoded frame to every peer (through the shaper, if any) and log it."""
+    def _transmit(self, frame: bytes, to: tuple[str, int] | None = None) -> None:
+        """Send an encoded frame to every peer (through the shaper, if any) and log it.
+
+        ``to``: to that peer alone (a COMMAND_ACK to the client that sent the command), unless
+        the link is modelled: a UART or radio carries every byte to its far end, whoever asked.
+        """
         if self._config.shaper is None:
-            self._sendto_peers(frame)
+            self._sendto_peers(frame, to)
         else:
             self._config.shaper.outbound(self._now_s, frame)
         if self._tlog is not None:
             self._tlog.write(self._now_s, frame)
 
-    def _sendto_peers(self, frame: bytes) -> None:
+    def _sendto_peers(self, frame: bytes, to: tuple[str, int] | None = None) -> None:
         sock = self._sock
         if sock is not None:
-            for peer in self._peers:
+            for peer in self._peers if to is None else (to,):
                 try:
                     sock.sendto(frame, peer)
                 except OSError:
@@ -744,7 +769,7 @@ class MavlinkEndpoint:
             self.stats.parse_errors += 1
             logger.debug("unparsable datagram from %s: %s", address, exc)
             frames = []
-        if parser.buf_len() > 0:
+        if parser.buf_len() > 0 and not self._stream:
             # A frame cut short by the end of the datagram: drop it rather than let it swallow
             # the start of the next datagram.
             self.stats.parse_errors += 1
@@ -754,6 +779,7 @@ class MavlinkEndpoint:
             parser.expected_length = mavlink2.HEADER_LEN_V1 + 2
         learned = False
         signer = self._signer
+        self._sender = address
         for msg in frames:
             msg_id = msg.get_msgId()
             if msg_id == mavlink2.MAVLINK_MSG_ID_BAD_DATA:
@@ -773,11 +799,13 @@ class MavlinkEndpoint:
                 self._learn_peer(address)
                 learned = True
             self._forwarded = False
-            if self._forward_member is not None and should_forward(
-                msg, self._config.sysid, self._config.compid
-            ):
+            member = self._forward_member
+            if member is not None:
+                self._hub.forwarding.heard(member, msg.get_srcSystem(), msg.get_srcComponent())
+            if member is not None and should_forward(msg, self._config.sysid, self._config.compid):
                 frame = bytes(msg.get_msgbuf())
-                if self._hub.forwarding.forward(self._forward_member, frame):
+                target = required_target(msg, self._config.sysid)
+                if self._hub.forwarding.forward(member, frame, target):
                     self.stats.frames_forwarded += 1
                     self._forwarded = True
             handler = self._handlers.get(msg_id)
@@ -880,7 +908,8 @@ class MavlinkEndpoint:
                 result_param2=0,
                 target_system=msg.get_srcSystem(),
                 target_component=msg.get_srcComponent(),
-            )
+            ),
+            to=self._sender,
         )
         replies, self._replies = self._replies, []
         for message in replies:
@@ -898,7 +927,10 @@ class MavlinkEndpoint:
 
     def _on_param_set(self, msg: mavlink2.MAVLink_message) -> None:
         if self._targets_us(msg.target_system, msg.target_component):
+            version = self._vehicle.params.version
             self._params.handle_set(msg)
+            if self._vehicle.params.version != version:
+                self._hub.param_changed(self._cursor, msg.param_id)
 
     def _on_heartbeat(self, msg: mavlink2.MAVLink_message) -> None:
         # PX4 counts only ground stations (type GCS) for the data-link-loss failsafe.

@@ -1,4 +1,4 @@
-"""Forwarding between one vehicle's MAVLink links, for the other components of its system.
+"""Forwarding between one vehicle's MAVLink links, as PX4's ``mavlink start -f`` does.
 
 PX4 starts its SITL links with forwarding on (``mavlink start -f``, px4-rc.mavlink): a message
 received on one link that is not addressed to PX4 alone is passed, frame for frame, to every
@@ -7,19 +7,28 @@ PX4's onboard payload link (compid 100, same system id) is seen by MAVSDK on the
 by a ground station, and how their commands for compid 100 reach it.
 
 The emulator forwards a received frame, verbatim (same header, sequence number, source ids and
-CRC), to the vehicle's other links when
+CRC), to the vehicle's other links with forwarding on, never back to the link it came from,
+unless it is addressed to the autopilot alone (target system and component both ours) or is the
+autopilot's own frame looped back. Where it goes:
 
-* it comes from another component of the vehicle's own system (a camera's HEARTBEAT, its
-  CAMERA_IMAGE_CAPTURED, its COMMAND_ACK to a ground station), unless it is addressed to the
-  autopilot itself; or
-* it is addressed to another component of the vehicle's system (target_system = ours,
-  target_component neither 0 nor ours), e.g. a ground station's command for the camera.
+* frames of the vehicle's own system (a camera's HEARTBEAT, its CAMERA_IMAGE_CAPTURED, its
+  COMMAND_ACK to a ground station) and frames addressed to another component of it (a ground
+  station's command for the camera): to every other link;
+* everything else (other systems' traffic: a ground station's HEARTBEAT, a companion's
+  messages for the ground station, broadcasts): as PX4 does, only to the links that have
+  heard from the target (``MavlinkReceiver::component_was_seen``): for target system 0 (a
+  broadcast, or a message without target fields) a link that has heard from anyone, else one
+  that has heard from that system (and from that component, unless it is 0). HEARTBEATs are
+  forwarded (PX4's MAV_HB_FORW_EN, default on).
 
-Deviation from PX4: traffic between other systems is not forwarded. PX4's ``-f`` also relays
-broadcasts of every system (a ground station's HEARTBEAT reaches MAVSDK, MAVSDK's reaches the
-ground station); here the ground stations and SDKs of different links never see each other,
-which keeps each client's view of the network what it would be on a direct link to the vehicle.
-Broadcasts from other systems (target_component 0) are therefore not forwarded either.
+So a GCS on 14550, MAVSDK on 14540, a script on an extra ``--udp-out`` link and a program on the
+serial port see each other's heartbeats and can address each other, as through a real PX4.
+
+Deviation from PX4: the vehicle's own components' traffic goes to every link without the
+"heard from" check (PX4 forwards a frame for the camera only to a link the camera was heard on,
+and the camera's broadcasts only to links that heard from someone), so a listen-only client
+sees the camera at once.
+
 SETUP_SIGNING is never forwarded (the MAVLink signing spec; PX4's ``handle_message``).
 
 On signed links (:mod:`autopilot_emu.mavlink.signing`) a relayed frame keeps its sender's
@@ -39,18 +48,30 @@ Relay = Callable[[bytes], None]
 """Sends one received frame, unchanged, out of a link (to its peers, and into its tlog)."""
 
 
+def message_target(msg: mavlink2.MAVLink_message) -> tuple[int, int]:
+    """(target_system, target_component) of a message; 0 for fields it does not have."""
+    return getattr(msg, "target_system", 0), getattr(msg, "target_component", 0)
+
+
 def should_forward(msg: mavlink2.MAVLink_message, sysid: int, compid: int) -> bool:
     """Whether a frame received by the autopilot ``sysid``/``compid`` goes to its other links."""
     if msg.get_msgId() == mavlink2.MAVLINK_MSG_ID_SETUP_SIGNING:
         return False
-    src_system = msg.get_srcSystem()
-    target_system = getattr(msg, "target_system", 0)
-    target_component = getattr(msg, "target_component", 0)
-    if src_system == sysid:
-        if msg.get_srcComponent() == compid:
-            return False  # our own frame, looped back
-        return not (target_system == sysid and target_component == compid)
-    return target_system == sysid and target_component not in (0, compid)
+    if msg.get_srcSystem() == sysid and msg.get_srcComponent() == compid:
+        return False  # our own frame, looped back
+    return message_target(msg) != (sysid, compid)
+
+
+def required_target(msg: mavlink2.MAVLink_message, sysid: int) -> tuple[int, int] | None:
+    """What a link must have heard from to be forwarded ``msg`` (None: every link gets it).
+
+    Frames of our own system and frames for its components go to every link; anything else
+    only to links that have heard from its target (PX4's component_was_seen).
+    """
+    target = message_target(msg)
+    if msg.get_srcSystem() == sysid or target[0] == sysid:
+        return None
+    return target
 
 
 class ForwardingGroup:
@@ -58,21 +79,46 @@ class ForwardingGroup:
 
     def __init__(self) -> None:
         self._relays: list[Relay | None] = []
+        self._heard: list[set[tuple[int, int]]] = []
 
     def join(self, relay: Relay) -> int:
         """A new link: its member id in the group."""
         self._relays.append(relay)
+        self._heard.append(set())
         return len(self._relays) - 1
 
     def leave(self, member: int) -> None:
         """A link closed: nothing more is forwarded to it."""
         self._relays[member] = None
+        self._heard[member] = set()
 
-    def forward(self, origin: int, frame: bytes) -> int:
-        """Send ``frame`` out of every member but ``origin``; returns how many links took it."""
+    def heard(self, member: int, system: int, component: int) -> None:
+        """Link ``member`` received a frame from ``system``/``component``."""
+        heard = self._heard[member]
+        if (system, component) not in heard:
+            heard.add((system, component))
+
+    def has_heard(self, member: int, target: tuple[int, int]) -> bool:
+        """PX4's component_was_seen: whether ``member`` heard from ``target`` (0 = any)."""
+        heard = self._heard[member]
+        system, component = target
+        if system == 0:
+            return bool(heard)
+        if component == 0:
+            return any(s == system for s, _ in heard)
+        return target in heard
+
+    def forward(self, origin: int, frame: bytes, target: tuple[int, int] | None = None) -> int:
+        """Send ``frame`` out of every member but ``origin``; returns how many links took it.
+
+        ``target``: only to the members that have heard from it (:meth:`has_heard`).
+        """
         sent = 0
         for member, relay in enumerate(self._relays):
-            if member != origin and relay is not None:
-                relay(frame)
-                sent += 1
+            if member == origin or relay is None:
+                continue
+            if target is not None and not self.has_heard(member, target):
+                continue
+            relay(frame)
+            sent += 1
         return sent

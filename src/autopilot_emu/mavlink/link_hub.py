@@ -7,7 +7,9 @@ stream from it) and the announcements the vehicle makes once (status texts, miss
 reached), which every link must forward. :class:`LinkHub` owns both; each link reads the
 announcements through its own cursor. It also holds the links' forwarding group
 (:mod:`autopilot_emu.mavlink.forwarding`) and the commands the vehicle sends to its other
-components (a mission's camera items), which every link sends once.
+components (a mission's camera items), which every link sends once, and the parameters a client
+changed through one link, which the others announce with PARAM_VALUE (as PX4's instances send
+every changed parameter, whichever link set it).
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ class LinkHub:
         self.forwarding = ForwardingGroup()
         """The links that relay frames for the vehicle's other components to each other."""
         self._command_queues: list[deque[ComponentCommand]] = []
+        self._param_queues: list[deque[str]] = []
         self._signing: SigningStreams | None = None
 
     def signing(self, key: bytes) -> SigningStreams:
@@ -87,7 +90,23 @@ class LinkHub:
         """A new link: its cursor id (it sees announcements made from now on)."""
         self._cursors.append(self._next_seq)
         self._command_queues.append(deque(maxlen=MAX_PENDING_ANNOUNCEMENTS))
+        self._param_queues.append(deque(maxlen=MAX_PENDING_ANNOUNCEMENTS))
         return len(self._cursors) - 1
+
+    def param_changed(self, origin: int, name: str) -> None:
+        """Link ``origin`` changed parameter ``name`` (and echoed it): the others announce it."""
+        for cursor, queue in enumerate(self._param_queues):
+            if cursor != origin and name not in queue:
+                queue.append(name)
+
+    def changed_params(self, cursor: int) -> list[str]:
+        """Parameters other links changed that link ``cursor`` has not announced yet."""
+        queue = self._param_queues[cursor]
+        if not queue:
+            return []
+        names = list(queue)
+        queue.clear()
+        return names
 
     def component_commands(self, cursor: int) -> list[ComponentCommand]:
         """Commands for the vehicle's other components that link ``cursor`` has not sent yet."""

@@ -1,4 +1,4 @@
-"""Forwarding between one vehicle's links: the camera's traffic crosses links, nothing else does."""
+"""Forwarding between one vehicle's links, as PX4's ``-f``: the camera's traffic, other systems'."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from mavlink_fakes import FakeVehicle, MavClient, command_long, has, make_endpoi
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
-from autopilot_emu.mavlink.forwarding import should_forward
+from autopilot_emu.mavlink.forwarding import ForwardingGroup, required_target, should_forward
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE
 from autopilot_emu.mission.camera_items import ComponentCommand
@@ -37,9 +37,9 @@ HEARTBEAT = mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_CAMERA, 8, 0, 0
         (command_long(2000, target_component=1), (1, 100), False),  # for the autopilot alone
         (command_long(2000, target_component=100), (245, 190), True),
         (command_long(400, target_component=1), (245, 190), False),  # for the autopilot
-        (command_long(400, target_component=0), (245, 190), False),  # other system's broadcast
-        (command_long(2000, target_system=2, target_component=100), (245, 190), False),
-        (HEARTBEAT, (255, 190), False),  # a ground station's heartbeat
+        (command_long(400, target_component=0), (245, 190), True),  # for all our components
+        (command_long(2000, target_system=2, target_component=100), (245, 190), True),
+        (HEARTBEAT, (255, 190), True),  # a ground station's heartbeat (MAV_HB_FORW_EN)
         (HEARTBEAT, (1, 1), False),  # our own frame looped back
         # SETUP_SIGNING is never forwarded (MAVLink signing spec), even for the camera
         (mavlink2.MAVLink_setup_signing_message(1, 100, [7] * 32, 1), (255, 190), False),
@@ -47,6 +47,34 @@ HEARTBEAT = mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_CAMERA, 8, 0, 0
 )
 def test_what_is_forwarded(msg, src, expected):
     assert should_forward(_message(msg, src), sysid=1, compid=1) is expected
+
+
+@pytest.mark.parametrize(
+    ("msg", "src", "expected"),
+    [
+        (HEARTBEAT, (1, 100), None),  # our camera: every link
+        (command_long(2000, target_component=100), (245, 190), None),  # for our camera
+        (HEARTBEAT, (255, 190), (0, 0)),  # broadcast: links that heard anyone
+        (command_long(2000, target_system=2, target_component=100), (245, 190), (2, 100)),
+    ],
+)
+def test_which_links_get_a_forwarded_frame(msg, src, expected):
+    assert required_target(_message(msg, src), sysid=1) == expected
+
+
+def test_a_link_gets_other_systems_frames_once_it_heard_from_their_target():
+    """PX4's component_was_seen: system 0 = anyone heard; component 0 = any of the system's."""
+    group = ForwardingGroup()
+    got: list[list[bytes]] = [[], [], []]
+    members = [group.join(got[k].append) for k in range(3)]
+    assert group.forward(members[0], b"hb", (0, 0)) == 0  # nobody heard from anyone yet
+    group.heard(members[1], 245, 190)
+    assert group.forward(members[0], b"hb", (0, 0)) == 1
+    assert group.forward(members[0], b"cmd", (245, 0)) == 1
+    assert group.forward(members[0], b"cmd", (245, 1)) == 0
+    assert group.forward(members[0], b"cmd", (246, 0)) == 0
+    assert group.forward(members[1], b"own", None) == 2  # our system's: every other link
+    assert got == [[b"own"], [b"hb", b"cmd"], [b"own"]]
 
 
 @pytest.fixture
@@ -101,18 +129,25 @@ def test_the_cameras_broadcasts_and_replies_reach_the_onboard_and_gcs_links(link
     assert not [m for m in camera.inbox if m.get_srcComponent() == 100]  # not echoed back
 
 
-def test_traffic_of_other_systems_is_not_forwarded(links):
-    """A ground station's heartbeat and commands for the autopilot stay on their link (unlike
-    PX4's -f, which also relays other systems' broadcasts)."""
+def test_other_systems_broadcasts_reach_the_links_that_heard_someone(links):
+    """As PX4's -f: the ground station's HEARTBEAT reaches the SDK's link (which heard the SDK),
+    not the payload link (which heard nobody); commands for the autopilot alone stay put; the
+    SDK's heartbeat reaches the ground station, never back to the SDK."""
     _, (onboard, ground, payload), (sdk, gcs, camera) = links
+    sdk.send(onboard, mavlink2.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3))
+    _poll_all((onboard, ground, payload), (sdk, gcs, camera))
+    assert onboard.stats.frames_forwarded == 0  # no other link heard anyone yet
     gcs.send(ground, mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))
     gcs.send(ground, command_long(31000, target_component=1))
-    sdk.send(onboard, command_long(400, 0, target_component=0))
     _poll_all((onboard, ground, payload), (sdk, gcs, camera))
-    for client in (sdk, camera):
-        assert not [m for m in client.inbox if m.get_srcSystem() == 255]
-    assert not [m for m in camera.inbox + gcs.inbox if m.get_srcSystem() == 245]
-    assert onboard.stats.frames_forwarded == ground.stats.frames_forwarded == 0
+    sdk.send(onboard, mavlink2.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3))
+    _poll_all((onboard, ground, payload), (sdk, gcs, camera))
+    from_gcs = [m.get_type() for m in sdk.inbox if m.get_srcSystem() == 255]
+    assert from_gcs == ["HEARTBEAT"]
+    assert [m.get_type() for m in gcs.inbox if m.get_srcSystem() == 245] == ["HEARTBEAT"]
+    assert not [m for m in camera.inbox if m.get_srcSystem() in (245, 255)]
+    assert not [m for m in sdk.inbox if m.get_srcSystem() == 245]
+    assert ground.stats.frames_forwarded == onboard.stats.frames_forwarded == 1
 
 
 def test_forwarding_off_and_closed_links(links):

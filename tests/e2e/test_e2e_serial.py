@@ -1,0 +1,71 @@
+"""``swarmsitl up --serial --udp-out``: MAVSDK classic flies over the serial port (a pty, as a
+Pi's TELEM2) while a pymavlink script on the extra UDP output watches the same vehicle.
+
+Ports come from this module's own block (48120..48149), clear of the other modules' blocks.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from e2e_support import Ports, check_tlog, require_free_udp, start_client, start_swarm, stop_swarm
+from pymavlink import mavutil
+
+pytestmark = pytest.mark.e2e
+
+PORTS = Ports(sdk=48120, listen=48125, gcs_listen=48130, grpc=48140)
+UDP_OUT = 48135
+"""Where the vehicle's extra link (``--udp-out``) sends; the pymavlink watcher listens here."""
+ARMED = mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+ONBOARD_CONTROLLER = mavutil.mavlink.MAV_TYPE_ONBOARD_CONTROLLER
+INVALID_AUTOPILOT = mavutil.mavlink.MAV_AUTOPILOT_INVALID
+
+
+def test_mavsdk_flies_over_the_serial_port_while_a_udp_out_client_watches(tmp_path, client_logs):
+    """MAVSDK connects with serial://RUN/vehicle1.serial:921600, arms, takes off and lands; the
+    pymavlink client on --udp-out sees the same vehicle arm and disarm, and sees MAVSDK's own
+    HEARTBEAT (system 245), forwarded from the serial link as PX4's -f does (once the UDP link
+    has heard from the watcher: PX4 forwards broadcasts only to links that heard someone)."""
+    require_free_udp([PORTS.sdk, PORTS.listen, UDP_OUT])
+    out = tmp_path / "run"
+    watcher = mavutil.mavlink_connection(f"udpin:127.0.0.1:{UDP_OUT}", source_system=250)
+    swarm = start_swarm(1, PORTS, out, extra=("--serial", "--udp-out", f"127.0.0.1:{UDP_OUT}"))
+    serial = out / "vehicle1.serial"
+    try:
+        assert f"serial://{serial}:921600" in swarm.output(), swarm.output()
+        assert serial.is_symlink()
+        client = start_client(
+            "classic_takeoff_land.py",
+            ["--url", f"serial://{serial}:921600", "--grpc-port", str(PORTS.grpc), "--alt", "3"],
+            client_logs,
+            timeout_s=240,
+            grpc_port=PORTS.grpc,
+        )
+        armed_states: list[bool] = []
+        seen_systems: set[int] = set()
+        next_beat = 0.0
+        while client.proc.poll() is None and time.monotonic() < client.deadline:
+            msg = watcher.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
+            if msg is None:
+                continue
+            seen_systems.add(msg.get_srcSystem())
+            if time.monotonic() >= next_beat:  # heard from: PX4 forwards broadcasts to us
+                next_beat = time.monotonic() + 1.0
+                watcher.mav.heartbeat_send(ONBOARD_CONTROLLER, INVALID_AUTOPILOT, 0, 0, 0)
+            if msg.get_srcSystem() == 1:
+                armed = bool(msg.base_mode & ARMED)
+                if not armed_states or armed_states[-1] != armed:
+                    armed_states.append(armed)
+        result = client.result()
+        assert result.ok, result.describe()
+        assert result.data["rel_alt_reached_m"] >= 2.7
+        assert result.data["landed"] is True
+        assert armed_states[:3] == [False, True, False], armed_states
+        assert 245 in seen_systems, seen_systems
+    finally:
+        watcher.close()
+        stop_swarm(swarm)
+    assert not serial.exists() and not serial.is_symlink()
+    assert check_tlog(out / "vehicle1-serial.tlog", 1) > 0
+    assert check_tlog(out / "vehicle1-udp1.tlog", 1) > 0
