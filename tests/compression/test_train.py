@@ -1,6 +1,7 @@
 """Training is seeded and reproducible, and its command writes a model the codec loads."""
 
 import json
+import struct
 import subprocess
 import sys
 
@@ -29,6 +30,15 @@ def test_same_seed_same_weights_other_seed_other_weights():
     )
     assert log_a == log_b
     assert {r["level"] for r in log_a} == set(range(5))  # every level trains in turn
+
+
+def test_training_leaves_denormal_floats_alone_in_the_process():
+    """Flush-to-zero is on only while it trains: after it, a float32 denormal (PX4's bytewise
+    INT32 parameter 1) still reads back, for an autopilot or test in the same process."""
+    one = struct.unpack("<f", struct.pack("<i", 1))[0]
+    train(TrainConfig(steps=1, batch=1, patch_px=176), _images(1), progress=False)
+    assert struct.unpack("<f", struct.pack("<i", 1))[0] == one > 0.0
+    assert torch.tensor([one], dtype=torch.float32).item() > 0.0
 
 
 @pytest.mark.parametrize(
