@@ -19,6 +19,11 @@ What crosses, all MAVLink 2 on the TCP byte stream, one message per ``send`` as 
   ``mode`` with MAV_MODE_FLAG_SAFETY_ARMED when armed, ``flags`` bit 0 = lockstep), HEARTBEAT
   (PX4 sends one first), COMMAND_LONG. Anything else is counted and ignored.
 
+HEARTBEAT first: PX4 sends a HEARTBEAT as soon as it is connected, "to initiate the simulator to
+start sending sensor data" (its own comment); HIL data goes to an autopilot only once its
+HEARTBEAT arrived. The simulator's own HEARTBEAT goes to every connection at 1 Hz (PX4 on a
+Pixhawk's USB port starts MAVLink on it).
+
 Time base: every message carries simulation time (``time_usec``, ``time_boot_ms``); PX4 sets its
 clock from HIL_SENSOR ``time_usec``.
 
@@ -151,6 +156,7 @@ class _Peer:
     mav: mavlink2.MAVLink = field(default=None)  # type: ignore[assignment]
     out: bytearray = field(default_factory=bytearray)
     heartbeat: bool = False
+    """It has sent a HEARTBEAT since connecting: HIL data goes to it from then on."""
     replying: bool = False
     """An actuator message arrived since connecting."""
     lockstep: bool = False
@@ -270,6 +276,11 @@ class HilServer:
         """Whether each vehicle has an autopilot connected now."""
         return [p.sock is not None for p in self.peers]
 
+    @property
+    def greeted(self) -> list[bool]:
+        """Whether each vehicle's autopilot is connected and has sent its HEARTBEAT."""
+        return [p.sock is not None and p.heartbeat for p in self.peers]
+
     def stats(self) -> list[HilPeerStats]:
         """Each vehicle's connection counters."""
         return [p.stats for p in self.peers]
@@ -277,14 +288,16 @@ class HilServer:
     def wait_for_autopilots(
         self, should_stop: Callable[[], bool] = lambda: False, timeout_s: float | None = None
     ) -> bool:
-        """Block until every vehicle has an autopilot connected (Gazebo's plugin waits too).
+        """Block until every vehicle's autopilot has connected and sent its HEARTBEAT.
+
+        Gazebo's plugin waits for the connection too; the HEARTBEAT is PX4's first message.
 
         Returns:
-            True when all are connected; False if ``should_stop()`` said so or the wall-clock
+            True when all are there; False if ``should_stop()`` said so or the wall-clock
             ``timeout_s`` passed.
         """
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
-        while not all(self.connected):
+        while not all(self.greeted):
             if should_stop() or (deadline is not None and time.monotonic() > deadline):
                 return False
             self._service(0.1)
@@ -450,7 +463,7 @@ class HilServer:
 
     def _send_each(self, msgs: Sequence[mavlink2.MAVLink_message | None]) -> None:
         for peer, msg in zip(self.peers, msgs, strict=True):
-            if msg is not None and peer.sock is not None:
+            if msg is not None and peer.heartbeat and peer.sock is not None:
                 peer.out += msg.pack(peer.mav)
 
     def send_gps(self, msgs: Sequence[mavlink2.MAVLink_hil_gps_message]) -> None:
@@ -462,7 +475,7 @@ class HilServer:
         self._send_each(msgs)
         for peer, msg in zip(self.peers, msgs, strict=True):
             self._last_accel[peer.index] = (msg.xacc, msg.yacc, msg.zacc)
-            if peer.sock is not None and peer.lockstep:
+            if peer.sock is not None and peer.lockstep and peer.heartbeat:
                 peer.awaiting = True
                 self._pending_reply = True
 
@@ -475,7 +488,7 @@ class HilServer:
     ) -> None:
         """Queue each vehicle's DISTANCE_SENSOR messages."""
         for peer, mine in zip(self.peers, msgs, strict=True):
-            if peer.sock is not None:
+            if peer.sock is not None and peer.heartbeat:
                 for msg in mine:
                     peer.out += msg.pack(peer.mav)
 
@@ -483,7 +496,10 @@ class HilServer:
         """HIL_STATE_QUATERNION to the autopilots that asked for it and are due; HEARTBEAT 1 Hz."""
         due = [
             p for p in self.peers
-            if p.sock is not None and p.state_interval_s > 0 and now_s >= p.next_state_s - 1e-9
+            if p.sock is not None
+            and p.heartbeat
+            and p.state_interval_s > 0
+            and now_s >= p.next_state_s - 1e-9
         ]  # fmt: skip
         if due:
             msgs = hil.hil_state_quaternion_messages(round(now_s * 1e6), truth(), self._last_accel)

@@ -29,11 +29,13 @@ class _Clock:
 class _Peer:
     """A raw autopilot: a TCP client speaking MAVLink 2 with pymavlink."""
 
-    def __init__(self, port: int) -> None:
+    def __init__(self, port: int, greet: bool = True) -> None:
         self.sock = socket.create_connection(("127.0.0.1", port), timeout=5.0)
         self.mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
         self.mav.robust_parsing = True
         self.inbox: list = []
+        if greet:  # PX4's first message
+            self.send(mavlink2.MAVLink_heartbeat_message(0, 12, 0, 0, 0, 3))
 
     def send(self, msg) -> None:
         self.sock.sendall(msg.pack(self.mav))
@@ -63,11 +65,14 @@ class _Peer:
         return [m for m in self.inbox if m.get_type() == kind]
 
     def closed_by_server(self) -> bool:
+        """The server hung up: an orderly close, or a reset (it closed with our data unread)."""
         self.sock.settimeout(2.0)
         try:
             while data := self.sock.recv(65536):
                 self.mav.parse_buffer(data)
-        except (ConnectionResetError, TimeoutError):
+        except ConnectionResetError:
+            return True
+        except TimeoutError:
             return False
         return True
 
@@ -284,4 +289,26 @@ def test_ground_truth_at_the_interval_the_autopilot_asks_for(world):
     finally:
         for p in peers:
             p.close()
+        server.close()
+
+
+def test_hil_data_waits_for_the_autopilots_heartbeat(world):
+    """PX4 greets with a HEARTBEAT first; before it, the connection gets no sensor data."""
+    server, _ = _server(1)
+    peer = _Peer(server.ports()[0], greet=False)
+    try:
+        assert not server.wait_for_autopilots(timeout_s=0.5)
+        assert server.connected == [True] and server.greeted == [False]
+        server.send_sensors(_sensor_messages(world)[:1])
+        server.actuators()
+        peer.read()
+        assert not peer.of("HIL_SENSOR")
+        peer.send(mavlink2.MAVLink_heartbeat_message(0, 12, 0, 0, 0, 3))
+        assert server.wait_for_autopilots(timeout_s=5.0)
+        server.send_sensors(_sensor_messages(world)[:1])
+        server.actuators()
+        peer.read()
+        assert len(peer.of("HIL_SENSOR")) == 1
+    finally:
+        peer.close()
         server.close()
