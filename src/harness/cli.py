@@ -16,7 +16,6 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-import worlds
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from autopilot_emu.mavlink.transport import SERIAL_BAUD
 from harness.autopilot_cli import (
@@ -48,6 +47,7 @@ from harness.signing_options import (
     unauthenticated_warning,
 )
 from harness.sim_clock import ClockFile
+from harness.sim_options import parse_frames, world_options, world_overrides
 from harness.simulation import EXTERNAL, INTERNAL, PortPlan, Simulation, SimulationConfig
 from harness.wind_options import (
     GUSTS_HELP,
@@ -58,12 +58,11 @@ from harness.wind_options import (
     parse_wind,
     wind_config,
 )
-from harness.world_setup import WorldSetup, world_setup
+from harness.world_setup import WorldSetup
 from sitl.hil_server import HIL_PORT_BASE
 from sitl.sensors.camera import MOUNT_PITCH_DEG, RENDER_S_PER_PIXEL, CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
-from sitl.vehicles.multirotor import airframe_yaml_path, load_airframe
-from worlds.examples import world_path
+from sitl.vehicles.multirotor import load_airframe
 
 app = typer.Typer(
     add_completion=False,
@@ -116,30 +115,6 @@ def camera_override(
                 raise typer.BadParameter(str(exc)) from exc
         cameras[name] = spec
     return tuple(cameras[name] for name in frames)
-
-
-def world_options(
-    path: Path | None, launch_area: str | None, n_vehicles: int, spacing_m: float
-) -> WorldSetup | None:
-    """``--world`` / ``--launch-area`` -> the world's setup; a bad file or area exits with 2."""
-    if path is None:
-        if launch_area is not None:
-            raise typer.BadParameter("needs --world FILE", param_hint="--launch-area")
-        return None
-    try:
-        built = worlds.build(worlds.load_world(world_path(path)))
-        return world_setup(built, n_vehicles, launch_area, spacing_m)
-    except (OSError, ValueError) as exc:  # WorldSpecError is a ValueError: file:line: field
-        console.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
-        raise typer.Exit(2) from exc
-
-
-def world_overrides(setup: WorldSetup, explicit_mocap: bool) -> dict:
-    """The world's WorldConfig fields; an explicit ``--mocap HZ`` keeps its own rate."""
-    overrides = dict(setup.world_overrides)
-    if explicit_mocap:
-        overrides.pop("mocap_hz", None)
-    return overrides
 
 
 def print_world(
@@ -201,23 +176,6 @@ def parse_stream_rates(specs: list[str]) -> dict[StreamProfile, dict[str, float]
             )
         rates.setdefault(profile, {})[name] = rate
     return rates
-
-
-def parse_frames(spec: str, n_vehicles: int) -> tuple[str, ...]:
-    """``--frame`` -> one airframe per vehicle: one name for all, or exactly one per vehicle."""
-    names = tuple(name.strip() for name in spec.split(","))
-    if any(not name for name in names) or len(names) not in (1, n_vehicles):
-        raise typer.BadParameter(
-            f"{spec!r}: give one airframe for all vehicles or one per vehicle ({n_vehicles}), "
-            "separated by commas, e.g. --frame typhoon_h480,x500",
-            param_hint="--frame",
-        )
-    for name in names:
-        try:
-            airframe_yaml_path(name)
-        except ValueError as exc:
-            raise typer.BadParameter(str(exc), param_hint="--frame") from exc
-    return names
 
 
 def parse_link_model(name: str, option: str, links_file: Path | None = None) -> str:

@@ -12,6 +12,7 @@ from rich.markup import escape
 from autopilot_emu.param_file import format_param_file, store_rows
 from harness.launch import console
 from harness.param_options import PARAMS_HELP, ParamsLoad, load_params_options
+from harness.sim_options import parse_frames, world_options
 from harness.simulation import Simulation, SimulationConfig
 
 params_app = typer.Typer(
@@ -93,8 +94,6 @@ def dump(
 
     Example:  swarmsitl params dump --params all=tuning.params   (the merged result, to stdout)
     """
-    from harness.cli import parse_frames, world_options
-
     frames = parse_frames(frame, vehicles)
     if sysid is not None and sysid > vehicles:
         raise typer.BadParameter(f"{sysid}: no such vehicle (1..{vehicles})", param_hint="--sysid")

@@ -4,7 +4,8 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from harness.cli import app, parse_frames
+from harness.cli import app
+from harness.sim_options import parse_frames
 
 
 def test_frame_is_one_for_all_or_one_per_vehicle():
