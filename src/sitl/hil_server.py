@@ -167,7 +167,6 @@ class _Peer:
     last_actuator_sim_s: float = 0.0
     state_interval_s: float = 0.0
     next_state_s: float = 0.0
-    lost: bool = False
     stats: HilPeerStats = field(default_factory=HilPeerStats)
 
 
@@ -328,7 +327,7 @@ class HilServer:
         peer.mav = mavlink2.MAVLink(None, srcSystem=peer.index + 1, srcComponent=SIM_COMPID)
         peer.mav.robust_parsing = True
         peer.out.clear()
-        peer.heartbeat = peer.replying = peer.lockstep = peer.awaiting = peer.lost = False
+        peer.heartbeat = peer.replying = peer.lockstep = peer.awaiting = False
         peer.latest = None
         peer.state_interval_s = 0.0
         peer.stats.connections += 1
@@ -342,7 +341,6 @@ class HilServer:
             peer.sock.close()
         peer.sock = None
         peer.replying = peer.lockstep = peer.awaiting = False
-        peer.lost = True
         peer.latest = _STOPPED
         if stall:
             peer.stats.stalls += 1
@@ -429,7 +427,8 @@ class HilServer:
             if int(msg.param1) == mavlink2.MAVLINK_MSG_ID_HIL_STATE_QUATERNION:
                 interval_us = msg.param2
                 if interval_us == interval_us:  # not NaN
-                    peer.state_interval_s = max(interval_us, 0.0) * 1e-6 if interval_us > 0 else 0.0
+                    # An interval of 0 or below stops it (MAVLink: -1 off, 0 default: none here).
+                    peer.state_interval_s = interval_us * 1e-6 if interval_us > 0 else 0.0
                     peer.next_state_s = self._time_s()
                     result = mavlink2.MAV_RESULT_ACCEPTED
                 else:
