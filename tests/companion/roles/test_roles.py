@@ -69,8 +69,10 @@ def test_roles_exchange_their_traffic(tmp_path):
         "SWARMSITL_SPEED": "4",
         "SWARMSITL_NET_RECORDS": str(tmp_path / "records"),
     }
-    # Receivers outlive senders (their processes may start a little apart under load).
-    duration_s = {"cloud": 24, "fog1": 18, "edge1": 12, "edge2": 12}
+    # Receivers outlive senders by several wall seconds: each process's clock starts with it,
+    # and under load they start seconds apart (a cloud that started 1.5 s before the fog, with
+    # 1.5 s between their planned ends, once stopped before the fog's last relay); 4.5 s now.
+    duration_s = {"cloud": 44, "fog1": 26, "edge1": 12, "edge2": 12}
     pngs = tmp_path / "pngs"  # edge1 sends these; edge2 synthetic textures
     pngs.mkdir()
     for k, image in enumerate(
