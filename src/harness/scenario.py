@@ -23,6 +23,7 @@ import worlds
 from autopilot_emu.params import ParamStore
 from harness.link_options import check_link_model, links_config
 from harness.net_plan import VEHICLE_ROLES
+from sitl.power.loads import LOAD_PRESETS
 from sitl.vehicles.multirotor import airframe_yaml_path
 from worlds.examples import EXAMPLE_PREFIX, world_path
 from worlds.yaml_source import node_at, validate_yaml
@@ -31,6 +32,12 @@ DEFAULT_PARAMS: dict[str, float] = {"NAV_DLL_ACT": 2.0}
 """Autopilot parameters every scenario vehicle gets unless its role sets them: Return when the
 companion falls silent (PX4's data-link-loss failsafe after COM_DL_LOSS_T without a HEARTBEAT;
 PX4's own default, 0, would let a vehicle whose companion crashed hover until its battery ends)."""
+
+
+MAX_FULL_VEHICLES = 255
+"""Vehicles of a ``fidelity: full`` fleet at most (MAVLink system ids 1..255)."""
+MAX_SWARM_VEHICLES = 10_000
+"""Vehicles of a ``fidelity: swarm`` fleet at most."""
 
 
 class ScenarioError(ValueError):
@@ -74,7 +81,9 @@ class FleetGroup(_Model):
     """``count`` vehicles of one airframe and role."""
 
     role: str
-    count: int = Field(1, ge=1, le=255)
+    count: int = Field(1, ge=1, le=MAX_SWARM_VEHICLES)
+    """Vehicles of the group (at most 255 in the whole fleet at ``fidelity: full``: one MAVLink
+    system id each)."""
     airframe: str = "typhoon_h480"
     """A folder of ``sitl/vehicles`` or the path of an airframe folder."""
     launch_area: str | None = None
@@ -116,6 +125,33 @@ class SensorsSpec(_Model):
     camera_hz: float | None = Field(None, gt=0)
 
 
+class SwarmSpec(_Model):
+    """The swarm-scale engine's settings (``fidelity: swarm``; docs/swarm.md)."""
+
+    step_hz: float = Field(10.0, gt=0, le=1000)
+    """Kinematic integration rate, steps per simulated second."""
+    decision_hz: float = Field(1.0, gt=0)
+    """How often every node's program decides (reads its messages, sets its target), Hz."""
+    event_rate_hz: float = Field(0.0, ge=0)
+    """Poisson events (targets appearing at random points of the area) per vehicle per
+    simulated second (seed 000's event triggers); 0: only the world's targets."""
+    neighbours: int = Field(6, ge=0, le=64)
+    """Nearest nodes within radio range each node's neighbour table lists."""
+    loads: str = "seed000_companion"
+    """Electrical loads besides the rotors (``sitl.power.loads.LOAD_PRESETS``)."""
+
+    @model_validator(mode="after")
+    def _rates(self) -> SwarmSpec:
+        if self.loads not in LOAD_PRESETS:
+            raise ValueError(f"loads: unknown preset {self.loads!r}; one of {sorted(LOAD_PRESETS)}")
+        ratio = self.step_hz / self.decision_hz
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise ValueError(
+                f"decision_hz {self.decision_hz:g} must divide step_hz {self.step_hz:g}"
+            )
+        return self
+
+
 class ChecksSpec(_Model):
     """Pass/fail criteria evaluated on the finished run; ``swarmsitl run`` exits 1 if one fails."""
 
@@ -139,6 +175,11 @@ class ScenarioSpec(_Model):
 
     name: str
     description: str = ""
+    fidelity: Literal["full", "swarm"] = "full"
+    """``full``: PyBullet, one emulated autopilot and one companion process per vehicle;
+    ``swarm``: vectorised kinematic vehicles, the companions' swarm programs in-process
+    (docs/swarm.md)."""
+    swarm: SwarmSpec = Field(default_factory=SwarmSpec)
     seed: int = Field(0, ge=0)
     """Seed of every random draw of the run (sensors, links); ``--seed`` overrides it."""
     duration_s: float = Field(gt=0)
@@ -171,6 +212,11 @@ class ScenarioSpec(_Model):
             raise ValueError(
                 f"roles: no entry for {', '.join(missing)} (a role without a program: "
                 f"`{missing[0]}: {{}}`)"
+            )
+        if self.fidelity == "full" and self.n_vehicles > MAX_FULL_VEHICLES:
+            raise ValueError(
+                f"fleet: {self.n_vehicles} vehicles; fidelity full flies at most "
+                f"{MAX_FULL_VEHICLES} (one MAVLink system id each): use fidelity: swarm"
             )
         nodes = {g.node is None for g in self.fleet}
         if len(nodes) > 1:
