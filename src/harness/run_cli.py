@@ -12,8 +12,9 @@ from rich.table import Table
 
 from autopilot_emu.mavlink.endpoint import PortInUseError
 from harness.launch import console, default_run_dir
-from harness.scenario import ScenarioError, load_scenario
+from harness.scenario import Scenario, ScenarioError, load_scenario
 from harness.scenario_run import RunOptions, RunPorts, ScenarioRun
+from harness.swarm_run import run_swarm
 
 SdkPort = Annotated[int, typer.Option(help="vehicle i's onboard link sends to this +i")]
 ListenPort = Annotated[int, typer.Option(help="vehicle i's onboard link listens here +i")]
@@ -116,6 +117,13 @@ def run(
         console.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(EXIT_BAD_INPUT) from exc
     run_dir = out or default_run_dir()
+    if scenario.spec.fidelity == "swarm":
+        if speed is not None:
+            raise typer.BadParameter(
+                "a fidelity: swarm scenario runs in lockstep only", param_hint="--speed"
+            )
+        _run_swarm(scenario, run_dir, seed)
+        return
     ports = RunPorts(
         sdk=sdk_port,
         listen=listen_port,
@@ -172,5 +180,36 @@ def run(
     )
     if runner.stop_reason == "interrupted":
         raise typer.Exit(EXIT_INTERRUPTED)
+    if not report.get("passed", False):
+        raise typer.Exit(EXIT_FAILED)
+
+
+def _run_swarm(scenario: Scenario, run_dir: Path, seed: int | None) -> None:
+    """``swarmsitl run`` of a ``fidelity: swarm`` scenario: in-process, with a progress bar."""
+    spec = scenario.spec
+    console.print(
+        f"[bold]{spec.name}[/bold]: {spec.n_vehicles} kinematic vehicle(s), "
+        f"{scenario.world.kind if scenario.world else 'no'} world, {spec.duration_s:g} s, "
+        f"seed {spec.seed if seed is None else seed}, fidelity swarm; run dir {run_dir}"
+    )
+    with Progress(
+        TextColumn("[bold]t = {task.completed:7.1f} s[/bold]"),
+        BarColumn(),
+        TimeElapsedColumn(),
+        console=console,
+    ) as bar:
+        task = bar.add_task("simulated", total=spec.duration_s)
+        try:
+            report = run_swarm(
+                scenario, seed, run_dir, progress=lambda t: bar.update(task, completed=t)
+            )
+        except (OSError, ValueError) as exc:
+            console.print(f"[red]error:[/red] {exc}")
+            raise typer.Exit(EXIT_BAD_INPUT) from exc
+    print_report(report)
+    console.print(
+        f"{report['stop_reason']}: {report['sim_time_s']:.1f} s simulated in "
+        f"{report['wall_time_s']:.1f} s; report {run_dir / 'report.json'}"
+    )
     if not report.get("passed", False):
         raise typer.Exit(EXIT_FAILED)

@@ -34,9 +34,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from companion.scenario_env import ScenarioEnv
+from harness.fleet_spawn import fleet_spawn
 from harness.flight_checks import (
     landed_and_disarmed,
     max_tilt,
@@ -54,10 +53,9 @@ from harness.run_report import write_run_report
 from harness.scenario import Scenario
 from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
-from harness.world_setup import WorldSetup, world_setup
+from harness.world_setup import WorldSetup
 from sitl.sensors.camera import CameraFrame, with_mount
 from sitl.vehicles.multirotor import load_airframe
-from worlds.launch import default_area, spawn_points
 
 CHECK_EVERY_S = 0.1
 """How often the loop looks at the companions and the stop conditions, simulated s."""
@@ -174,54 +172,13 @@ class ScenarioRun:
         self._grpc_ports: list[int] = []
         """Each vehicle's companion's mavsdk_server port (the base's, or the next free ones)."""
         self.net_run: NetRun | None = None
-        own = self._own_spawn_points()
-        world = scenario.world
-        self.setup: WorldSetup | None = (
-            None
-            if world is None
-            else world_setup(
-                world,
-                spec.n_vehicles,
-                spec.launch_area,
-                spec.spacing_m,
-                None if own is None else tuple(tuple(p) for p in own),
-            )
-        )
+        self.setup: WorldSetup | None
         """What the world asks of the simulation (scene, spawn points, wind, mocap, params)."""
-        self.spawn_enu_m = (
-            np.array(self.setup.spawn_enu_m, dtype=float) if self.setup is not None else own
-        )
+        self.spawn_enu_m: Any
         """Start point (east, north, surface height) of every vehicle, m."""
+        self.setup, self.spawn_enu_m = fleet_spawn(scenario)
 
     # ---- setup -------------------------------------------------------------------------------
-
-    def _own_spawn_points(self) -> np.ndarray | None:
-        """Start points the scenario sets itself, m; None: ``world_setup`` places the fleet.
-
-        ``world_setup`` places the whole fleet in the scenario's launch area (or the world's
-        default; one agent start per vehicle on task maps) unless groups name their own launch
-        area or start points; without a world, vehicles stand ``spacing_m`` apart along east.
-        """
-        spec, world = self.scenario.spec, self.scenario.world
-        own = any(g.start_enu_m is not None or g.launch_area is not None for g in spec.fleet)
-        if world is not None and not own:
-            return None
-        n = spec.n_vehicles
-        points = np.array([(i * spec.spacing_m, 0.0, 0.0) for i in range(n)], dtype=float)
-        by_area: dict[str, list[int]] = {}
-        for v in self.vehicles:
-            g = v.group
-            if g.start_enu_m is not None:
-                k = sum(1 for u in self.vehicles[: v.index] if u.group is g)
-                points[v.index] = g.start_enu_m[k]
-            elif world is not None:
-                area = g.launch_area or spec.launch_area or default_area(world).name
-                by_area.setdefault(area, []).append(v.index)
-        for area, indices in by_area.items():
-            assert world is not None
-            spots = spawn_points(world.launch_area(area), len(indices), spec.spacing_m)
-            points[indices] = np.asarray(spots, dtype=float)
-        return points
 
     def _simulation_config(self) -> SimulationConfig:
         spec, scenario = self.scenario.spec, self.scenario

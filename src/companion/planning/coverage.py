@@ -17,6 +17,7 @@ Pure: shapely geometry and numpy in, numpy out; no I/O. Units: metres, seconds, 
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
@@ -151,11 +152,14 @@ def _lane_positions(y_min: float, y_max: float, spacing: float, at_least: int) -
     return y_min + step / 2.0 + step * np.arange(n)
 
 
-def split(free: BaseGeometry, spec: CoverageSpec, k: int) -> list[Part]:
+@functools.lru_cache(maxsize=8)
+def split(free: BaseGeometry, spec: CoverageSpec, k: int) -> tuple[Part, ...]:
     """The free area's lanes split into ``k`` strips of about equal lane length, one per vehicle.
 
     Deterministic: the same geometry, spec and ``k`` give the same parts on every vehicle, so
     each vehicle can plan its own part alone. Raises ``ValueError`` for an empty area or k < 1.
+    Remembered for the last few (geometry, spec, k): the vehicles of a swarm-scale run share one
+    process and plan from the same inputs, so the split is made once, not once per vehicle.
     """
     if k < 1:
         raise ValueError(f"k (number of vehicles) must be >= 1, got {k}")
@@ -200,7 +204,7 @@ def split(free: BaseGeometry, spec: CoverageSpec, k: int) -> list[Part]:
                 lanes=tuple(tuple(back(s) for s in lanes[i]) for i in range(first, last + 1)),
             )
         )
-    return parts
+    return tuple(parts)
 
 
 class Router:

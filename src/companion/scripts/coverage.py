@@ -555,8 +555,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
                 here = home_enu if pose.position_enu_m is None else pose.position_enu_m
             i = min(progress[0], len(mission_xy) - 1)
             remaining_m = float(np.hypot(*(mission_xy[i] - here[:2]))) + to_go[i]
-            finish_s = remaining_m / params.mean_speed_m_s + land_s + params.reserve_s / 2
-            if now + finish_s >= duration:
+            if now + finish_time_s(remaining_m, params, land_s) >= duration:
                 _log("time_up", vehicle_time_s=now, remaining_m=round(remaining_m, 1))
                 await go_home(here)
                 break
@@ -602,7 +601,7 @@ def _metrics(
     in_footprint: list[str] = []
     seen_names: list[str] = []
     if world is not None:
-        spills = world.targets_of(_oil_spill_class())
+        spills = world_spills(world)
         for spill in spills:
             outline = spill.polygon
             if any(t >= spill.appear_s and f.intersects(outline) for t, f in footprints):
@@ -646,10 +645,28 @@ def matched_spills(spills: list[Any], detections_enu_m: list[np.ndarray]) -> lis
     return sorted(names)
 
 
-def _oil_spill_class() -> type:
+def world_spills(world: Any) -> list[Any]:
+    """The world's oil spills (none without a world)."""
+    if world is None:
+        return []
     from worlds import OilSpill
 
-    return OilSpill
+    return list(world.targets_of(OilSpill))
+
+
+def finish_time_s(remaining_m: float, params: CoverageParams, land_s: float) -> float:
+    """Simulated seconds to fly the rest of the mission, settle and land, with half the reserve.
+
+    When the run's end comes sooner, the vehicle turns home at once (both adapters use this).
+    """
+    return remaining_m / params.mean_speed_m_s + land_s + params.reserve_s / 2
+
+
+def swarm_program(env: ScenarioEnv, vehicle: Any, node: Any) -> Any:
+    """This role behind the swarm-scale engine's kinematic adapter (``companion.swarm``)."""
+    from companion.swarm.coverage import CoverageProgram
+
+    return CoverageProgram(env, vehicle, node)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -51,7 +51,7 @@ TOP_LEVEL_KEYS = frozenset(
     }
 )
 """Every key an airframe YAML must have."""
-OPTIONAL_KEYS = frozenset({"rangefinders", "camera"})
+OPTIONAL_KEYS = frozenset({"rangefinders", "camera", "kinematics"})
 """Keys an airframe YAML may have (absent: the airframe has none of that equipment)."""
 
 MAV_TYPE_OF_ROTOR_COUNT = {4: 2, 6: 13, 8: 14}

@@ -1,0 +1,323 @@
+"""The swarm-scale engine: kinematic vehicles, node messaging and companion programs in one loop.
+
+``SwarmEngine`` advances a :class:`sitl.kinematic_fleet.KinematicFleet` at ``step_hz`` and, at
+``decision_hz``, refreshes what the programs observe and lets every program decide: where the
+vehicles are (the link network's node positions, for range and coverage), each node's neighbour
+table (the ``neighbours`` nearest nodes within the edge-edge link's range, one KD-tree query for
+the fleet), and which targets each camera sees (world targets and Poisson events, one KD-tree
+query). Messages travel through the same :class:`sitl.links.network.LinkNetwork` and
+``companion.net.Node`` as in the full stack, over an :class:`~sitl.links.inprocess.InProcessPort`
+in simulation time. ``VehicleHandle`` is the kinematic adapter a program gets
+(``companion.swarm.SwarmVehicle``). Deterministic: one generator per run, programs called in
+vehicle order.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from companion.swarm.vehicle import Detection, SwarmProgram
+from sitl.kinematic_fleet import KinematicFleet
+
+
+@dataclass(frozen=True)
+class Target:
+    """Something a camera can see: a world target or a Poisson event."""
+
+    name: str
+    xy_m: tuple[float, float]
+    """Centre, east and north, m."""
+    radius_m: float
+    """Radius of a disc of the target's area, m (it is seen when that disc meets the footprint)."""
+    appear_s: float
+    """When it appears, simulated s."""
+
+
+def poisson_events(
+    rate_hz: float, duration_s: float, bounds_xy_m: tuple[float, float, float, float],
+    rng: np.random.Generator, inside: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> list[Target]:  # fmt: skip
+    """Targets appearing as a Poisson process of ``rate_hz`` at uniform points of the bounds.
+
+    ``inside`` (optional) keeps only points it accepts ((K, 2) -> (K,) bool; points are drawn
+    again until accepted, up to 100 rounds).
+    """
+    if rate_hz <= 0.0 or duration_s <= 0.0:
+        return []
+    count = int(rng.poisson(rate_hz * duration_s))
+    times = np.sort(rng.uniform(0.0, duration_s, count))
+    x0, y0, x1, y1 = bounds_xy_m
+    points = np.column_stack((rng.uniform(x0, x1, count), rng.uniform(y0, y1, count)))
+    if inside is not None and count:
+        for _ in range(100):
+            bad = ~inside(points)
+            if not bad.any():
+                break
+            k = int(bad.sum())
+            points[bad] = np.column_stack((rng.uniform(x0, x1, k), rng.uniform(y0, y1, k)))
+    return [
+        Target(f"event_{k}", (float(p[0]), float(p[1])), 0.0, float(t))
+        for k, (t, p) in enumerate(zip(times, points, strict=True))
+    ]
+
+
+@dataclass
+class EngineStats:
+    """What the engine counted while running."""
+
+    decisions: int = 0
+    """Program decisions made."""
+    decision_wall_s: float = 0.0
+    """Wall time spent inside the programs' ``decide``, s (not simulation; never compared)."""
+    min_separation_m: float = math.inf
+    min_separation_at_s: float = math.nan
+    min_separation_airborne_m: float = math.inf
+    first_seen_s: dict[str, float] = field(default_factory=dict)
+    """Target name -> when some camera first saw it, s."""
+    outside_world: set[int] = field(default_factory=set)
+    """Vehicles that left the world's boundary."""
+    errors: dict[int, str] = field(default_factory=dict)
+    """Vehicle index -> the exception its program raised."""
+
+
+class VehicleHandle:
+    """The kinematic adapter of one vehicle (``companion.swarm.SwarmVehicle``)."""
+
+    def __init__(self, engine: SwarmEngine, index: int, node_id: str) -> None:
+        self._engine = engine
+        self._fleet = engine.fleet
+        self.index = index
+        self.node_id = node_id
+        self._seen: list[Detection] = []
+
+    @property
+    def time_s(self) -> float:
+        """Simulation time, s."""
+        return self._engine.time_s
+
+    @property
+    def position_enu_m(self) -> np.ndarray:
+        """(3,) ENU position, m (a copy)."""
+        return self._fleet.state.position_m[self.index].copy()
+
+    @property
+    def home_enu_m(self) -> np.ndarray:
+        """(3,) start point, m."""
+        return self._engine.home_m[self.index].copy()
+
+    @property
+    def airborne(self) -> bool:
+        """Off the ground."""
+        return bool(self._fleet.state.airborne[self.index])
+
+    @property
+    def path_index(self) -> int:
+        """Index of the waypoint being flown to."""
+        return int(self._fleet.index[self.index])
+
+    @property
+    def path_done(self) -> bool:
+        """At the last waypoint, or resting."""
+        return bool(self._engine.path_done[self.index])
+
+    def takeoff(self, height_m: float, climb_m_s: float | None = None) -> None:
+        """Arm and climb to ``height_m`` above the ground."""
+        self._fleet.takeoff(self.index, height_m, climb_m_s)
+        self._engine.path_done[self.index] = False
+
+    def fly_path(self, waypoints_enu_m: np.ndarray, speed_m_s: float) -> None:
+        """Fly the waypoints at ``speed_m_s``."""
+        self._fleet.set_path(self.index, waypoints_enu_m, speed_m_s)
+        self._engine.path_done[self.index] = False
+
+    def land(self) -> None:
+        """Land where it is."""
+        self._fleet.land(self.index)
+        self._engine.path_done[self.index] = False
+
+    def neighbours(self) -> list[str]:
+        """Nearest nodes within radio range, nearest first."""
+        return self._engine.neighbour_ids(self.index)
+
+    def detections(self) -> list[Detection]:
+        """Targets seen since the last call."""
+        out, self._seen = self._seen, []
+        return out
+
+
+class SwarmEngine:
+    """Kinematic fleet + targets + neighbour tables + programs (see the module docstring).
+
+    Args:
+        fleet: the vehicles.
+        node_ids: each vehicle's messaging node id.
+        step_hz: kinematic steps per simulated second.
+        decision_hz: program decisions per simulated second (divides ``step_hz``).
+        neighbours: nodes per neighbour table.
+        radio_range_m: neighbours farther than this are not listed, m (inf: no limit).
+        camera_tan_half_fov: (N,) ``tan(hfov / 2)`` of each vehicle's down camera; NaN: none.
+        targets: what the cameras can see.
+        clock: set by the caller to the engine's time for the messaging nodes (optional).
+        inside_world: (K, 2) -> (K,) bool, the world's boundary test (None: no boundary).
+    """
+
+    def __init__(
+        self,
+        fleet: KinematicFleet,
+        node_ids: list[str],
+        step_hz: float,
+        decision_hz: float,
+        neighbours: int,
+        radio_range_m: float,
+        camera_tan_half_fov: np.ndarray,
+        targets: list[Target],
+        inside_world: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> None:
+        self.fleet = fleet
+        self.node_ids = node_ids
+        self.dt_s = 1.0 / step_hz
+        self.steps_per_decision = round(step_hz / decision_hz)
+        self.k_neighbours = int(neighbours)
+        self.radio_range_m = float(radio_range_m)
+        self.camera_tan = np.asarray(camera_tan_half_fov, dtype=float)
+        self.targets = sorted(targets, key=lambda t: (t.appear_s, t.name))
+        self.inside_world = inside_world
+        self.home_m = fleet.state.position_m.copy()
+        self.steps = 0
+        self.time_s = 0.0
+        self.path_done = np.ones(fleet.n, dtype=bool)
+        self.handles = [VehicleHandle(self, i, node_ids[i]) for i in range(fleet.n)]
+        self.programs: list[SwarmProgram | None] = [None] * fleet.n
+        self.stats = EngineStats()
+        self._neighbours = np.full((fleet.n, self.k_neighbours), -1, dtype=int)
+        self._seen_by: list[set[str]] = [set() for _ in range(fleet.n)]
+        self._before_decisions: list[Callable[[SwarmEngine], None]] = []
+        self.samples: list[np.ndarray] = []
+        """Positions at each decision, (N, 3) each."""
+
+    def on_decision(self, hook: Callable[[SwarmEngine], None]) -> None:
+        """Call ``hook(engine)`` at each decision tick before the programs decide."""
+        self._before_decisions.append(hook)
+
+    # -- observations ---------------------------------------------------------------------
+
+    def neighbour_ids(self, i: int) -> list[str]:
+        """Node ids of vehicle ``i``'s neighbour table."""
+        return [self.node_ids[j] for j in self._neighbours[i] if j >= 0]
+
+    def _refresh_neighbours(self, pos: np.ndarray) -> None:
+        n, k = self.fleet.n, self.k_neighbours
+        if k == 0 or n < 2:
+            return
+        tree = cKDTree(pos)
+        kk = min(k + 1, n)
+        bound = self.radio_range_m if math.isfinite(self.radio_range_m) else np.inf
+        dist, idx = tree.query(pos, k=kk, distance_upper_bound=bound)
+        idx = np.where(np.isfinite(dist), idx, -1).reshape(n, kk)
+        own = idx == np.arange(n)[:, None]
+        order = np.argsort(own, axis=1, kind="stable")  # each row's own index last, order kept
+        ranked = np.take_along_axis(idx, order, axis=1)[:, : kk - 1]
+        table = np.full((n, k), -1, dtype=int)
+        table[:, : ranked.shape[1]] = ranked
+        self._neighbours = table
+
+    def _refresh_detections(self, pos: np.ndarray) -> None:
+        if not self.targets:
+            return
+        now = self.time_s
+        active = [t for t in self.targets if t.appear_s <= now]
+        if not active:
+            return
+        airborne = self.fleet.state.airborne & np.isfinite(self.camera_tan)
+        if not airborne.any():
+            return
+        which = np.flatnonzero(airborne)
+        reach = np.maximum(pos[which, 2] - 0.0, 0.0) * self.camera_tan[which]
+        centres = np.array([t.xy_m for t in active])
+        radii = np.array([t.radius_m for t in active])
+        tree = cKDTree(centres)
+        hits = tree.query_ball_point(pos[which, :2], reach + radii.max())
+        for i, r, found in zip(which, reach, hits, strict=True):
+            for j in found:
+                t = active[j]
+                if t.name in self._seen_by[i]:
+                    continue
+                if math.dist(pos[i, :2], t.xy_m) <= r + t.radius_m:
+                    self._seen_by[i].add(t.name)
+                    self.stats.first_seen_s.setdefault(t.name, now)
+                    self.handles[i]._seen.append(Detection(t.name, t.xy_m, t.appear_s, now))
+
+    def _separation(self, pos: np.ndarray) -> None:
+        n = self.fleet.n
+        if n < 2:
+            return
+        dist, _ = cKDTree(pos).query(pos, k=2)
+        nearest = dist[:, 1]
+        d = float(nearest.min())
+        if d < self.stats.min_separation_m:
+            self.stats.min_separation_m = d
+            self.stats.min_separation_at_s = self.time_s
+        up = np.flatnonzero(self.fleet.state.airborne)
+        if len(up) >= 2:
+            dist_up, _ = cKDTree(pos[up]).query(pos[up], k=2)
+            self.stats.min_separation_airborne_m = min(
+                self.stats.min_separation_airborne_m, float(dist_up[:, 1].min())
+            )
+
+    # -- the loop -------------------------------------------------------------------------
+
+    def _decide(self) -> None:
+        pos = self.fleet.state.position_m
+        self.path_done = self.fleet.path_done()
+        self.samples.append(pos.copy())
+        self._separation(pos)
+        if self.inside_world is not None:
+            up = np.flatnonzero(self.fleet.state.airborne)
+            if len(up):
+                out = up[~self.inside_world(pos[up, :2])]
+                self.stats.outside_world.update(int(i) for i in out)
+        self._refresh_neighbours(pos)
+        self._refresh_detections(pos)
+        for hook in self._before_decisions:
+            hook(self)
+        now = self.time_s
+        t0 = time.perf_counter()
+        for i, program in enumerate(self.programs):
+            if program is None or i in self.stats.errors or program.done:
+                continue
+            try:
+                program.decide(now)
+            except Exception as exc:  # one program's failure lands its vehicle, not the run
+                self.stats.errors[i] = f"{type(exc).__name__}: {exc}"
+                if self.fleet.state.airborne[i]:
+                    self.fleet.land(i)
+            self.stats.decisions += 1
+        self.stats.decision_wall_s += time.perf_counter() - t0
+
+    def all_done(self) -> bool:
+        """Every program finished (or failed) and every vehicle is on the ground."""
+        finished = all(
+            p is None or p.done or i in self.stats.errors for i, p in enumerate(self.programs)
+        )
+        return finished and not self.fleet.state.airborne.any()
+
+    def run(self, duration_s: float, end_when_done: bool = True) -> str:
+        """Run to ``duration_s`` simulated seconds (or until all done); return why it stopped."""
+        total = round(duration_s / self.dt_s)
+        while self.steps < total:
+            if self.steps % self.steps_per_decision == 0:
+                self._decide()
+                if end_when_done and self.steps > 0 and self.all_done():
+                    return "done"
+            self.fleet.step(self.dt_s)
+            self.steps += 1
+            self.time_s = self.steps * self.dt_s
+        self.path_done = self.fleet.path_done()
+        self.samples.append(self.fleet.state.position_m.copy())
+        return "duration"
