@@ -202,7 +202,9 @@ class KinematicFleet:
         s.course_rad = np.where(far & fly, s.course_rad + step_turn, s.course_rad)
         # speed: the cruise setpoint, less when facing away, stopping at the last waypoint
         v_set = self.cruise_m_s * np.maximum(np.cos(error), 0.0)
-        v_set = np.where(last, np.minimum(v_set, np.sqrt(2.0 * self.max_accel * dist_xy)), v_set)
+        half = 0.5 * self.max_accel * dt_s  # the speed that stops in d at max_accel, per step
+        v_stop = np.sqrt(half * half + 2.0 * self.max_accel * dist_xy) - half
+        v_set = np.where(last, np.minimum(v_set, v_stop), v_set)
         v_set = np.where(fly & far, v_set, 0.0)
         dv = np.clip(v_set - s.speed_m_s, -self.max_accel * dt_s, self.max_accel * dt_s)
         speed_before = s.speed_m_s

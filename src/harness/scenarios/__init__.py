@@ -2,7 +2,16 @@
 
 from pathlib import Path
 
-NAMES = ("offshore_demo", "offshore", "city", "indoor", "arena_aco", "workspace_mco", "taskmap")
+NAMES = (
+    "offshore_demo",
+    "offshore",
+    "city",
+    "indoor",
+    "arena_aco",
+    "workspace_mco",
+    "taskmap",
+    "swarm_coverage",
+)
 
 
 def scenario_path(name: str) -> Path:
