@@ -385,6 +385,32 @@ def draw_map(ax: Axes, log: FlightLog, world: worlds.World | None) -> None:
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
 
 
+def plot_tracks(path: Path, position_enu_m: np.ndarray, world: worlds.World | None) -> None:
+    """PNG: top view of (T, N, 3) sampled positions over the world (swarm-scale runs).
+
+    One line collection for the fleet, so a thousand vehicles draw as fast as ten.
+    """
+    from matplotlib.collections import LineCollection
+
+    fig, (ax,) = _figure((10.5, 8.0))
+    if world is not None:
+        _draw_world(ax, world)
+    tracks = np.transpose(np.asarray(position_enu_m)[:, :, :2], (1, 0, 2))
+    n = len(tracks)
+    ax.add_collection(LineCollection(tracks, lw=0.8 if n <= 50 else 0.3, cmap="viridis",
+                                     array=np.arange(n, dtype=float)))  # fmt: skip
+    if len(tracks) and tracks.shape[1]:
+        ax.plot(tracks[:, 0, 0], tracks[:, 0, 1], "k.", ms=2)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.autoscale_view()
+    ax.set_xlabel("east [m]")
+    ax.set_ylabel("north [m]")
+    ax.grid(True, alpha=0.3)
+    title = f"{world.kind} world (seed {world.seed})" if world is not None else "plain plane"
+    ax.set_title(f"{n} kinematic vehicles (colour: vehicle index; . start) over {title}")
+    _save(fig, path)
+
+
 def plot_errors(
     path: Path, log: FlightLog, errors: dict[int, tuple[np.ndarray, np.ndarray]]
 ) -> None:

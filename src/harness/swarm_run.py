@@ -30,7 +30,7 @@ from companion.net.transport import PortTransport
 from companion.scenario_env import ScenarioEnv
 from harness.fleet_spawn import fleet_spawn
 from harness.link_options import links_config
-from harness.run_report import quantity
+from harness.run_report import plot_tracks, quantity
 from harness.scenario import Scenario, ScenarioError
 from harness.scenario_run import fleet_totals, metric_checks, versions
 from harness.swarm_engine import SwarmEngine, Target, poisson_events
@@ -326,11 +326,21 @@ def _report(
     if spec.checks.no_failsafe:
         report["warnings"].append("checks.no_failsafe: fidelity swarm models no failsafes")
     report["passed"] = report["complete"] and all(c["ok"] for c in report["checks"].values())
+    tracks = np.array(engine.samples)
     np.savez_compressed(
         out / "tracks.npz",
-        time_s=np.arange(len(engine.samples)) / spec.swarm.decision_hz,
-        position_enu_m=np.array(engine.samples),
+        time_s=np.arange(len(tracks)) / spec.swarm.decision_hz,
+        position_enu_m=tracks,
     )
+    report["files"] = ["report.json", "tracks.npz", "scenario.yaml"]
+    if scenario.world is not None:
+        report["files"].append("world.yaml")
+    try:
+        (out / "plots").mkdir(exist_ok=True)
+        plot_tracks(out / "plots" / "map.png", tracks, scenario.world)
+        report["files"].append("plots/map.png")
+    except Exception as exc:  # a failed plot must not cost the report
+        report["warnings"].append(f"plots/map.png not written: {exc!r}")
     wall_s = time.monotonic() - wall0
     report["wall_time_s"] = wall_s
     report["real_time_factor"] = sim_s / wall_s if wall_s > 0 else None

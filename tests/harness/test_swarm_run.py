@@ -57,6 +57,8 @@ def test_a_swarm_run_flies_covers_messages_and_lands(tmp_path: Path) -> None:
     assert written["fleet"]["vehicles"]["value"] == 8
     tracks = np.load(tmp_path / "run" / "tracks.npz")
     assert tracks["position_enu_m"].shape[1:] == (8, 3)
+    assert (tmp_path / "run" / "plots" / "map.png").stat().st_size > 10_000
+    assert "plots/map.png" in written["files"]
 
 
 def test_same_seed_same_report_other_seed_other_events(tmp_path: Path) -> None:
