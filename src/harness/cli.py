@@ -49,6 +49,7 @@ from harness.signing_options import (
 from harness.sim_clock import ClockFile
 from harness.sim_options import parse_frames, world_options, world_overrides
 from harness.simulation import EXTERNAL, INTERNAL, PortPlan, Simulation, SimulationConfig
+from harness.sweep_cli import sweep
 from harness.wind_options import (
     GUSTS_HELP,
     TURBULENCE_HELP,
@@ -950,6 +951,7 @@ app.command("cloud")(cloud)
 app.command("replay")(replay)
 app.command("autopilot")(autopilot)
 app.command("net-demo")(net_demo)
+app.command("sweep")(sweep)
 app.add_typer(params_app, name="params")
 
 

@@ -21,9 +21,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import random
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -34,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from harness.run_ports import RunPorts, port_free
+from harness.run_ports import RunPorts, free_ports
 
 if TYPE_CHECKING:
     from harness.flight_log import FlightLog
@@ -44,37 +42,6 @@ RUN_TIMEOUT_WALL_S = 900.0
 FLEET_READY_TIMEOUT_S = 60.0
 """Wall seconds ``swarmsitl up`` gets to print its endpoint table."""
 READY_MARKER = "Press Ctrl-C to stop."
-
-
-def free_ports(vehicles: int = 16, rng: random.Random | None = None) -> RunPorts:
-    """Port bases with ``vehicles`` free ports each, chosen at random in 20000-39999.
-
-    Random blocks make two test processes (pytest-xdist workers, two CI jobs) unlikely to pick
-    the same ports; each block is checked free before it is returned.
-    """
-    rng = rng or random.Random()
-    for _ in range(200):
-        base = rng.randrange(20000, 39000, 200)
-        ports = RunPorts(
-            sdk=base,
-            listen=base + 40,
-            grpc=base + 80,
-            payload=base + 120,
-            mocap=base + 140,
-            net=base + 160,
-            net_proxy=base + 180,
-        )
-        udp = [
-            *range(ports.sdk, ports.sdk + vehicles),
-            *range(ports.listen, ports.listen + vehicles),
-            *range(ports.payload, ports.payload + vehicles),
-            *range(ports.mocap, ports.mocap + vehicles),
-        ]
-        if all(port_free(p) for p in udp) and all(
-            port_free(p, socket.SOCK_STREAM) for p in range(ports.grpc, ports.grpc + vehicles)
-        ):
-            return ports
-    raise RuntimeError("no free block of ports in 20000-39999")
 
 
 def _cli(*args: object) -> list[str]:

@@ -1,7 +1,8 @@
-"""The port bases of a scenario run (light: the pytest plugin imports it at start-up)."""
+"""The port bases of a scenario run, and free ones (light: the pytest plugin imports it)."""
 
 from __future__ import annotations
 
+import random
 import socket
 from dataclasses import dataclass
 
@@ -52,3 +53,39 @@ def free_tcp_ports(base: int, count: int) -> list[int]:
             out.append(port)
         port += 1
     return out
+
+
+def free_ports(vehicles: int = 16, rng: random.Random | None = None) -> RunPorts:
+    """Port bases with ``vehicles`` free ports each, chosen at random in 20000-39999.
+
+    Random blocks make two processes (pytest-xdist workers, two CI jobs, two sweep trials) unlikely
+    to pick the same ports; each block is checked free before it is returned. Up to 20 vehicles
+    a block spans 200 ports; a bigger fleet gets proportionally wider blocks.
+    """
+    rng = rng or random.Random()
+    stride = max(20, vehicles)
+    block = 10 * stride
+    if 20000 + block > 39200:
+        raise ValueError(f"no room for {vehicles} vehicles' ports in 20000-39999")
+    for _ in range(200):
+        base = rng.randrange(20000, 39200 - block, block)
+        ports = RunPorts(
+            sdk=base,
+            listen=base + 2 * stride,
+            grpc=base + 4 * stride,
+            payload=base + 6 * stride,
+            mocap=base + 7 * stride,
+            net=base + 8 * stride,
+            net_proxy=base + 9 * stride,
+        )
+        udp = [
+            *range(ports.sdk, ports.sdk + vehicles),
+            *range(ports.listen, ports.listen + vehicles),
+            *range(ports.payload, ports.payload + vehicles),
+            *range(ports.mocap, ports.mocap + vehicles),
+        ]
+        if all(port_free(p) for p in udp) and all(
+            port_free(p, socket.SOCK_STREAM) for p in range(ports.grpc, ports.grpc + vehicles)
+        ):
+            return ports
+    raise RuntimeError("no free block of ports in 20000-39999")

@@ -1,0 +1,240 @@
+"""Schedule a sweep's trials on Dask distributed and collect their rows.
+
+``run_sweep`` connects to a scheduler (``--scheduler tcp://HOST:8786``, or a ``Client`` a
+program built, e.g. on dask-jobqueue's SLURMCluster) or starts a LocalCluster of single-threaded
+worker processes, skips the trials whose row says ``ok`` (resume), submits the rest with
+``pure=False`` under a key made of the trial id, and writes each row as its future completes.
+A worker that dies while running a trial (killed, out of memory, node lost) makes the scheduler
+run the trial elsewhere; the scheduler counts those deaths per task (``TaskState.suspicious``),
+which the row keeps as ``retries``. After ``distributed.scheduler.allowed-failures`` deaths
+(3 by default) the scheduler gives up on the trial, which is then recorded as failed
+(``KilledWorker``). Nothing here depends on which worker ran what: a trial's row is a function
+of its scenario, parameters and seed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from distributed import Client, LocalCluster, as_completed
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+
+from harness.sweep.plots import plot_sweep
+from harness.sweep.spec import SweepPlan
+from harness.sweep.table import RESULTS_FILE, combine, read_row, value_type, write_row
+from harness.sweep.trial import Execute, Trial, base_row, run_trial
+
+KEY_PREFIX = "swarmsitl-trial-"
+"""Dask key of a trial: this + its trial id (the dashboard shows them by this prefix)."""
+
+
+@dataclass
+class SweepSummary:
+    """What a sweep did (printed at the end, returned to programs)."""
+
+    trials: int
+    """Trials in the sweep."""
+    ok: int = 0
+    failed: int = 0
+    skipped: int = 0
+    """Trials already ``ok`` in the output directory (resume)."""
+    retried: int = 0
+    """Trials that a dying worker interrupted at least once."""
+    retries: int = 0
+    """Worker deaths while running a trial, over all trials."""
+    not_run: int = 0
+    """Trials left out by ``max_trials`` or an interruption."""
+    wall_s: float = 0.0
+    table: Path | None = None
+    plots: list[Path] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def trials_per_min(self) -> float:
+        """Trials run (ok or failed) per wall minute."""
+        done = self.ok + self.failed
+        return 60.0 * done / self.wall_s if self.wall_s > 0 else 0.0
+
+
+def _suspicious(key: str, dask_scheduler: Any = None) -> int:
+    """On the scheduler: how many workers died while running task ``key``."""
+    ts = dask_scheduler.tasks.get(key)
+    return int(ts.suspicious) if ts is not None else 0
+
+
+@contextlib.contextmanager
+def open_client(scheduler: str | None, workers: int) -> Iterator[Client]:
+    """A client of the scheduler at ``scheduler``, or of a LocalCluster of ``workers`` processes."""
+    if scheduler is not None:
+        client = Client(scheduler, timeout="30s")
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+    )
+    try:
+        client = Client(cluster)
+        try:
+            yield client
+        finally:
+            client.close()
+    finally:
+        cluster.close()
+
+
+def pending_trials(plan: SweepPlan, out_dir: Path) -> tuple[list[Trial], int]:
+    """The trials still to run (no row, or a failed one) and how many finished ok before."""
+    pending, skipped = [], 0
+    for trial in plan.trials:
+        row = read_row(out_dir, trial.trial_id)
+        if row is not None and row.get("status") == "ok":
+            skipped += 1
+        else:
+            pending.append(trial)
+    return pending, skipped
+
+
+def _killed_row(trial: Trial, exc: BaseException, retries: int) -> dict[str, Any]:
+    row = base_row(trial)
+    row["worker"] = ""
+    row["retries"] = retries
+    row["error"] = (
+        f"{type(exc).__name__}: {exc}\n(the scheduler gave up on this trial after {retries} "
+        "worker(s) died while running it)"
+    )
+    return row
+
+
+def run_sweep(
+    plan: SweepPlan,
+    out_dir: Path,
+    *,
+    client: Client | None = None,
+    scheduler: str | None = None,
+    workers: int = 2,
+    max_trials: int | None = None,
+    execute: Execute | None = None,
+    console: Console | None = None,
+    on_row: Callable[[dict[str, Any]], None] | None = None,
+) -> SweepSummary:
+    """Run the plan's pending trials on Dask; rows in ``out_dir``, then the table and the plots.
+
+    Args:
+        plan: the checked sweep (``harness.sweep.spec.plan_sweep``).
+        out_dir: output directory: trials/, results.parquet, plots/, runs/ (full fidelity).
+        client: a connected Dask client to use (left open).
+        scheduler: without ``client``: the address of a running scheduler (tcp://HOST:8786).
+        workers: without ``client`` and ``scheduler``: worker processes of the LocalCluster.
+        max_trials: run at most this many of the pending trials.
+        execute: replaces the scenario run in every trial (a test hook; see ``run_trial``).
+        console: where the progress bar goes (None: a quiet run).
+        on_row: called with each row as it is written.
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    start = time.monotonic()
+    pending, skipped = pending_trials(plan, out_dir)
+    summary = SweepSummary(trials=len(plan.trials), skipped=skipped)
+    if max_trials is not None:
+        summary.not_run = max(0, len(pending) - max_trials)
+        pending = pending[:max_trials]
+    if plan.fidelity == "full":
+        pending = [
+            dataclasses.replace(t, run_dir=str((out_dir / "runs" / t.trial_id).resolve()))
+            for t in pending
+        ]
+    kinds = {name: value_type(values) for name, values in plan.spec.grid.items()}
+    if pending:
+        with contextlib.ExitStack() as stack:
+            if client is None:
+                client = stack.enter_context(open_client(scheduler, workers))
+            _run(client, pending, out_dir, kinds, execute, console, summary, on_row)
+    summary.wall_s = time.monotonic() - start
+    table = combine(out_dir, (t.trial_id for t in plan.trials))
+    if table is not None:
+        summary.table = out_dir / RESULTS_FILE
+        summary.plots, summary.warnings = plot_sweep(
+            table, plan.spec.grid, plan.spec.x_parameter, plan.spec.metrics, out_dir / "plots"
+        )
+    return summary
+
+
+def _run(
+    client: Client,
+    pending: list[Trial],
+    out_dir: Path,
+    kinds: dict[str, Any],
+    execute: Execute | None,
+    console: Console | None,
+    summary: SweepSummary,
+    on_row: Callable[[dict[str, Any]], None] | None,
+) -> None:
+    """Submit ``pending``, write each row as it finishes, count into ``summary``."""
+    by_key = {f"{KEY_PREFIX}{t.trial_id}": t for t in pending}
+    futures = [
+        client.submit(run_trial, trial, execute, key=key, pure=False)
+        for key, trial in by_key.items()
+    ]
+    progress = Progress(
+        TextColumn("[bold]trials[/bold]"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[status]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=console,
+        disable=console is None,
+        transient=False,
+    )
+    done = 0
+    try:
+        with progress:
+            task = progress.add_task("trials", total=len(futures), status="")
+            for future in as_completed(futures):
+                trial = by_key[future.key]
+                retries = client.run_on_scheduler(_suspicious, future.key)
+                if future.status == "finished":
+                    row = future.result()
+                else:  # KilledWorker: the scheduler gave up; or the trial was cancelled
+                    exc = (
+                        future.exception()
+                        if future.status == "error"
+                        else RuntimeError(f"the trial's task was {future.status}")
+                    )
+                    row = _killed_row(trial, exc, retries)
+                row["retries"] = retries
+                future.release()
+                write_row(out_dir, kinds, row)
+                done += 1
+                summary.ok += row["status"] == "ok"
+                summary.failed += row["status"] != "ok"
+                summary.retried += retries > 0
+                summary.retries += retries
+                if on_row is not None:
+                    on_row(row)
+                status = f"ok {summary.ok}"
+                if summary.failed:
+                    status += f", [red]failed {summary.failed}[/red]"
+                if summary.retries:
+                    status += f", retried {summary.retried}"
+                progress.update(task, advance=1, status=status)
+    finally:
+        summary.not_run += len(futures) - done
+        client.cancel([f for f in futures if not f.done()])

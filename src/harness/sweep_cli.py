@@ -1,0 +1,127 @@
+"""``swarmsitl sweep SWEEP.yaml``: scenario parameters x seeds on Dask (docs/sweeps.md)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+
+from harness.launch import console
+from harness.sweep.spec import SweepError, SweepPlan, plan_sweep
+
+EXIT_FAILED = 1
+"""At least one trial failed (its row holds the traceback)."""
+EXIT_BAD_INPUT = 2
+"""The sweep file (or its scenario, or a grid value) is wrong: nothing was submitted."""
+
+
+def print_trials(plan: SweepPlan, out_dir: Path) -> None:
+    """``--dry-run``: every trial, its id, parameters and seed, and whether it already ran ok."""
+    from harness.sweep.runner import pending_trials
+
+    pending, _ = pending_trials(plan, out_dir)
+    todo = {t.trial_id for t in pending}
+    for t in plan.trials:
+        state = "to run" if t.trial_id in todo else "done (ok)"
+        console.print(
+            f"{t.trial_id}  {json.dumps(t.parameters)}  seed {t.seed}  {state}",
+            markup=False,
+            highlight=False,
+        )
+    console.print(f"{len(plan.trials)} trial(s), {len(pending)} to run; output {out_dir}")
+
+
+def sweep(
+    file: Annotated[
+        Path, typer.Argument(exists=True, dir_okay=False, help="the sweep file (YAML)")
+    ],
+    out: Annotated[
+        Path | None,
+        typer.Option(help="output directory [default: runs/sweep-NAME]; reused to resume"),
+    ] = None,
+    workers: Annotated[
+        int,
+        typer.Option(
+            min=1,
+            help="worker processes of the local Dask cluster (one trial each at a time); keep it "
+            "low for fidelity: full scenarios (e.g. --workers 2)",
+        ),
+    ] = 2,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            metavar="ADDRESS",
+            help="run on the Dask scheduler at ADDRESS instead of a local cluster (e.g. "
+            "--scheduler tcp://10.0.0.5:8786, started with `dask scheduler`)",
+        ),
+    ] = None,
+    max_trials: Annotated[
+        int | None,
+        typer.Option(min=1, help="run at most N of the trials still to run (e.g. --max-trials 4)"),
+    ] = None,
+    dry_run: Annotated[
+        bool,
+        typer.Option("--dry-run", help="check the sweep file, list its trials, run nothing"),
+    ] = False,
+) -> None:
+    """Run a parameter sweep: every grid point x every seed, one scenario run per trial, on Dask.
+
+    Checks the sweep file and the scenario of every grid point before anything is submitted,
+    then runs the trials on a local Dask cluster (--workers) or an existing scheduler
+    (--scheduler), skipping those that already finished ok in the output directory. Writes
+    OUT/results.parquet (a row per trial: parameters, seed, status, traceback, retries, metrics),
+    OUT/trials/ (a row per finished trial, written as it finishes) and OUT/plots/METRIC.png
+    (mean over seeds with its 95 % confidence interval). Exit status: 0 when every trial ran ok,
+    1 when one failed, 2 for a bad sweep file (nothing ran).
+
+    Example:  swarmsitl sweep examples/sweeps/coverage_1_to_1000.yaml --workers 2
+
+    Example:  swarmsitl sweep my_sweep.yaml --scheduler tcp://10.0.0.5:8786 --out runs/big
+    """
+    try:
+        plan = plan_sweep(file)
+    except SweepError as exc:
+        console.print(f"[red]error:[/red] {escape(str(exc))}")
+        raise typer.Exit(EXIT_BAD_INPUT) from exc
+    out_dir = out or Path("runs") / f"sweep-{plan.name}"
+    if dry_run:
+        print_trials(plan, out_dir)
+        return
+    from harness.sweep.runner import run_sweep
+
+    where = scheduler or f"a local cluster of {workers} worker process(es)"
+    console.print(
+        f"[bold]sweep {escape(plan.name)}[/bold]: {len(plan.trials)} trial(s) "
+        f"({len(plan.trials) // len(plan.spec.seed_list)} grid point(s) x "
+        f"{len(plan.spec.seed_list)} seed(s)) of {escape(str(plan.scenario_path))} "
+        f"(fidelity {plan.fidelity}) on {escape(where)}; output {escape(str(out_dir))}"
+    )
+    try:
+        summary = run_sweep(
+            plan, out_dir, scheduler=scheduler, workers=workers, max_trials=max_trials,
+            console=console,
+        )  # fmt: skip
+    except OSError as exc:  # e.g. no scheduler at --scheduler
+        console.print(f"[red]error:[/red] {escape(str(exc))}")
+        raise typer.Exit(EXIT_BAD_INPUT) from exc
+    for warning in summary.warnings:
+        console.print(f"[yellow]warning:[/yellow] {escape(warning)}")
+    console.print(
+        f"trials: {summary.ok} ok, {summary.failed} failed, {summary.skipped} skipped (done "
+        f"before), {summary.not_run} not run; {summary.retried} retried after a lost worker "
+        f"({summary.retries} retries); {summary.wall_s:.1f} s wall, "
+        f"{summary.trials_per_min:.1f} trials/min"
+    )
+    if summary.table is not None:
+        console.print(f"table: {summary.table}", markup=False, highlight=False)
+    if summary.plots:
+        console.print(f"plots: {summary.plots[0].parent}/ ({len(summary.plots)} PNG)", markup=False)
+    if summary.failed:
+        console.print(
+            f"[red]{summary.failed} trial(s) failed[/red]: their tracebacks are in the error "
+            "column; run the same command again to rerun only them"
+        )
+        raise typer.Exit(EXIT_FAILED)

@@ -1,0 +1,94 @@
+"""Trials on a local Dask cluster: rows as they finish, failures kept, resume, the table, plots."""
+
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+import trial_bodies
+from distributed import Client, LocalCluster
+
+from harness.sweep.runner import run_sweep
+from harness.sweep.spec import plan_sweep
+from harness.sweep.table import RESULTS_FILE, TRIALS_DIR
+
+DATA = Path(__file__).with_name("data")
+
+
+@pytest.fixture(scope="module")
+def client():
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as c,
+    ):
+        yield c
+
+
+def sweep_file(tmp_path, seeds=2):
+    path = tmp_path / "grid.yaml"
+    path.write_text(
+        f"scenario: {DATA / 'tiny.yaml'}\n"
+        "grid:\n  fleet.0.count: [1, 10, 100]\n  roles.survey.args.speed_m_s: [8, 12]\n"
+        f"seeds: {seeds}\nmetrics: [fleet.coverage_fraction, fleet.companions.detected]\n"
+    )
+    return plan_sweep(path)
+
+
+def test_a_failing_trial_is_recorded_with_its_traceback_and_the_others_finish(tmp_path, client):
+    plan = sweep_file(tmp_path)
+    out = tmp_path / "out"
+    summary = run_sweep(plan, out, client=client, execute=trial_bodies.failing_for_speed_12)
+    assert (summary.ok, summary.failed, summary.skipped) == (6, 6, 0)
+    rows = pq.read_table(out / RESULTS_FILE).to_pylist()
+    assert [r["trial_id"] for r in rows] == [t.trial_id for t in plan.trials]
+    for r in rows:
+        if r["roles.survey.args.speed_m_s"] == 12:
+            assert r["status"] == "failed"
+            assert "RuntimeError: trial body failed on purpose at 12 m/s" in r["error"]
+            assert "Traceback" in r["error"]
+            assert r["fleet.coverage_fraction"] is None
+        else:
+            assert r["status"] == "ok"
+            assert r["error"] == ""
+            assert 0 < r["fleet.coverage_fraction"] <= 1.1
+        assert r["retries"] == 0
+        assert r["worker"].startswith("tcp://")
+    assert [p.name for p in summary.plots] == [
+        "fleet.coverage_fraction.png",
+        "fleet.companions.detected.png",
+    ]
+    assert all(p.stat().st_size > 10_000 for p in summary.plots)
+
+
+def test_a_resumed_sweep_runs_only_what_did_not_finish_ok(tmp_path, client):
+    plan = sweep_file(tmp_path)
+    out = tmp_path / "out"
+    first = run_sweep(plan, out, client=client, execute=trial_bodies.failing_for_speed_12)
+    assert (first.ok, first.failed) == (6, 6)
+    before = {p.name: p.stat().st_mtime_ns for p in (out / TRIALS_DIR).iterdir()}
+    ran = []
+    second = run_sweep(
+        plan, out, client=client, execute=trial_bodies.synthetic_report, on_row=ran.append
+    )
+    assert (second.ok, second.failed, second.skipped) == (6, 0, 6)
+    assert {r["roles.survey.args.speed_m_s"] for r in ran} == {12}
+    after = {p.name: p.stat().st_mtime_ns for p in (out / TRIALS_DIR).iterdir()}
+    kept = [n for n in before if before[n] == after[n]]
+    assert len(kept) == 6  # the ok rows were not rewritten
+    rows = pq.read_table(out / RESULTS_FILE).to_pylist()
+    assert len(rows) == 12 and all(r["status"] == "ok" for r in rows)
+    third = run_sweep(plan, out, client=client, on_row=ran.append)
+    assert (third.ok, third.failed, third.skipped) == (0, 0, 12)
+    assert len(ran) == 6
+
+
+def test_max_trials_runs_a_part_and_the_rest_comes_on_the_next_run(tmp_path, client):
+    plan = sweep_file(tmp_path, seeds=1)
+    out = tmp_path / "out"
+    part = run_sweep(plan, out, client=client, max_trials=2, execute=trial_bodies.synthetic_report)
+    assert (part.ok, part.not_run) == (2, 4)
+    assert pq.read_table(out / RESULTS_FILE).num_rows == 2
+    rest = run_sweep(plan, out, client=client, execute=trial_bodies.synthetic_report)
+    assert (rest.ok, rest.skipped, rest.not_run) == (4, 2, 0)
+    assert pq.read_table(out / RESULTS_FILE).num_rows == 6

@@ -1,0 +1,119 @@
+"""The sweep file is checked completely, against its scenario, before anything is submitted."""
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from harness.cli import app
+from harness.sweep import runner
+from harness.sweep.spec import SweepError, grid_points, plan_sweep
+
+DATA = Path(__file__).with_name("data")
+
+
+def write_sweep(tmp_path, body):
+    path = tmp_path / "sweep.yaml"
+    path.write_text(f"scenario: {DATA / 'tiny.yaml'}\n" + body)
+    return path
+
+
+def test_a_good_sweep_lists_every_grid_point_times_every_seed(tmp_path):
+    path = write_sweep(
+        tmp_path,
+        "grid:\n  fleet.0.count: [1, 10]\n  roles.survey.args.speed_m_s: [8, 12, 16]\nseeds: 2\n",
+    )
+    plan = plan_sweep(path)
+    assert plan.name == "sweep"
+    assert plan.fidelity == "swarm"
+    assert len(plan.trials) == 2 * 3 * 2
+    assert [t.parameters for t in plan.trials[:2]] == [
+        {"fleet.0.count": 1, "roles.survey.args.speed_m_s": 8}
+    ] * 2
+    assert [t.seed for t in plan.trials[:4]] == [0, 1, 0, 1]
+    assert len({t.trial_id for t in plan.trials}) == len(plan.trials)
+    again = plan_sweep(path)
+    assert [t.trial_id for t in again.trials] == [t.trial_id for t in plan.trials]
+    assert plan.spec.x_parameter == "fleet.0.count"
+
+
+def test_a_seed_list_and_the_x_axis_are_taken_as_given(tmp_path):
+    path = write_sweep(
+        tmp_path,
+        "grid:\n  fleet.0.count: [1, 2]\n  duration_s: [10, 20]\nseeds: [5, 9]\nx: duration_s\n",
+    )
+    plan = plan_sweep(path)
+    assert {t.seed for t in plan.trials} == {5, 9}
+    assert plan.spec.x_parameter == "duration_s"
+
+
+def test_the_trial_id_changes_with_the_scenario_text_the_parameters_and_the_seed(tmp_path):
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text((DATA / "tiny.yaml").read_text())
+    sweep = tmp_path / "sw.yaml"
+    sweep.write_text("scenario: s.yaml\ngrid:\n  fleet.0.count: [1, 2]\nseeds: 2\n")
+    first = [t.trial_id for t in plan_sweep(sweep).trials]
+    text = (DATA / "tiny.yaml").read_text()
+    scenario.write_text(text.replace("duration_s: 30", "duration_s: 31"))
+    second = [t.trial_id for t in plan_sweep(sweep).trials]
+    assert len(set(first)) == 4
+    assert not set(first) & set(second)
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ("grid:\n  fleet.0.cout: [1, 2]\n", "grid: fleet.0.cout: fleet.0 has no 'cout'; did you"),
+        ("grid: {}\n", "grid"),
+        ("grid:\n  fleet.0.count: []\n", "fleet.0.count: an empty list of values"),
+        ("grid:\n  fleet.0.count: [1, 0]\n", 'grid point {"fleet.0.count": 0} gives a bad'),
+        ("grid:\n  fleet.0.count: [1]\nseeds: 0\n", "seeds: at least 1"),
+        ("grid:\n  fleet.0.count: [1]\nx: duration_s\n", "x: 'duration_s' is not a grid"),
+        ("grid:\n  fleet.0.count: [1]\ncolour: red\n", "colour"),
+        ("grid:\n  roles.survey.module: [nope.x]\nscenario: missing.yaml\n", "scenario"),
+    ],
+)
+def test_a_bad_sweep_fails_naming_the_problem(tmp_path, body, message):
+    with pytest.raises(SweepError) as err:
+        plan_sweep(write_sweep(tmp_path, body))
+    assert message in str(err.value)
+
+
+def test_a_scenario_the_sweep_names_must_exist(tmp_path):
+    path = tmp_path / "sweep.yaml"
+    path.write_text("scenario: nowhere.yaml\ngrid:\n  duration_s: [1]\n")
+    with pytest.raises(SweepError, match="cannot read"):
+        plan_sweep(path)
+    path.write_text("scenario: example:no_such_scenario\ngrid:\n  duration_s: [1]\n")
+    with pytest.raises(SweepError, match="no shipped scenario"):
+        plan_sweep(path)
+
+
+def test_the_cli_rejects_a_bad_sweep_before_any_dask_client_exists(tmp_path, monkeypatch):
+    def no_client(*args, **kwargs):
+        raise AssertionError("a Dask client was created for a bad sweep")
+
+    monkeypatch.setattr(runner, "Client", no_client)
+    monkeypatch.setattr(runner, "LocalCluster", no_client)
+    path = write_sweep(tmp_path, "grid:\n  fleet.0.count: [1, 100000]\n")
+    result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2, result.output
+    assert 'grid point {"fleet.0.count": 100000}' in " ".join(result.output.split())
+    assert not (tmp_path / "out").exists()
+
+
+def test_dry_run_lists_the_trials_and_runs_nothing(tmp_path):
+    path = write_sweep(tmp_path, "grid:\n  fleet.0.count: [1, 3]\nseeds: 2\n")
+    result = CliRunner().invoke(app, ["sweep", str(path), "--dry-run", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert result.output.count("to run") == 5  # 4 trials + the total line
+    assert "4 trial(s), 4 to run" in result.output
+
+
+def test_grid_points_vary_the_first_parameter_slowest():
+    assert grid_points({"a": [1, 2], "b": ["x", "y"]}) == [
+        {"a": 1, "b": "x"},
+        {"a": 1, "b": "y"},
+        {"a": 2, "b": "x"},
+        {"a": 2, "b": "y"},
+    ]
