@@ -1,0 +1,42 @@
+"""Sweeps on a separately started ``dask scheduler`` + ``dask worker`` processes."""
+
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import trial_bodies
+from dask_processes import dask_cluster
+from distributed import Client
+
+from harness.sweep.runner import run_sweep
+from harness.sweep.spec import plan_sweep
+from harness.sweep.table import RESULTS_FILE
+
+DATA = Path(__file__).with_name("data")
+
+
+def test_a_lost_workers_trials_run_elsewhere_and_are_counted(tmp_path):
+    sweep = tmp_path / "grid.yaml"
+    sweep.write_text(
+        f"scenario: {DATA / 'tiny.yaml'}\ngrid:\n  fleet.0.count: [1, 2, 3]\nseeds: 2\n"
+    )
+    plan = plan_sweep(sweep)
+    marker = tmp_path / "killed.pid"
+    env = {trial_bodies.KILL_MARKER_ENV: str(marker)}
+    with (
+        dask_cluster(tmp_path, workers=2, nanny=False, env=env) as (address, workers),
+        Client(address) as client,
+    ):
+        summary = run_sweep(plan, tmp_path / "out", client=client, execute=trial_bodies.dies_once)
+        killed = int(marker.read_text())
+        assert killed in [w.pid for w in workers]
+        assert [w.poll() is not None for w in workers].count(True) == 1  # one worker died
+        survivor = next(iter(client.scheduler_info()["workers"]))
+    assert (summary.ok, summary.failed) == (6, 0)
+    assert summary.retried >= 1
+    rows = pq.read_table(tmp_path / "out" / RESULTS_FILE).to_pylist()
+    retried = [r for r in rows if r["retries"] > 0]
+    assert len(retried) == summary.retried
+    assert sum(r["retries"] for r in rows) == summary.retries
+    assert all(r["retries"] == 1 for r in retried)
+    assert all(r["worker"] == survivor for r in retried)
+    assert all(r["status"] == "ok" for r in rows)
