@@ -109,12 +109,7 @@ def sweep(
         raise typer.Exit(EXIT_BAD_INPUT) from exc
     for warning in summary.warnings:
         console.print(f"[yellow]warning:[/yellow] {escape(warning)}")
-    console.print(
-        f"trials: {summary.ok} ok, {summary.failed} failed, {summary.skipped} skipped (done "
-        f"before), {summary.not_run} not run; {summary.retried} retried after a lost worker "
-        f"({summary.retries} retries); {summary.wall_s:.1f} s wall, "
-        f"{summary.trials_per_min:.1f} trials/min"
-    )
+    console.print(summary.describe(), markup=False, highlight=False)
     if summary.table is not None:
         console.print(f"table: {summary.table}", markup=False, highlight=False)
     if summary.plots:

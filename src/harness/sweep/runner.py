@@ -63,6 +63,14 @@ class SweepSummary:
     plots: list[Path] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
+    def describe(self) -> str:
+        """One line: trials ok/failed/skipped/not run, retries, wall time, rate."""
+        return (
+            f"trials: {self.ok} ok, {self.failed} failed, {self.skipped} skipped (done before), "
+            f"{self.not_run} not run; {self.retried} retried after a lost worker ({self.retries} "
+            f"retries); {self.wall_s:.1f} s wall, {self.trials_per_min:.1f} trials/min"
+        )
+
     @property
     def trials_per_min(self) -> float:
         """Trials run (ok or failed) per wall minute."""
