@@ -16,6 +16,8 @@ EXIT_FAILED = 1
 """At least one trial failed (its row holds the traceback)."""
 EXIT_BAD_INPUT = 2
 """The sweep file (or its scenario, or a grid value) is wrong: nothing was submitted."""
+EXIT_INTERRUPTED = 130
+"""Ctrl-C: the rows of the trials that finished are kept (the next run resumes)."""
 
 
 def print_trials(plan: SweepPlan, out_dir: Path) -> None:
@@ -75,7 +77,7 @@ def sweep(
     OUT/results.parquet (a row per trial: parameters, seed, status, traceback, retries, metrics),
     OUT/trials/ (a row per finished trial, written as it finishes) and OUT/plots/METRIC.png
     (mean over seeds with its 95 % confidence interval). Exit status: 0 when every trial ran ok,
-    1 when one failed, 2 for a bad sweep file (nothing ran).
+    1 when one failed, 2 for a bad sweep file (nothing ran), 130 after Ctrl-C.
 
     Example:  swarmsitl sweep examples/sweeps/coverage_1_to_1000.yaml --workers 2
 
@@ -107,6 +109,12 @@ def sweep(
     except OSError as exc:  # e.g. no scheduler at --scheduler
         console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(EXIT_BAD_INPUT) from exc
+    except KeyboardInterrupt:
+        console.print(
+            f"interrupted: the finished trials' rows are in {out_dir / 'results.parquet'}; run "
+            "the same command again to resume"
+        )
+        raise typer.Exit(EXIT_INTERRUPTED) from None
     for warning in summary.warnings:
         console.print(f"[yellow]warning:[/yellow] {escape(warning)}")
     console.print(summary.describe(), markup=False, highlight=False)

@@ -169,15 +169,17 @@ def run_sweep(
             for t in pending
         ]
     kinds = {name: value_type(values) for name, values in plan.spec.grid.items()}
-    if pending:
-        with contextlib.ExitStack() as stack:
-            if client is None:
-                client = stack.enter_context(open_client(scheduler, workers))
-            _run(client, pending, out_dir, kinds, execute, console, summary, on_row)
-    summary.wall_s = time.monotonic() - start
-    table = combine(out_dir, (t.trial_id for t in plan.trials))
+    try:
+        if pending:
+            with contextlib.ExitStack() as stack:
+                if client is None:
+                    client = stack.enter_context(open_client(scheduler, workers))
+                _run(client, pending, out_dir, kinds, execute, console, summary, on_row)
+    finally:  # Ctrl-C too: the table holds every row finished so far
+        summary.wall_s = time.monotonic() - start
+        table = combine(out_dir, (t.trial_id for t in plan.trials))
+        summary.table = out_dir / RESULTS_FILE if table is not None else None
     if table is not None:
-        summary.table = out_dir / RESULTS_FILE
         summary.plots, summary.warnings = plot_sweep(
             table, plan.spec.grid, plan.spec.x_parameter, plan.spec.metrics, out_dir / "plots"
         )
