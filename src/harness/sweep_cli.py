@@ -42,7 +42,7 @@ def sweep(
     ],
     out: Annotated[
         Path | None,
-        typer.Option(help="output directory [default: runs/sweep-NAME]; reused to resume"),
+        typer.Option(help="output directory (default: runs/sweep-NAME); reused to resume"),
     ] = None,
     workers: Annotated[
         int,

@@ -17,12 +17,13 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import time
+import traceback
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from distributed import Client, LocalCluster, as_completed
+from distributed import Client, KilledWorker, LocalCluster, as_completed
 from rich.console import Console
 from rich.progress import (
     BarColumn,
@@ -95,7 +96,7 @@ def open_client(scheduler: str | None, workers: int) -> Iterator[Client]:
             client.close()
         return
     cluster = LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0"
     )
     try:
         client = Client(cluster)
@@ -119,14 +120,18 @@ def pending_trials(plan: SweepPlan, out_dir: Path) -> tuple[list[Trial], int]:
     return pending, skipped
 
 
-def _killed_row(trial: Trial, exc: BaseException, retries: int) -> dict[str, Any]:
+def _lost_row(trial: Trial, exc: BaseException, retries: int) -> dict[str, Any]:
+    """The row of a trial whose task, not its body, failed (KilledWorker, unpicklable, lost)."""
     row = base_row(trial)
     row["worker"] = ""
     row["retries"] = retries
-    row["error"] = (
-        f"{type(exc).__name__}: {exc}\n(the scheduler gave up on this trial after {retries} "
-        "worker(s) died while running it)"
-    )
+    text = "".join(traceback.format_exception(exc)).rstrip()
+    if isinstance(exc, KilledWorker):
+        text += (
+            f"\n(the scheduler gave up on this trial after {retries} worker(s) died while "
+            "running it)"
+        )
+    row["error"] = text
     return row
 
 
@@ -174,6 +179,8 @@ def run_sweep(
             with contextlib.ExitStack() as stack:
                 if client is None:
                     client = stack.enter_context(open_client(scheduler, workers))
+                if console is not None and client.dashboard_link:
+                    console.print(f"Dask dashboard: {client.dashboard_link}", highlight=False)
                 _run(client, pending, out_dir, kinds, execute, console, summary, on_row)
     finally:  # Ctrl-C too: the table holds every row finished so far
         summary.wall_s = time.monotonic() - start
@@ -222,13 +229,13 @@ def _run(
                 retries = client.run_on_scheduler(_suspicious, future.key)
                 if future.status == "finished":
                     row = future.result()
-                else:  # KilledWorker: the scheduler gave up; or the trial was cancelled
+                else:  # KilledWorker, a task that could not run, or one cancelled
                     exc = (
                         future.exception()
                         if future.status == "error"
                         else RuntimeError(f"the trial's task was {future.status}")
                     )
-                    row = _killed_row(trial, exc, retries)
+                    row = _lost_row(trial, exc, retries)
                 row["retries"] = retries
                 future.release()
                 write_row(out_dir, kinds, row)

@@ -6,7 +6,9 @@ import pyarrow.parquet as pq
 import trial_bodies
 from dask_processes import dask_cluster
 from distributed import Client
+from typer.testing import CliRunner
 
+from harness.cli import app
 from harness.sweep.runner import run_sweep
 from harness.sweep.spec import plan_sweep
 from harness.sweep.table import RESULTS_FILE
@@ -40,3 +42,22 @@ def test_a_lost_workers_trials_run_elsewhere_and_are_counted(tmp_path):
     assert all(r["retries"] == 1 for r in retried)
     assert all(r["worker"] == survivor for r in retried)
     assert all(r["status"] == "ok" for r in rows)
+
+
+def test_swarmsitl_sweep_runs_on_a_dask_scheduler_and_two_dask_workers(tmp_path):
+    """The issue's done-when: the same sweep file against `dask scheduler` + 2 `dask worker`."""
+    out = tmp_path / "out"
+    with dask_cluster(tmp_path, workers=2) as (address, _):
+        result = CliRunner().invoke(
+            app,
+            ["sweep", str(DATA / "small_coverage.yaml"), "--scheduler", address, "--out", str(out)],
+        )
+    assert result.exit_code == 0, result.output
+    assert "trials: 4 ok, 0 failed, 0 skipped" in result.output
+    rows = pq.read_table(out / RESULTS_FILE).to_pylist()
+    assert [(r["fleet.0.count"], r["seed"]) for r in rows] == [(1, 0), (1, 1), (4, 0), (4, 1)]
+    assert all(r["status"] == "ok" and r["duration_s"] == 60 for r in rows)
+    assert len({r["worker"] for r in rows}) == 2
+    assert all(r["fleet.vehicles"] == r["fleet.0.count"] for r in rows)
+    for metric in ("fleet.companions.coverage_fraction", "fleet.energy"):
+        assert (out / "plots" / f"{metric}.png").stat().st_size > 10_000

@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import dask
 import pyarrow.parquet as pq
 import pytest
 import trial_bodies
@@ -18,7 +19,7 @@ DATA = Path(__file__).with_name("data")
 def client():
     with (
         LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
         ) as cluster,
         Client(cluster) as c,
     ):
@@ -92,3 +93,55 @@ def test_max_trials_runs_a_part_and_the_rest_comes_on_the_next_run(tmp_path, cli
     rest = run_sweep(plan, out, client=client, execute=trial_bodies.synthetic_report)
     assert (rest.ok, rest.skipped, rest.not_run) == (4, 2, 0)
     assert pq.read_table(out / RESULTS_FILE).num_rows == 6
+
+
+WALL_CLOCK_COLUMNS = ("worker", "wall_s")
+"""The only columns that may differ between two runs of the same trial."""
+
+
+def test_the_same_sweep_on_one_worker_and_on_two_gives_identical_rows(tmp_path, client):
+    plan = plan_sweep(DATA / "small_coverage.yaml")
+    two = run_sweep(plan, tmp_path / "two", client=client)
+    with (
+        LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster,
+        Client(cluster) as single,
+    ):
+        one = run_sweep(plan, tmp_path / "one", client=single)
+    assert (one.ok, two.ok) == (4, 4)
+    rows_one = pq.read_table(tmp_path / "one" / RESULTS_FILE).to_pylist()
+    rows_two = pq.read_table(tmp_path / "two" / RESULTS_FILE).to_pylist()
+    assert len({r["worker"] for r in rows_one}) == 1
+    assert len({r["worker"] for r in rows_two}) == 2
+    strip = [{k: v for k, v in r.items() if k not in WALL_CLOCK_COLUMNS} for r in rows_one]
+    assert strip == [{k: v for k, v in r.items() if k not in WALL_CLOCK_COLUMNS} for r in rows_two]
+    coverage = [r["fleet.companions.coverage_fraction"] for r in rows_one]
+    assert all(0 < c <= 1 for c in coverage)
+    assert len(set(coverage)) > 1  # the seeds and fleet sizes make a difference
+
+
+def test_a_trial_that_keeps_killing_its_workers_fails_with_killed_worker(tmp_path):
+    """After allowed-failures + 1 worker deaths the scheduler gives up on the trial (only it)."""
+    sweep = tmp_path / "grid.yaml"
+    sweep.write_text(f"scenario: {DATA / 'tiny.yaml'}\ngrid:\n  fleet.0.count: [1, 2, 3]\n")
+    plan = plan_sweep(sweep)
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": 1}),
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster,
+        Client(cluster) as c,
+    ):
+        summary = run_sweep(
+            plan, tmp_path / "out", client=c, execute=trial_bodies.dies_for_two_vehicles
+        )
+    assert (summary.ok, summary.failed) == (2, 1)
+    rows = {
+        r["fleet.0.count"]: r for r in pq.read_table(tmp_path / "out" / RESULTS_FILE).to_pylist()
+    }
+    assert rows[2]["status"] == "failed"
+    assert "KilledWorker" in rows[2]["error"]
+    assert "gave up on this trial after 2 worker(s) died" in rows[2]["error"]
+    assert rows[2]["retries"] == 2
+    assert rows[1]["status"] == rows[3]["status"] == "ok"

@@ -60,3 +60,10 @@ def dies_once(scenario, seed, run_dir, timeout_wall_s):
     time.sleep(0.2)
     os.kill(os.getpid(), signal.SIGKILL)
     raise AssertionError("unreachable: the worker was killed")
+
+
+def dies_for_two_vehicles(scenario, seed, run_dir, timeout_wall_s):
+    """Kills its worker process every time it runs with a fleet of two; else reports."""
+    if scenario.spec.n_vehicles == 2:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return synthetic_report(scenario, seed, run_dir, timeout_wall_s)
