@@ -168,11 +168,8 @@ def run_sweep(
     if max_trials is not None:
         summary.not_run = max(0, len(pending) - max_trials)
         pending = pending[:max_trials]
-    if plan.fidelity == "full":
-        pending = [
-            dataclasses.replace(t, run_dir=str((out_dir / "runs" / t.trial_id).resolve()))
-            for t in pending
-        ]
+    runs = (out_dir / "runs").resolve()  # full-fidelity trials' run directories
+    pending = [dataclasses.replace(t, run_dir=str(runs / t.trial_id)) for t in pending]
     kinds = {name: value_type(values) for name, values in plan.spec.grid.items()}
     try:
         if pending:

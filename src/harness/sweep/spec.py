@@ -154,7 +154,10 @@ def plan(spec: SweepSpec, name: str, base_dir: Path, path: Path | None = None) -
         text = scenario_file.read_text()
     except OSError as exc:
         raise SweepError(f"{where}: scenario: cannot read {scenario_file}: {exc}") from exc
-    data = yaml.safe_load(text)
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise SweepError(f"{where}: scenario: {scenario_file} is not valid YAML: {exc}") from exc
     if not isinstance(data, dict):
         raise SweepError(f"{where}: scenario: {scenario_file} is not a scenario mapping")
     for key, values in spec.grid.items():

@@ -49,7 +49,8 @@ class Trial:
     timeout_wall_s: float | None = None
     """Full fidelity: give up the run after this many wall seconds."""
     run_dir: str | None = None
-    """Where a full-fidelity run writes its run directory (None: a temporary one)."""
+    """Where a full-fidelity run writes its run directory (None: a temporary one); the sweep
+    sets OUT/runs/TRIAL_ID."""
 
     @property
     def parameters(self) -> dict[str, Any]:
@@ -72,11 +73,15 @@ def build_scenario(trial: Trial) -> Scenario:
 def execute_scenario(
     scenario: Scenario, seed: int, run_dir: Path | None, timeout_wall_s: float | None
 ) -> dict[str, Any]:
-    """Run ``scenario`` at its fidelity and return its report (the default trial body)."""
+    """Run ``scenario`` at its fidelity and return its report (the default trial body).
+
+    A swarm-fidelity run writes no run directory (thousands of trials, one row each); a full one
+    writes ``run_dir`` (a temporary directory when None), as ``swarmsitl run`` does.
+    """
     if scenario.spec.fidelity == "swarm":
         from harness.swarm_run import run_swarm
 
-        return run_swarm(scenario, seed, run_dir)
+        return run_swarm(scenario, seed, None)
     from harness.run_ports import free_ports
     from harness.scenario_run import RunOptions, ScenarioRun
 

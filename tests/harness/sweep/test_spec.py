@@ -87,6 +87,10 @@ def test_a_scenario_the_sweep_names_must_exist(tmp_path):
     path.write_text("scenario: example:no_such_scenario\ngrid:\n  duration_s: [1]\n")
     with pytest.raises(SweepError, match="no shipped scenario"):
         plan_sweep(path)
+    (tmp_path / "broken.yaml").write_text("name: [unclosed\n")
+    path.write_text("scenario: broken.yaml\ngrid:\n  duration_s: [1]\n")
+    with pytest.raises(SweepError, match=r"broken\.yaml is not valid YAML"):
+        plan_sweep(path)
 
 
 def test_the_cli_rejects_a_bad_sweep_before_any_dask_client_exists(tmp_path, monkeypatch):
