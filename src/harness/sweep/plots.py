@@ -18,6 +18,8 @@ import numpy as np
 import pyarrow as pa
 from scipy import stats
 
+from harness.sweep.table import unit_of
+
 CONFIDENCE = 0.95
 """Level of the plotted confidence interval of each mean."""
 
@@ -49,6 +51,7 @@ def plot_metric(
     x_name: str,
     metric: str,
     path: Path,
+    unit: str | None = None,
 ) -> None:
     """One PNG: mean and confidence band of ``metric`` over ``x_name``, a line per other point."""
     from matplotlib.figure import Figure
@@ -83,7 +86,7 @@ def plot_metric(
     if not numeric:
         ax.set_xticks(positions, [str(v) for v in xs])
     ax.set_xlabel(x_name)
-    ax.set_ylabel(metric)
+    ax.set_ylabel(f"{metric} [{unit}]" if unit else metric)
     ax.set_title(f"{metric}: mean over seeds, {CONFIDENCE:.0%} confidence interval")
     ax.grid(True, alpha=0.3)
     if others:
@@ -120,6 +123,6 @@ def plot_sweep(
             warnings.append(f"metric {metric!r} is not a column of the table (metrics: {known})")
             continue
         path = plot_dir / f"{metric}.png"
-        plot_metric(rows, grid, x_name, metric, path)
+        plot_metric(rows, grid, x_name, metric, path, unit_of(table, metric))
         paths.append(path)
     return paths, warnings

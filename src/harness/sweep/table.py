@@ -8,7 +8,8 @@ resumed sweep reads the part files to skip the trials that finished ``ok``.
 Columns: ``trial_id``, each grid parameter (its dotted name), ``seed``, ``status`` (``ok`` or
 ``failed``), ``error`` (the traceback; empty when ok), ``retries`` (times a worker died while
 running the trial), ``worker``, ``wall_s``, ``sim_time_s``, ``passed``, ``complete``, then every
-flattened report metric (``fleet.NAME``, float64, null where a trial did not report it).
+flattened report metric (``fleet.NAME``, float64, null where a trial did not report it; its unit
+in the field's metadata ``unit``).
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ from typing import Any
 
 import pyarrow as pa
 import pyarrow.parquet as pq
+
+from harness.sweep.trial import UNITS_KEY
 
 FIXED_COLUMNS: dict[str, pa.DataType] = {
     "seed": pa.int64(),
@@ -51,13 +54,28 @@ def value_type(values: Iterable[Any]) -> pa.DataType:
 
 
 def row_schema(parameters: dict[str, pa.DataType], row: dict[str, Any]) -> pa.Schema:
-    """The schema of one row: fixed columns, the grid's, then its metrics as float64."""
+    """The schema of one row: fixed columns, the grid's, then its metrics as float64.
+
+    A metric's unit (the row's ``UNITS_KEY`` entry) is its field's metadata ``unit``.
+    """
+    units = row.get(UNITS_KEY) or {}
     fields = [pa.field("trial_id", pa.string())]
     fields += [pa.field(name, kind) for name, kind in parameters.items()]
     fields += [pa.field(name, kind) for name, kind in FIXED_COLUMNS.items()]
-    known = {"trial_id", *parameters, *FIXED_COLUMNS}
-    fields += [pa.field(name, pa.float64()) for name in sorted(row) if name not in known]
+    known = {"trial_id", UNITS_KEY, *parameters, *FIXED_COLUMNS}
+    fields += [
+        pa.field(name, pa.float64(), metadata={"unit": units[name]} if name in units else None)
+        for name in sorted(row)
+        if name not in known
+    ]
     return pa.schema(fields)
+
+
+def unit_of(table: pa.Table, column: str) -> str | None:
+    """The unit a column's field metadata gives, or None."""
+    metadata = table.schema.field(column).metadata or {}
+    unit = metadata.get(b"unit")
+    return unit.decode() if unit else None
 
 
 def _cell(value: Any, kind: pa.DataType) -> Any:

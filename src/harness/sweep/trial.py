@@ -33,6 +33,9 @@ Execute = Callable[[Scenario, int, "Path | None", "float | None"], dict[str, Any
 
 ERROR_CHARS = 20_000
 """Longest traceback kept in a failed row."""
+UNITS_KEY = "__units__"
+"""Row entry (not a column) with the unit of each metric column; the table keeps it as the
+column's Parquet field metadata ``unit``."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +103,24 @@ def _number(value: Any) -> float | None:
     if isinstance(value, int | float):
         return float(value)
     return None
+
+
+def metric_units(report: dict[str, Any]) -> dict[str, str]:
+    """The unit of every ``flatten_metrics`` column whose report entry gives one."""
+    out: dict[str, str] = {}
+
+    def walk(node: Any, prefix: str) -> None:
+        if not isinstance(node, dict):
+            return
+        if "value" in node:
+            if _number(node["value"]) is not None and node.get("unit"):
+                out[prefix] = str(node["unit"])
+            return
+        for key, child in node.items():
+            walk(child, f"{prefix}.{key}")
+
+    walk(report.get("fleet", {}), "fleet")
+    return out
 
 
 def flatten_metrics(report: dict[str, Any]) -> dict[str, float]:
@@ -174,6 +195,7 @@ def run_trial(trial: Trial, execute: Execute | None = None) -> dict[str, Any]:
         row["passed"] = bool(report.get("passed", False))
         row["complete"] = bool(report.get("complete", False))
         row |= flatten_metrics(report)
+        row[UNITS_KEY] = metric_units(report)
         row["status"] = "ok"
     except Exception:  # every failure of a trial is data, the sweep goes on
         row["error"] = traceback.format_exc()[-ERROR_CHARS:]

@@ -10,7 +10,7 @@ from distributed import Client, LocalCluster
 
 from harness.sweep.runner import run_sweep
 from harness.sweep.spec import plan_sweep
-from harness.sweep.table import RESULTS_FILE, TRIALS_DIR
+from harness.sweep.table import RESULTS_FILE, TRIALS_DIR, unit_of
 
 DATA = Path(__file__).with_name("data")
 
@@ -41,7 +41,11 @@ def test_a_failing_trial_is_recorded_with_its_traceback_and_the_others_finish(tm
     out = tmp_path / "out"
     summary = run_sweep(plan, out, client=client, execute=trial_bodies.failing_for_speed_12)
     assert (summary.ok, summary.failed, summary.skipped) == (6, 6, 0)
-    rows = pq.read_table(out / RESULTS_FILE).to_pylist()
+    table = pq.read_table(out / RESULTS_FILE)
+    assert unit_of(table, "fleet.coverage_fraction") == "1"
+    assert unit_of(table, "fleet.events") == "count"
+    assert unit_of(table, "wall_s") is None
+    rows = table.to_pylist()
     assert [r["trial_id"] for r in rows] == [t.trial_id for t in plan.trials]
     for r in rows:
         if r["roles.survey.args.speed_m_s"] == 12:

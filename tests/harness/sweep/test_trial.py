@@ -4,7 +4,14 @@ import math
 from pathlib import Path
 
 from harness.scenario_run import lookup
-from harness.sweep.trial import Trial, build_scenario, flatten_metrics, run_trial
+from harness.sweep.trial import (
+    UNITS_KEY,
+    Trial,
+    build_scenario,
+    flatten_metrics,
+    metric_units,
+    run_trial,
+)
 
 DATA = Path(__file__).with_name("data")
 
@@ -44,6 +51,13 @@ def test_flattened_metrics_carry_the_names_checks_metrics_resolve():
     }
     for name, value in flat.items():
         assert float(lookup(REPORT, name)) == value
+    assert metric_units(REPORT) == {
+        "fleet.vehicles": "count",
+        "fleet.min_separation": "m",
+        "fleet.failsafe_texts": "count",
+        "fleet.all_landed": "bool",
+        "fleet.companions.spills_seen": "count",
+    }
 
 
 def test_the_trial_scenario_has_the_parameters_and_the_seed():
@@ -70,6 +84,7 @@ def test_a_trial_runs_its_body_and_fills_the_row():
     assert row["passed"] is True
     assert row["sim_time_s"] == 30.0
     assert row["fleet.companions.spills_seen"] == 2.0
+    assert row[UNITS_KEY]["fleet.min_separation"] == "m"
     assert row["wall_s"] >= 0
 
 
