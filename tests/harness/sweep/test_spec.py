@@ -121,3 +121,11 @@ def test_grid_points_vary_the_first_parameter_slowest():
         {"a": 2, "b": "x"},
         {"a": 2, "b": "y"},
     ]
+
+
+def test_sweep_help_documents_every_option_with_an_example():
+    result = CliRunner().invoke(app, ["sweep", "--help"], terminal_width=200)
+    assert result.exit_code == 0
+    assert "Example:  swarmsitl sweep" in result.output
+    for option in ("--out", "--workers", "--scheduler", "--max-trials", "--dry-run"):
+        assert option in result.output
