@@ -125,7 +125,7 @@ class RunResult(_Checks):
 
     def metric(self, name: str) -> Any:
         """A report value by dotted name, e.g. ``vehicles.vehicle1.max_tilt_deg``."""
-        from harness.scenario_run import lookup
+        from harness.run_totals import lookup
 
         return lookup(self.report, name)
 

@@ -23,14 +23,12 @@ import dataclasses
 import datetime as dt
 import json
 import os
-import platform
 import signal
 import subprocess
 import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +48,7 @@ from harness.net_plan import NetPlan, NetRun
 from harness.run_manifest import RunManifest, write_manifest
 from harness.run_ports import RunPorts, free_tcp_ports
 from harness.run_report import write_run_report
+from harness.run_totals import fleet_totals, metric_checks, versions
 from harness.scenario import Scenario
 from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
@@ -138,15 +137,6 @@ def traceback_in(log_path: Path) -> str | None:
     end = text.find(TRACEBACK_HEAD, start + len(TRACEBACK_HEAD))
     body = text[start:] if end < 0 else text[start:end]
     return body[:TRACEBACK_CHARS]
-
-
-def versions() -> dict[str, str]:
-    """Versions of what a run's outcome depends on."""
-    out = {"python": platform.python_version()}
-    for dist in ("swarmsitl", "numpy", "pybullet", "pymavlink", "mavsdk-grpc", "mavsdk"):
-        with contextlib.suppress(metadata.PackageNotFoundError):
-            out[dist] = metadata.version(dist)
-    return out
 
 
 class ScenarioRun:
@@ -572,85 +562,3 @@ class ScenarioRun:
             report["passed"] = complete and all(c["ok"] for c in report["checks"].values())
         (self.run_dir / "report.json").write_text(json.dumps(report, indent=2, default=str) + "\n")
         return report
-
-
-FRACTION_UNITS = ("1", "fraction", "ratio", "%")
-"""Units of companion results that are shares, which the fleet averages instead of adding."""
-
-
-def fleet_totals(report: dict[str, Any]) -> dict[str, Any]:
-    """Each companion result over the vehicles that reported it.
-
-    Numbers: ``sum`` and ``mean``; ``value`` is the mean for shares (unit ``1``, ``fraction``,
-    ``%``) and the sum for everything else (counts, metres, joules). Lists (e.g. the names of the
-    targets a vehicle found): ``items``, their union, and ``value``, how many distinct items,
-    which is what a fleet found when several vehicles found the same thing.
-    """
-    values: dict[str, list[float]] = {}
-    lists: dict[str, set] = {}
-    counts: dict[str, int] = {}
-    units: dict[str, Any] = {}
-    for metrics in report.get("vehicles", {}).values():
-        for name, q in (metrics.get("companion") or {}).items():
-            value = q.get("value") if isinstance(q, dict) else None
-            if isinstance(value, list):
-                lists.setdefault(name, set()).update(map(str, value))
-                counts[name] = counts.get(name, 0) + 1
-                continue
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                continue
-            values.setdefault(name, []).append(value)
-            units.setdefault(name, q.get("unit"))
-    totals: dict[str, Any] = {
-        name: {
-            "value": len(items),
-            "unit": "distinct",
-            "items": sorted(items),
-            "vehicles": counts[name],
-        }
-        for name, items in lists.items()
-    }
-    for name, vs in values.items():
-        total, mean = sum(vs), sum(vs) / len(vs)
-        totals[name] = {
-            "value": mean if units[name] in FRACTION_UNITS else total,
-            "unit": units[name],
-            "sum": total,
-            "mean": mean,
-            "vehicles": len(vs),
-        }
-    return totals
-
-
-def lookup(report: dict[str, Any], dotted: str) -> Any:
-    """``report["a"]["b"]`` for ``a.b``; a ``{"value": v}`` leaf gives v; KeyError if absent."""
-    node: Any = report
-    for part in dotted.split("."):
-        node = node[part]
-    if isinstance(node, dict) and "value" in node:
-        node = node["value"]
-    return node
-
-
-def metric_checks(
-    report: dict[str, Any], bounds: dict[str, tuple[float | None, float | None]]
-) -> dict[str, dict[str, Any]]:
-    """The scenario's ``checks.metrics`` bounds evaluated on the report."""
-    out = {}
-    for name, (low, high) in bounds.items():
-        try:
-            value = float(lookup(report, name))
-        except (KeyError, TypeError, ValueError):
-            out[f"metric {name}"] = {
-                "ok": False,
-                "value": None,
-                "message": f"{name}: not in report",
-            }
-            continue
-        ok = (low is None or value >= low) and (high is None or value <= high)
-        out[f"metric {name}"] = {
-            "ok": ok,
-            "value": value,
-            "message": f"{name} = {value:g} (bounds [{low}, {high}])",
-        }
-    return out

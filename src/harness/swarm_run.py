@@ -31,8 +31,8 @@ from companion.scenario_env import ScenarioEnv
 from harness.fleet_spawn import fleet_spawn
 from harness.link_options import links_config
 from harness.run_report import plot_tracks, quantity
+from harness.run_totals import fleet_totals, metric_checks, versions
 from harness.scenario import Scenario, ScenarioError
-from harness.scenario_run import fleet_totals, metric_checks, versions
 from harness.swarm_engine import SwarmEngine, Target, poisson_events
 from sitl.kinematic_fleet import KinematicFleet
 from sitl.links.inprocess import InProcessPort

@@ -6,7 +6,8 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.scenario_run import fleet_totals, lookup, metric_checks, traceback_in
+from harness.run_totals import fleet_totals, lookup, metric_checks
+from harness.scenario_run import traceback_in
 
 REPORT = {
     "vehicles": {

@@ -127,7 +127,7 @@ def flatten_metrics(report: dict[str, Any]) -> dict[str, float]:
     """Every numeric ``fleet`` metric of a report as ``{"fleet.NAME": value}``.
 
     A ``{"value": v, ...}`` entry gives ``v`` under its dotted path, the name
-    ``harness.scenario_run.lookup`` (and so ``checks.metrics``) resolves; plain numbers count
+    ``harness.run_totals.lookup`` (and so ``checks.metrics``) resolves; plain numbers count
     too; lists and texts are left out. Booleans become 0/1 so that their mean is a share.
     """
     out: dict[str, float] = {}
