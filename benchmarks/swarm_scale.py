@@ -55,7 +55,8 @@ def trial(n: int, seed: int) -> dict[str, float]:
 
 
 def scale(sizes: list[int]) -> dict[int, tuple[float, float, float]]:
-    """N -> (simulated s, wall s, decisions) of one run each."""
+    """N -> (simulated s, wall s, decisions) of one run each (after a warm-up run, not timed)."""
+    run_swarm(swarm_scenario(1), 0)  # lazy imports and first-call costs out of the timings
     out = {}
     for n in sizes:
         scenario = swarm_scenario(n)

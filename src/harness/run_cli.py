@@ -108,6 +108,11 @@ def run(
     Example:  swarmsitl run scenarios/offshore_demo.yaml --out runs/offshore
 
     Example:  swarmsitl run my_scenario.yaml --seed 3 --speed 2
+
+    A scenario with ``fidelity: swarm`` runs on the swarm-scale engine, in this process, in
+    lockstep (docs/swarm.md).
+
+    Example:  swarmsitl run src/harness/scenarios/swarm_coverage.yaml --out runs/swarm
     """
     if speed is not None and lockstep:
         raise typer.BadParameter("give --speed or --lockstep, not both", param_hint="--speed")
