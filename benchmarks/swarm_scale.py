@@ -9,12 +9,14 @@ Two measurements, one run:
    ``run_swarm`` (planning, decisions, messages, report) and the real-time factor. The plot of
    wall time per simulated second against N goes to ``--plot``.
 2. Sweep throughput: the same ``--trials`` trials (``--trial-size`` vehicles, seeds 0..T-1) run
-   one after the other in this process, then on a Dask LocalCluster of 2 worker processes (one
-   thread each; the cluster is started and each worker runs one warm-up trial before the clock
-   starts, as a long sweep amortises both); trials per minute of each and their ratio.
+   one after the other in this process, then on the LocalCluster of ``swarmsitl sweep --workers
+   2`` (2 worker processes, one thread each; the cluster is started and each worker runs one
+   warm-up trial before the clock starts, as a long sweep amortises both); trials per minute of
+   each and their ratio.
 
     python benchmarks/swarm_scale.py
     python benchmarks/swarm_scale.py --sizes 1,10,100 --trials 4     # quicker
+    python benchmarks/swarm_scale.py --sizes "" --trials 8           # the sweep throughput only
 
 The last line is ``RESULT rtf_1000=... trials_per_min_2w=... speedup_2w=...`` (plus the other
 sizes' real-time factors).
@@ -34,6 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from harness.scenario import Scenario, parse_scenario
 from harness.scenarios import scenario_path
 from harness.swarm_run import run_swarm
+from harness.sweep.runner import open_client
 from realtime_factor import machine
 
 
@@ -105,15 +108,8 @@ def throughput(trials: int, size: int) -> tuple[float, float, float]:
     t0 = time.perf_counter()
     serial = [trial(size, seed) for seed in range(trials)]
     serial_min = (time.perf_counter() - t0) / 60.0
-    from dask.distributed import Client, LocalCluster
-
     t0 = time.perf_counter()
-    with (
-        LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    with open_client(None, 2) as client:  # the sweep's LocalCluster, as `swarmsitl sweep` has it
         workers = list(client.scheduler_info()["workers"])
         warm = [client.submit(trial, 1, 0, workers=[w], pure=False) for w in workers]
         client.gather(warm)
@@ -132,14 +128,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", default="1,10,100,1000", help="fleet sizes, comma-separated")
     parser.add_argument("--trials", type=int, default=8, help="trials of the throughput test")
-    parser.add_argument("--trial-size", type=int, default=30, help="vehicles per trial")
+    parser.add_argument("--trial-size", type=int, default=50, help="vehicles per trial")
     parser.add_argument("--plot", type=Path, default=Path("runs/benchmarks/swarm_scale.png"))
     args = parser.parse_args()
-    sizes = [int(s) for s in args.sizes.split(",")]
+    sizes = [int(s) for s in args.sizes.split(",") if s]
     print(f"machine: {machine()}")
     results = scale(sizes)
-    plot(results, args.plot)
-    print(f"plot: {args.plot}")
+    if results:
+        plot(results, args.plot)
+        print(f"plot: {args.plot}")
     serial, parallel, startup = throughput(args.trials, args.trial_size)
     print(
         f"sweep of {args.trials} trials x {args.trial_size} vehicles: serial {serial:.1f} "
