@@ -17,6 +17,7 @@ this in a ``tmux``/``screen`` session, and run it again to resume after an inter
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 
@@ -24,7 +25,7 @@ from dask_jobqueue import SLURMCluster
 from distributed import Client
 from rich.console import Console
 
-from harness.sweep.runner import run_sweep
+from harness.sweep.runner import run_sweep, worker_environment
 from harness.sweep.spec import SweepError, plan_sweep
 
 
@@ -54,6 +55,7 @@ def main() -> int:
     except SweepError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    exports = [f"export {k}={shlex.quote(v)}" for k, v in worker_environment().items()]
     cluster = SLURMCluster(
         queue=args.queue,
         account=args.account,
@@ -61,7 +63,8 @@ def main() -> int:
         processes=args.cores,  # one single-threaded worker process per core
         memory=args.memory,
         walltime=args.walltime,
-        job_script_prologue=args.prologue,
+        # the settings of swarmsitl's own local cluster (no profiler, no MALLOC_TRIM_THRESHOLD_)
+        job_script_prologue=[*exports, *args.prologue],
         log_directory="dask-logs",
     )
     try:

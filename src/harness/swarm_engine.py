@@ -145,6 +145,10 @@ class VehicleHandle:
         """Nearest nodes within radio range, nearest first."""
         return self._engine.neighbour_ids(self.index)
 
+    def observe(self, detection: Detection) -> None:
+        """The engine's camera model saw ``detection`` (handed out by ``detections``)."""
+        self._seen.append(detection)
+
     def detections(self) -> list[Detection]:
         """Targets seen since the last call."""
         out, self._seen = self._seen, []
@@ -163,7 +167,6 @@ class SwarmEngine:
         radio_range_m: neighbours farther than this are not listed, m (inf: no limit).
         camera_tan_half_fov: (N,) ``tan(hfov / 2)`` of each vehicle's down camera; NaN: none.
         targets: what the cameras can see.
-        clock: set by the caller to the engine's time for the messaging nodes (optional).
         inside_world: (K, 2) -> (K,) bool, the world's boundary test (None: no boundary).
     """
 
@@ -238,7 +241,7 @@ class SwarmEngine:
         if not airborne.any():
             return
         which = np.flatnonzero(airborne)
-        reach = np.maximum(pos[which, 2] - 0.0, 0.0) * self.camera_tan[which]
+        reach = np.maximum(pos[which, 2], 0.0) * self.camera_tan[which]  # footprint on z = 0
         centres = np.array([t.xy_m for t in active])
         radii = np.array([t.radius_m for t in active])
         tree = cKDTree(centres)
@@ -251,7 +254,7 @@ class SwarmEngine:
                 if math.dist(pos[i, :2], t.xy_m) <= r + t.radius_m:
                     self._seen_by[i].add(t.name)
                     self.stats.first_seen_s.setdefault(t.name, now)
-                    self.handles[i]._seen.append(Detection(t.name, t.xy_m, t.appear_s, now))
+                    self.handles[i].observe(Detection(t.name, t.xy_m, t.appear_s, now))
 
     def _separation(self, pos: np.ndarray) -> None:
         n = self.fleet.n

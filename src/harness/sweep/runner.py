@@ -106,6 +106,19 @@ with the slower tick and monitor. Workers of your own cluster take these from th
 (docs/sweeps.md)."""
 
 
+def worker_environment() -> dict[str, str]:
+    """``TRIAL_WORKER_CONFIG`` as the environment variables a Dask worker reads at start-up.
+
+    For workers started by hand or by a job system (``export NAME=VALUE`` in a SLURM job's
+    prologue); ``DASK_DISTRIBUTED__NANNY__PRE_SPAWN_ENVIRON`` is a Python literal.
+    """
+    env = {}
+    for key, value in TRIAL_WORKER_CONFIG.items():
+        name = "DASK_" + "__".join(part.replace("-", "_").upper() for part in key.split("."))
+        env[name] = repr(value) if isinstance(value, dict) else str(value)
+    return env
+
+
 @contextlib.contextmanager
 def open_client(scheduler: str | None, workers: int) -> Iterator[Client]:
     """A client of the scheduler at ``scheduler``, or of a LocalCluster of ``workers`` processes."""
