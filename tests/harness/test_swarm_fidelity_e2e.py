@@ -20,18 +20,18 @@ SCENARIO = {
     "name": "fidelity-compare",
     "fidelity": "full",
     "seed": 1,
-    "duration_s": 150,
+    "duration_s": 100,
     "spacing_m": 6,
     "fleet": [{"role": "survey", "count": 2, "airframe": "typhoon_h480"}],
     "roles": {
         "survey": {
             "module": "companion.scripts.coverage",
             "args": {
-                "altitude_m": 10,
+                "altitude_m": 8,
                 "altitude_step_m": 3,
                 "speed_m_s": 6,
                 "sweep_deg": 0,
-                "area_enu_m": [-20, 10, 100, 70],
+                "area_enu_m": [-10, 10, 70, 50],
             },
         }
     },

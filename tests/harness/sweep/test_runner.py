@@ -125,6 +125,7 @@ def test_the_same_sweep_on_one_worker_and_on_two_gives_identical_rows(tmp_path, 
     assert len(set(coverage)) > 1  # the seeds and fleet sizes make a difference
 
 
+@pytest.mark.slow  # 9 s; the lost-worker retry itself is in the default run (test_cluster.py)
 def test_a_trial_that_keeps_killing_its_workers_fails_with_killed_worker(tmp_path):
     """After allowed-failures + 1 worker deaths the scheduler gives up on the trial (only it)."""
     sweep = tmp_path / "grid.yaml"
