@@ -375,14 +375,19 @@ def draw_map(ax: Axes, log: FlightLog, world: worlds.World | None) -> None:
         (line,) = ax.plot(e, n, lw=1.3, label=v.name)
         ax.plot(e[:1], n[:1], "o", color=line.get_color(), ms=5)
         ax.plot(e[-1:], n[-1:], "x", color=line.get_color(), ms=7)
+    _map_axes(ax, world, "trajectories (truth; o start, x end)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
+
+
+def _map_axes(ax: Axes, world: worlds.World | None, what: str) -> None:
+    """Equal axes in metres, grid, and a title naming ``what`` is drawn over which world."""
     ax.set_aspect("equal", adjustable="datalim")
     ax.autoscale_view()
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.grid(True, alpha=0.3)
     title = f"{world.kind} world (seed {world.seed})" if world is not None else "plain plane"
-    ax.set_title(f"trajectories (truth; o start, x end) over {title}")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
+    ax.set_title(f"{what} over {title}")
 
 
 def plot_tracks(path: Path, position_enu_m: np.ndarray, world: worlds.World | None) -> None:
@@ -401,13 +406,7 @@ def plot_tracks(path: Path, position_enu_m: np.ndarray, world: worlds.World | No
                                      array=np.arange(n, dtype=float)))  # fmt: skip
     if len(tracks) and tracks.shape[1]:
         ax.plot(tracks[:, 0, 0], tracks[:, 0, 1], "k.", ms=2)
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.autoscale_view()
-    ax.set_xlabel("east [m]")
-    ax.set_ylabel("north [m]")
-    ax.grid(True, alpha=0.3)
-    title = f"{world.kind} world (seed {world.seed})" if world is not None else "plain plane"
-    ax.set_title(f"{n} kinematic vehicles (colour: vehicle index; . start) over {title}")
+    _map_axes(ax, world, f"{n} kinematic vehicles (colour: vehicle index; . start)")
     _save(fig, path)
 
 

@@ -1,7 +1,7 @@
 """The coverage role (``companion.scripts.coverage``) behind the kinematic adapter.
 
 The same decisions as the MAVSDK program, in the same order: plan this vehicle's strip with
-``companion.scripts.coverage.plan`` and the same time budget, take off to its own height, wait
+``companion.planning.coverage_role.plan`` and the same time budget, take off to its own height, wait
 until the whole role is up, fly the lanes and the way home as one path (the mission), return
 early when the rest of the path no longer fits the run (the same rule), settle above home and
 land. Each decision it also tells its radio neighbours where it is and what its camera found
@@ -25,14 +25,14 @@ import shapely
 from companion.net.envelope import Envelope
 from companion.net.node import Node
 from companion.planning.coverage import Router
-from companion.scenario_env import ScenarioEnv
-from companion.scripts.coverage import (
+from companion.planning.coverage_role import (
     CoverageParams,
     climb_and_landing_s,
     finish_time_s,
     plan,
     world_spills,
 )
+from companion.scenario_env import ScenarioEnv
 from companion.swarm.vehicle import SwarmVehicle
 
 

@@ -10,17 +10,15 @@ import shapely
 
 import worlds
 from companion.perception.camera_model import CameraModel, rotation_flu_enu_from_euler
-from companion.scenario_env import ScenarioEnv, ScenarioEnvError
-from companion.scripts.coverage import (
+from companion.planning.coverage_role import (
     CoverageParams,
-    Track,
-    _metrics,
     climb_and_landing_s,
     plan,
     reference_point,
     return_altitude_m,
-    scenario_env,
 )
+from companion.scenario_env import ScenarioEnv, ScenarioEnvError
+from companion.scripts.coverage import Track, _metrics, scenario_env
 from worlds.examples import example_path
 
 
