@@ -39,6 +39,7 @@ from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork
 from sitl.physics.earth import GRAVITY_M_S2
 from sitl.power.loads import PayloadLoads
+from sitl.power.propulsion import load_power_spec
 from sitl.vehicles.kinematics import KinematicLimits, load_kinematic_limits
 from sitl.vehicles.multirotor import MultirotorSpec, load_airframe
 
@@ -92,8 +93,6 @@ def _world_targets(scenario: Scenario) -> list[Target]:
 
 def _hover_power_w(airframe: MultirotorSpec) -> float:
     """Electrical power of the rotors in hover (momentum theory, the airframe's power block), W."""
-    from sitl.power.propulsion import load_power_spec
-
     power = load_power_spec(airframe.yaml_path)
     n = len(airframe.rotors)
     thrust = np.full(n, airframe.mass_kg * GRAVITY_M_S2 / n)
@@ -119,7 +118,7 @@ def run_swarm(
     with tempfile.TemporaryDirectory(prefix="swarmsitl-swarm-") as scratch:
         out = Path(run_dir) if run_dir is not None else Path(scratch)
         out.mkdir(parents=True, exist_ok=True)
-        report = _run(scenario, seed, out, wall0, progress)
+        report = _run(scenario, seed, out, wall0, progress, write_files=run_dir is not None)
         if run_dir is not None:
             report["run_dir"] = str(out)
             (out / "report.json").write_text(json.dumps(report, indent=2, default=str) + "\n")
@@ -132,6 +131,7 @@ def _run(
     out: Path,
     wall0: float,
     progress: Callable[[float], None] | None,
+    write_files: bool,
 ) -> dict:
     spec = scenario.spec
     sw = spec.swarm
@@ -158,7 +158,8 @@ def _run(
     if world is not None:
         world_file = out / "world.yaml"
         world_file.write_text(scenario.world_yaml() or "")
-    (out / "scenario.yaml").write_text(scenario.text)
+    if write_files:
+        (out / "scenario.yaml").write_text(scenario.text)
     # targets: the world's, then the Poisson events over the world (or the fleet's square)
     if world is not None:
         bounds = tuple(float(b) for b in world.boundary.bounds)
@@ -236,12 +237,24 @@ def _run(
         except Exception as exc:  # a program that cannot start fails its vehicle, not the run
             engine.stats.errors[v.index] = f"{type(exc).__name__}: {exc}"
     stop_reason = engine.run(spec.duration_s, spec.end_when_done)
-    return _report(scenario, seed, engine, network, nodes, airframes, stop_reason, out, wall0)
+    report = _report(scenario, seed, engine, network, nodes, airframes, stop_reason)
+    if write_files:  # a sweep's trial (no run directory) keeps only the report
+        _write_outputs(report, scenario, engine, out)
+    wall_s = time.monotonic() - wall0
+    sim_s = engine.time_s
+    st = engine.stats
+    report["wall_time_s"] = wall_s
+    report["real_time_factor"] = sim_s / wall_s if wall_s > 0 else None
+    report["wall"] = {
+        "decision_ms": 1e3 * st.decision_wall_s / st.decisions if st.decisions else None,
+        "wall_s_per_sim_s": wall_s / sim_s if sim_s > 0 else None,
+    }
+    return report
 
 
 def _report(
     scenario: Scenario, seed: int, engine: SwarmEngine, network: LinkNetwork, nodes: list[Node],
-    airframes: dict[str, MultirotorSpec], stop_reason: str, out: Path, wall0: float,
+    airframes: dict[str, MultirotorSpec], stop_reason: str,
 ) -> dict:  # fmt: skip
     spec = scenario.spec
     fleet = engine.fleet
@@ -325,11 +338,18 @@ def _report(
         report["checks"] |= metric_checks(report, spec.checks.metrics)
     if spec.checks.no_failsafe:
         report["warnings"].append("checks.no_failsafe: fidelity swarm models no failsafes")
+    if spec.cloud:
+        report["warnings"].append("cloud: fidelity swarm starts no cloud process")
     report["passed"] = report["complete"] and all(c["ok"] for c in report["checks"].values())
+    return report
+
+
+def _write_outputs(report: dict, scenario: Scenario, engine: SwarmEngine, out: Path) -> None:
+    """tracks.npz and plots/map.png beside the report; their names go to ``report["files"]``."""
     tracks = np.array(engine.samples)
     np.savez_compressed(
         out / "tracks.npz",
-        time_s=np.arange(len(tracks)) / spec.swarm.decision_hz,
+        time_s=np.arange(len(tracks)) / scenario.spec.swarm.decision_hz,
         position_enu_m=tracks,
     )
     report["files"] = ["report.json", "tracks.npz", "scenario.yaml"]
@@ -341,14 +361,6 @@ def _report(
         report["files"].append("plots/map.png")
     except Exception as exc:  # a failed plot must not cost the report
         report["warnings"].append(f"plots/map.png not written: {exc!r}")
-    wall_s = time.monotonic() - wall0
-    report["wall_time_s"] = wall_s
-    report["real_time_factor"] = sim_s / wall_s if wall_s > 0 else None
-    report["wall"] = {
-        "decision_ms": 1e3 * st.decision_wall_s / st.decisions if st.decisions else None,
-        "wall_s_per_sim_s": wall_s / sim_s if sim_s > 0 else None,
-    }
-    return report
 
 
 def _finite(x: float) -> float | None:

@@ -63,6 +63,7 @@ def test_a_swarm_run_flies_covers_messages_and_lands(tmp_path: Path) -> None:
 
 def test_same_seed_same_report_other_seed_other_events(tmp_path: Path) -> None:
     a = run_swarm(scenario(), seed=5)
+    assert "files" not in a  # no run directory (a sweep's trial): no tracks or plots written
     b = run_swarm(scenario(), seed=5)
     c = run_swarm(scenario(), seed=6)
     assert json.dumps(without_wall(a), sort_keys=True, default=str) == json.dumps(
@@ -147,6 +148,14 @@ def test_roles_without_a_swarm_program_are_named() -> None:
     roles = {"survey": {"script": "swarm_coverage.yaml"}}
     with pytest.raises(ScenarioError, match="a script or command role has none"):
         run_swarm(scenario(count=2, roles=roles))
+
+
+def test_what_fidelity_swarm_does_not_model_is_a_warning() -> None:
+    checks = {"no_failsafe": True, "companions_succeeded": True}
+    report = run_swarm(scenario(count=2, duration_s=30.0, cloud=True, checks=checks), seed=0)
+    assert "cloud: fidelity swarm starts no cloud process" in report["warnings"]
+    assert any("no_failsafe" in w for w in report["warnings"])
+    assert "no_failsafe" not in report["checks"]
 
 
 def test_bad_swarm_settings_fail_at_load() -> None:
