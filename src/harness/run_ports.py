@@ -55,20 +55,29 @@ def free_tcp_ports(base: int, count: int) -> list[int]:
     return out
 
 
+PORTS_LOW = 20000
+"""Lowest port ``free_ports`` hands out (the fixed defaults, 14030-15450, lie below)."""
+PORTS_HIGH = 32768
+"""``free_ports`` hands out ports below this: Linux's first ephemeral port by default."""
+
+
 def free_ports(vehicles: int = 16, rng: random.Random | None = None) -> RunPorts:
-    """Port bases with ``vehicles`` free ports each, chosen at random in 20000-39999.
+    """Port bases with ``vehicles`` free ports each, chosen at random in 20000-32767.
 
     Random blocks make two processes (pytest-xdist workers, two CI jobs, two sweep trials) unlikely
     to pick the same ports; each block is checked free before it is returned. Up to 20 vehicles
-    a block spans 200 ports; a bigger fleet gets proportionally wider blocks.
+    a block spans 200 ports; a bigger fleet gets proportionally wider blocks. The range ends below
+    Linux's ephemeral ports (32768-60999 by default): a port checked free there can be taken by
+    any process's outgoing connection before the run binds it (seen: a mavsdk_server whose gRPC
+    port went to another test's Dask connection, and its companion waited 60 s for nothing).
     """
     rng = rng or random.Random()
     stride = max(20, vehicles)
     block = 10 * stride
-    if 20000 + block > 39200:
-        raise ValueError(f"no room for {vehicles} vehicles' ports in 20000-39999")
+    if PORTS_LOW + block > PORTS_HIGH:
+        raise ValueError(f"no room for {vehicles} vehicles' ports in {PORTS_LOW}-{PORTS_HIGH - 1}")
     for _ in range(200):
-        base = rng.randrange(20000, 39200 - block, block)
+        base = rng.randrange(PORTS_LOW, PORTS_HIGH - block + 1, block)
         ports = RunPorts(
             sdk=base,
             listen=base + 2 * stride,
@@ -88,4 +97,4 @@ def free_ports(vehicles: int = 16, rng: random.Random | None = None) -> RunPorts
             port_free(p, socket.SOCK_STREAM) for p in range(ports.grpc, ports.grpc + vehicles)
         ):
             return ports
-    raise RuntimeError("no free block of ports in 20000-39999")
+    raise RuntimeError(f"no free block of ports in {PORTS_LOW}-{PORTS_HIGH - 1}")
