@@ -220,8 +220,7 @@ class SwarmEngine:
             return
         tree = cKDTree(pos)
         kk = min(k + 1, n)
-        bound = self.radio_range_m if math.isfinite(self.radio_range_m) else np.inf
-        dist, idx = tree.query(pos, k=kk, distance_upper_bound=bound)
+        dist, idx = tree.query(pos, k=kk, distance_upper_bound=self.radio_range_m)
         idx = np.where(np.isfinite(dist), idx, -1).reshape(n, kk)
         own = idx == np.arange(n)[:, None]
         order = np.argsort(own, axis=1, kind="stable")  # each row's own index last, order kept
