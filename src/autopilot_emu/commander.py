@@ -11,13 +11,14 @@ Results are MAV_RESULT values: 0 accepted, 1 temporarily rejected, 2 denied.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
 
 import numpy as np
 
 from autopilot_emu import geodesy
-from autopilot_emu.control.trajectory import braking_distance
+from autopilot_emu.control.trajectory import braking_distance, hold_point
 from autopilot_emu.estimator import GRAVITY_M_S2
 from autopilot_emu.failsafe import ACTION_NAMES, Action, FailsafeInput, FailsafeMonitor
 from autopilot_emu.mission.camera_items import ComponentCommand
@@ -85,6 +86,9 @@ class NavInput:
     (the commander then uses MPC_THR_HOVER, as the position controller does)."""
 
 
+TrajectoryState = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""Position, velocity and acceleration of a smoothed setpoint, NED."""
+
 _NAN3 = np.full(3, np.nan)
 _ZERO3 = np.zeros(3)
 
@@ -142,6 +146,10 @@ class Commander:
         self._ground_since_s: float | None = None
         self._landed_candidate_s: float | None = None
         self._last: NavInput | None = None
+        self._dt_s = 0.004
+        self.trajectory_state: Callable[[], TrajectoryState | None] | None = None
+        """The fleet's view of this vehicle's smoothed setpoint (None while it is not smoothing):
+        Hold stops where that setpoint can stop."""
         self.killed = False
         self.missions = MissionStore()
         self.mission = MissionExecutor()
@@ -174,6 +182,13 @@ class Commander:
             return self._last.hover_thrust
         return float(self.params.get("MPC_THR_HOVER"))
 
+    def _cruise_m_s(self) -> float:
+        """Horizontal speed of the auto modes: the speed override, else MPC_XY_CRUISE."""
+        cruise = self._speed_override_m_s
+        if not math.isfinite(cruise):
+            cruise = float(self.params.get("MPC_XY_CRUISE"))
+        return min(cruise, float(self.params.get("MPC_XY_VEL_MAX")))
+
     def _now(self) -> float:
         return self._last.time_s if self._last else 0.0
 
@@ -190,7 +205,10 @@ class Commander:
 
         As PX4's Loiter (Navigator::calculate_breaking_stop), so that a Hold commanded at speed
         does not fly back to where it was asked; the distance is the jerk-limited trajectory's
-        stopping distance with MPC_ACC_HOR and MPC_JERK_AUTO.
+        stopping distance with MPC_ACC_HOR and MPC_JERK_AUTO. PX4's estimate assumes a steady
+        speed; when the smoothed setpoint is still speeding up or runs ahead of the vehicle it
+        stops further out, and the hold point is then where it stops, so the vehicle does not
+        turn back after braking.
         """
         self._target = self._position()
         if self._last is not None and self.in_air:
@@ -200,6 +218,12 @@ class Commander:
             jerk = float(self.params.get("MPC_JERK_AUTO"))
             if speed > 1e-6:
                 self._target[:2] += vel * (float(braking_distance(speed, acc, jerk)) / speed)
+                state = self.trajectory_state() if self.trajectory_state is not None else None
+                if state is not None:
+                    stop = hold_point(*state, self._cruise_m_s(), acc, jerk, self._dt_s)
+                    here = self._last.position_ned_m[:2]
+                    if np.dot(stop - here, vel) > np.dot(self._target[:2] - here, vel):
+                        self._target[:2] = stop
         self._yaw_sp = self._last.yaw_rad if self._last else 0.0
         self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
 
@@ -586,6 +610,8 @@ class Commander:
     def update(self, nav: NavInput) -> NavOutput:
         """Advance land detection and the active mode; return the controller setpoint."""
         dt_s = nav.time_s - self._last.time_s if self._last is not None else 0.0
+        if dt_s > 0.0:
+            self._dt_s = dt_s
         self._last = nav
         p = self.params.floats()
         if self.home is None and nav.position_ok:
@@ -596,10 +622,7 @@ class Commander:
         self._check_failsafes(nav)
         self._check_offboard_signal()
         out = NavOutput(yaw_rad=self._yaw_sp)
-        cruise = self._speed_override_m_s
-        if not math.isfinite(cruise):
-            cruise = p["MPC_XY_CRUISE"]
-        out.max_speed_xy_m_s = min(cruise, p["MPC_XY_VEL_MAX"])
+        out.max_speed_xy_m_s = self._cruise_m_s()
         out.max_speed_up_m_s = p["MPC_Z_V_AUTO_UP"]
         out.max_speed_down_m_s = p["MPC_Z_V_AUTO_DN"]
         if not self.armed:

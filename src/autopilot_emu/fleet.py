@@ -10,6 +10,7 @@ prediction, attitude and rate control and the mixer for the whole fleet in numpy
 
 from __future__ import annotations
 
+import functools
 import math
 import operator
 from dataclasses import dataclass, field
@@ -100,6 +101,8 @@ class AutopilotFleet:
         """Vehicles whose commander asks for a smoothed target (auto modes)."""
         self._smoothing = np.zeros(n, dtype=bool)
         """Vehicles whose position controller tracked the trajectory at the last tick."""
+        for i, cmd in enumerate(self.commanders):
+            cmd.trajectory_state = functools.partial(self._trajectory_state, i)
         self.rate_control = RateController(n)
         self.mixer = Mixer([RotorGeometry.from_params(p) for p in self.params])
         self.battery = FleetBattery(n)
@@ -313,6 +316,13 @@ class AutopilotFleet:
             self._smooth[i] = out.smooth
             self.armed[i] = cmd.armed
         self._control_positions(pos, vel, dt, gains)
+
+    def _trajectory_state(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Vehicle i's smoothed setpoint (position, velocity, acceleration), None if unsmoothed."""
+        if not self._smoothing[i]:
+            return None
+        t = self.trajectory
+        return t.position_m[i], t.velocity_m_s[i], t.acceleration_m_s2[i]
 
     def _control_positions(
         self, pos: np.ndarray, vel: np.ndarray, dt: float, gains: _Gains

@@ -278,15 +278,18 @@ def test_hold_stops_the_vehicle(run):
     assert c["ground_speed_m_s"] < 0.3
     assert c["distance_to_goto_target_m"] > 10.0
     # PX4's Loiter braking point (calculate_breaking_stop): v²/(2 MPC_ACC_HOR) plus 0.6 s of
-    # travel while the jerk-limited deceleration builds up (MPC_ACC_HOR = 3 m/s²).
+    # travel while the jerk-limited deceleration builds up (MPC_ACC_HOR = 3 m/s²). The emulator
+    # holds up to ~0.7 m further, where its smoothed setpoint stops without turning back, and
+    # the client measures from a position it read before the call (the call's own travel).
     speed = c["speed_at_hold_m_s"]
     braking_m = speed**2 / (2 * 3.0) + 0.6 * speed
-    assert abs(c["along_track_final_m"]) < braking_m + 1.0
+    assert abs(c["along_track_final_m"]) < braking_m + 2.0
 
 
 def test_hold_brakes_to_a_stop_without_coming_back(run):
+    """Past its furthest point, the vehicle settles back by tracking error only (< 0.4 m)."""
     c = run.check("flight_hold")
-    assert c["overshoot_max_m"] - c["along_track_final_m"] < 0.5
+    assert c["overshoot_max_m"] - c["along_track_final_m"] < 0.4
 
 
 def test_return_to_launch_lands_at_home_and_disarms(run):

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot_emu.control.trajectory_kernel import trajectory_kernel
+from autopilot_emu.control.trajectory_kernel import hold_point_kernel, trajectory_kernel
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
@@ -74,6 +74,33 @@ def braking_distance(
     """
     delay_s = 0.6 * jerk_m_s3 / jerk_m_s3
     return speed_m_s * speed_m_s / (2.0 * acc_m_s2) + speed_m_s * delay_s
+
+
+def hold_point(
+    position_m: np.ndarray,
+    velocity_m_s: np.ndarray,
+    acceleration_m_s2: np.ndarray,
+    speed_m_s: float,
+    acc_m_s2: float,
+    jerk_m_s3: float,
+    dt_s: float,
+    max_s: float = 30.0,
+    tolerance_m: float = 0.02,
+) -> np.ndarray:
+    """Nearest horizontal target (north, east) a trajectory state reaches without turning back.
+
+    ``speed_m_s`` is the speed limit in force (the state's own speed, if higher, is kept).
+    The state is the smoothed setpoint's position, velocity and acceleration (3-vectors, NED);
+    the search runs the trajectory's own law at ``dt_s`` (compiled: ``hold_point_kernel``). A
+    state that is still speeding up, or that runs ahead of its vehicle, needs a target further
+    out than the steady-speed estimate of :func:`braking_distance`.
+    """
+    speed = max(speed_m_s, float(np.hypot(velocity_m_s[0], velocity_m_s[1])), 0.1)
+    limits = np.array([speed, acc_m_s2, jerk_m_s3], dtype=np.float64)
+    return hold_point_kernel(
+        _f64(position_m), _f64(velocity_m_s), _f64(acceleration_m_s2), limits, float(dt_s),
+        float(max_s), float(tolerance_m),
+    )  # fmt: skip
 
 
 class JerkLimitedTrajectory:

@@ -137,3 +137,102 @@ def trajectory_kernel(
             i, target_position, target_velocity, speed_xy, speed_up, speed_down, acc_xy, acc_up,
             acc_down, jerk, error_max, vehicle_position, dt_s, pos, vel, acc,
         )  # fmt: skip
+
+
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _brake_row(
+    target_xy: np.ndarray,
+    direction: np.ndarray,
+    limits: np.ndarray,
+    dt_s: float,
+    max_steps: int,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    acc: np.ndarray,
+) -> float:
+    """Run a one-row trajectory to rest towards ``target_xy`` (NaN: a zero velocity target).
+
+    Returns the largest distance it ran past the target along ``direction`` (0 for a velocity
+    target); ``limits`` holds speed, acceleration and jerk. The state arrays are advanced.
+    """
+    tp = np.empty((1, 3))
+    tp[0, 0], tp[0, 1], tp[0, 2] = target_xy[0], target_xy[1], pos[0, 2]
+    tv = np.zeros((1, 3))
+    speed = np.full(1, limits[0])
+    a_xy = np.full(1, limits[1])
+    jerk = np.full(1, limits[2])
+    one = np.ones(1)
+    err = np.full(1, np.inf)
+    past = 0.0
+    for _ in range(max_steps):
+        trajectory_row(
+            0, tp, tv, speed, one, one, a_xy, one, one, jerk, err, pos, dt_s, pos, vel, acc,
+        )  # fmt: skip
+        if math.isfinite(tp[0, 0]):
+            d = (pos[0, 0] - tp[0, 0]) * direction[0] + (pos[0, 1] - tp[0, 1]) * direction[1]
+            past = fmax(past, d)
+        if math.hypot(vel[0, 0], vel[0, 1]) < 1e-3 and math.hypot(acc[0, 0], acc[0, 1]) < 1e-2:
+            break
+    return past
+
+
+@numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _past(
+    delta_m: float,
+    stop: np.ndarray,
+    u: np.ndarray,
+    state: tuple[np.ndarray, np.ndarray, np.ndarray],
+    limits: np.ndarray,
+    dt_s: float,
+    steps: int,
+) -> float:
+    """How far the state runs past a position target ``delta_m`` beyond ``stop`` along u."""
+    target = np.array([stop[0] + u[0] * delta_m, stop[1] + u[1] * delta_m])
+    p = state[0].reshape(1, 3).copy()
+    v = state[1].reshape(1, 3).copy()
+    a = state[2].reshape(1, 3).copy()
+    return _brake_row(target, u, limits, dt_s, steps, p, v, a)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def hold_point_kernel(
+    position: np.ndarray,
+    velocity: np.ndarray,
+    acceleration: np.ndarray,
+    limits: np.ndarray,
+    dt_s: float,
+    max_s: float,
+    tolerance_m: float,
+) -> np.ndarray:
+    """Nearest horizontal target a trajectory state (3-vectors) reaches without turning back.
+
+    First the point where it comes to rest braking as hard as its law allows (a zero velocity
+    target); a position target there is approached more gently and passed, so the target moves
+    on along the direction of travel, by doubling and then bisection, until the trajectory runs
+    at most ``tolerance_m`` past it. ``limits``: speed, acceleration, jerk.
+    """
+    steps = max(1, int(max_s / dt_s))
+    p = position.reshape(1, 3).copy()
+    v = velocity.reshape(1, 3).copy()
+    a = acceleration.reshape(1, 3).copy()
+    nan_xy = np.full(2, np.nan)
+    u = np.zeros(2)
+    _brake_row(nan_xy, u, limits, dt_s, steps, p, v, a)
+    stop = np.array([p[0, 0], p[0, 1]])
+    speed = math.hypot(velocity[0], velocity[1])
+    if speed < 1e-6:
+        return stop
+    u[0], u[1] = velocity[0] / speed, velocity[1] / speed
+    state = (position, velocity, acceleration)
+    lo, hi = 0.0, 0.25
+    while _past(hi, stop, u, state, limits, dt_s, steps) > tolerance_m and hi < 100.0:
+        lo, hi = hi, 2.0 * hi
+    for _ in range(12):
+        if hi - lo < 0.25 * tolerance_m:
+            break
+        mid = 0.5 * (lo + hi)
+        if _past(mid, stop, u, state, limits, dt_s, steps) > tolerance_m:
+            lo = mid
+        else:
+            hi = mid
+    return np.array([stop[0] + u[0] * hi, stop[1] + u[1] * hi])

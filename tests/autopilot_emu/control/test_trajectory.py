@@ -7,6 +7,7 @@ from autopilot_emu.control.trajectory import (
     JerkLimitedTrajectory,
     TrajectoryLimits,
     braking_distance,
+    hold_point,
 )
 
 DT = 0.02
@@ -84,3 +85,44 @@ def test_braking_distance_stops_a_cruising_trajectory():
         traj.update(np.array([[stop, 0, 0]]), np.zeros((1, 3)), limits, traj.position_m.copy(), DT)
         peak = max(peak, traj.position_m[0, 0])
     assert peak <= stop + 0.5
+
+
+def _run_to_rest(target_xy, pos, vel, acc, seconds=15.0):
+    """Along-track positions of one trajectory from a state towards a horizontal target."""
+    traj = JerkLimitedTrajectory(1)
+    traj.position_m[0], traj.velocity_m_s[0], traj.acceleration_m_s2[0] = pos, vel, acc
+    target = np.array([[target_xy[0], target_xy[1], pos[2]]])
+    track = []
+    for _ in range(int(seconds / DT)):
+        traj.update(target, np.zeros((1, 3)), _limits(1), traj.position_m.copy(), DT)
+        track.append(traj.position_m[0, :2].copy())
+    return np.array(track)
+
+
+@pytest.mark.parametrize("acc_now", [0.0, 1.5, 3.0])
+@pytest.mark.parametrize("speed", [2.0, 5.0])
+def test_hold_point_is_reached_without_turning_back(speed, acc_now):
+    """From a state still speeding up, the hold point is reached, never passed by over 2 cm."""
+    u = np.array([0.6, 0.8, 0.0])
+    pos, vel, acc = np.array([3.0, -2.0, -5.0]), speed * u, acc_now * u
+    target = hold_point(pos, vel, acc, 5.0, 3.0, 4.0, DT)
+    track = _run_to_rest(target, pos, vel, acc)
+    past = (track - target) @ u[:2]
+    assert past.max() <= 0.02 + 1e-6
+    assert np.hypot(*(track[-1] - target)) < 0.02
+    # A target 0.3 m nearer is passed: the point is the nearest that is not.
+    nearer = target - 0.3 * u[:2]
+    assert ((_run_to_rest(nearer, pos, vel, acc) - nearer) @ u[:2]).max() > 0.05
+
+
+def test_hold_point_grows_with_the_acceleration_still_building_speed():
+    steady = hold_point(np.zeros(3), np.array([4.0, 0, 0]), np.zeros(3), 5.0, 3.0, 4.0, DT)
+    rising = hold_point(np.zeros(3), np.array([4.0, 0, 0]), np.array([3.0, 0, 0]), 5.0, 3.0,
+                        4.0, DT)  # fmt: skip
+    assert steady[1] == pytest.approx(0.0) and rising[0] > steady[0] + 1.0
+    assert steady[0] > braking_distance(4.0, 3.0, 4.0) - 1.0
+
+
+def test_hold_point_of_a_state_at_rest_is_where_it_is():
+    here = np.array([1.0, 2.0, -3.0])
+    assert hold_point(here, np.zeros(3), np.zeros(3), 5.0, 3.0, 4.0, DT) == pytest.approx(here[:2])
