@@ -137,18 +137,23 @@ def test_kill_in_the_air_drops_the_vehicle_and_it_ends_on_the_ground():
         sim.close()
 
 
+def _goto_north(v, north_m: float) -> None:
+    """DO_REPOSITION to ``north_m`` north of home at the current altitude."""
+    tel = v.telemetry()
+    home = tel.home
+    lat, lon, _ = pymap3d.ned2geodetic(
+        north_m, 0.0, 0.0, home.lat_deg, home.lon_deg, home.alt_amsl_m
+    )
+    assert v.reposition(float(lat), float(lon), tel.alt_amsl_m, 0.0, math.nan) == 0
+
+
 def test_hold_during_goto_stops_near_where_it_was():
     """AUTO_LOITER mid-flight holds at the current position instead of finishing the goto."""
     from autopilot_emu.control.trajectory import braking_distance
 
     sim, v = _airborne()
     try:
-        tel = v.telemetry()
-        home = tel.home
-        lat, lon, _ = pymap3d.ned2geodetic(
-            40.0, 0.0, 0.0, home.lat_deg, home.lon_deg, home.alt_amsl_m
-        )
-        v.reposition(float(lat), float(lon), tel.alt_amsl_m, 0.0, math.nan)
+        _goto_north(v, 40.0)
         sim.run_lockstep(4.0)
         north_at_hold = sim.world.truth.position_enu_m[0, 1]
         assert v.set_mode(4, 3) == 0
@@ -171,12 +176,7 @@ def test_hold_while_still_speeding_up_does_not_turn_back():
     """
     sim, v = _airborne()
     try:
-        tel = v.telemetry()
-        home = tel.home
-        lat, lon, _ = pymap3d.ned2geodetic(
-            40.0, 0.0, 0.0, home.lat_deg, home.lon_deg, home.alt_amsl_m
-        )
-        v.reposition(float(lat), float(lon), tel.alt_amsl_m, 0.0, math.nan)
+        _goto_north(v, 40.0)
         sim.run_lockstep(1.0)
         assert v.set_mode(4, 3) == 0
         north = []
