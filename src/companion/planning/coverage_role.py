@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,6 +19,7 @@ import shapely
 from shapely.geometry import box
 
 from companion.planning.coverage import CoverageSpec, VehiclePlan, plan_vehicle, reachable_area
+from companion.role_params import params_from_mapping
 from companion.scenario_env import ScenarioEnv
 
 
@@ -97,12 +98,7 @@ class CoverageParams:
     @classmethod
     def from_mapping(cls, params: Mapping[str, object] | None) -> CoverageParams:
         """From the PARAMS JSON object; an unknown key is an error naming it."""
-        params = dict(params or {})
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(params) - known)
-        if unknown:
-            raise ValueError(f"PARAMS: unknown key(s) {unknown}; known: {sorted(known)}")
-        return cls(**params)  # type: ignore[arg-type]
+        return params_from_mapping(cls, params)
 
 
 def _obstacles(world: Any, flight_z_m: float, clearance_m: float = 5.0) -> list:

@@ -33,7 +33,7 @@ import os
 import sys
 import threading
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
@@ -57,6 +57,7 @@ from companion.planning.indoor_route import (
     polyline_length,
     truncate_rooms,
 )
+from companion.role_params import params_from_mapping
 from companion.scenario_env import ScenarioEnv
 from companion.scripts.program import finish, parser, scenario_env
 from companion.telemetry_waits import FlightError, connect, wait_for
@@ -154,12 +155,7 @@ class SearchParams:
     @classmethod
     def from_mapping(cls, params: Mapping[str, object] | None) -> SearchParams:
         """From the PARAMS JSON object; an unknown key is an error naming it."""
-        params = dict(params or {})
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(params) - known)
-        if unknown:
-            raise ValueError(f"PARAMS: unknown key(s) {unknown}; known: {sorted(known)}")
-        return cls(**params)  # type: ignore[arg-type]
+        return params_from_mapping(cls, params)
 
     @property
     def spin_s(self) -> float:
