@@ -17,11 +17,13 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 from stream_reader import read_while_running
+from udp_client import UdpClient
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 
 BASE = 47000
+CAMERA = (1, 100)
 
 
 def _ports(offset: int) -> PortPlan:
@@ -35,41 +37,6 @@ def _ports(offset: int) -> PortPlan:
         payload_listen_base=b + 5,
         payload_base=b + 6,
     )
-
-
-class Client:
-    """A pymavlink client on a UDP port the vehicle sends to."""
-
-    def __init__(self, port: int, to_port: int, sysid: int, compid: int) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("127.0.0.1", port))
-        self.sock.setblocking(False)
-        self.to = ("127.0.0.1", to_port)
-        self.mav = mavlink2.MAVLink(None, srcSystem=sysid, srcComponent=compid)
-        self.parser = mavlink2.MAVLink(None)
-        self.inbox: list[mavlink2.MAVLink_message] = []
-
-    def send(self, msg: mavlink2.MAVLink_message) -> None:
-        self.sock.sendto(msg.pack(self.mav), self.to)
-        self.mav.seq = (self.mav.seq + 1) & 0xFF
-
-    def drain(self) -> None:
-        while True:
-            try:
-                data = self.sock.recv(65535)
-            except BlockingIOError:
-                return
-            self.inbox += self.parser.parse_buffer(data) or []
-
-    def of(self, type_name: str, src=(1, 100)) -> list[mavlink2.MAVLink_message]:
-        return [
-            m
-            for m in self.inbox
-            if m.get_type() == type_name and (m.get_srcSystem(), m.get_srcComponent()) == src
-        ]
-
-    def close(self) -> None:
-        self.sock.close()
 
 
 def _run(sim: Simulation, clients, seconds: float, until=None) -> None:
@@ -92,8 +59,8 @@ def rig(tmp_path):
     )
     sim = Simulation(config)
     ports = config.ports
-    sdk = Client(ports.sdk_port(0), ports.listen_port(0), 245, 190)
-    gcs = Client(ports.gcs_port, ports.gcs_listen_port(0), 255, 190)
+    sdk = UdpClient(245, port=ports.sdk_port(0), to=("127.0.0.1", ports.listen_port(0)))
+    gcs = UdpClient(255, port=ports.gcs_port, to=("127.0.0.1", ports.gcs_listen_port(0)))
     yield sim, sdk, gcs
     for item in (sdk, gcs, sim):
         item.close()
@@ -108,7 +75,7 @@ def test_camera_heartbeat_reaches_the_onboard_and_ground_station_links(rig):
     sim, sdk, gcs = rig
     _run(sim, (sdk, gcs), 2.5)
     for client in (sdk, gcs):
-        beats = client.of("HEARTBEAT")
+        beats = client.of("HEARTBEAT", CAMERA)
         assert len(beats) >= 2
         assert beats[0].type == mavlink2.MAV_TYPE_CAMERA
     # Each client sees the vehicle and its camera only, not the other client's system.
@@ -121,10 +88,10 @@ def test_video_stream_information_answers_with_a_uri_opencv_reads(rig):
     VIDEO_STREAM_INFORMATION and OpenCV in another process reads non-blank frames from it."""
     sim, sdk, gcs = rig
     sdk.send(_command(mavlink2.MAV_CMD_REQUEST_MESSAGE, 269))
-    _run(sim, (sdk, gcs), 1.0, until=lambda: sdk.of("VIDEO_STREAM_INFORMATION"))
-    acks = sdk.of("COMMAND_ACK")
+    _run(sim, (sdk, gcs), 1.0, until=lambda: sdk.of("VIDEO_STREAM_INFORMATION", CAMERA))
+    acks = sdk.of("COMMAND_ACK", CAMERA)
     assert [(a.command, a.result) for a in acks] == [(512, mavlink2.MAV_RESULT_ACCEPTED)]
-    (info,) = sdk.of("VIDEO_STREAM_INFORMATION")
+    (info,) = sdk.of("VIDEO_STREAM_INFORMATION", CAMERA)
     assert info.uri == sim.video_uris[0] == f"http://127.0.0.1:{BASE + 4}/video.mjpg"
     result, err = read_while_running(sim, info.uri, 3, max_duration_s=120.0, timeout_s=30)
     assert result["opened"], err
@@ -135,9 +102,9 @@ def test_photo_is_written_and_geotagged_where_the_vehicle_is(rig, tmp_path):
     sim, sdk, gcs = rig
     _run(sim, (sdk, gcs), 1.0)
     sdk.send(_command(mavlink2.MAV_CMD_IMAGE_START_CAPTURE, 0, 0, 1, 1))
-    _run(sim, (sdk, gcs), 1.0, until=lambda: gcs.of("CAMERA_IMAGE_CAPTURED"))
-    (shot,) = sdk.of("CAMERA_IMAGE_CAPTURED")
-    assert len(gcs.of("CAMERA_IMAGE_CAPTURED")) == 1  # the ground station sees it too
+    _run(sim, (sdk, gcs), 1.0, until=lambda: gcs.of("CAMERA_IMAGE_CAPTURED", CAMERA))
+    (shot,) = sdk.of("CAMERA_IMAGE_CAPTURED", CAMERA)
+    assert len(gcs.of("CAMERA_IMAGE_CAPTURED", CAMERA)) == 1  # the ground station sees it too
     assert shot.capture_result == 1
     path = Path(unquote(urlparse(shot.file_url).path))
     assert path == (tmp_path / "run" / "vehicle1" / "camera" / "IMG_0001.jpg").resolve()
@@ -158,8 +125,10 @@ def test_a_command_for_the_camera_comes_out_of_the_payload_link(tmp_path):
     with Simulation(config) as sim:
         sim.camera_managers[0].close()
         sim.camera_managers[0] = None
-        camera = Client(ports.payload_port(0), ports.payload_listen_port(0), 1, 100)
-        sdk = Client(ports.sdk_port(0), ports.listen_port(0), 245, 190)
+        camera = UdpClient(
+            1, 100, port=ports.payload_port(0), to=("127.0.0.1", ports.payload_listen_port(0))
+        )
+        sdk = UdpClient(245, port=ports.sdk_port(0), to=("127.0.0.1", ports.listen_port(0)))
         try:
             cmd = _command(mavlink2.MAV_CMD_IMAGE_START_CAPTURE, 0, 0, 1, 3)
             sdk.send(cmd)
@@ -167,8 +136,8 @@ def test_a_command_for_the_camera_comes_out_of_the_payload_link(tmp_path):
             (got,) = camera.of("COMMAND_LONG", (245, 190))
             assert (got.target_component, got.command, got.param4) == (100, 2000, 3.0)
             camera.send(mavlink2.MAVLink_command_ack_message(2000, 0, 0, 0, 245, 190))
-            _run(sim, (camera, sdk), 0.5, until=lambda: sdk.of("COMMAND_ACK"))
-            assert [a.command for a in sdk.of("COMMAND_ACK")] == [2000]
+            _run(sim, (camera, sdk), 0.5, until=lambda: sdk.of("COMMAND_ACK", CAMERA))
+            assert [a.command for a in sdk.of("COMMAND_ACK", CAMERA)] == [2000]
             # No telemetry streams on the payload link (PX4: 4000 B/s): HEARTBEAT, and the
             # MISSION_CURRENT every link sends when the mission state changes.
             kinds = {m.get_type() for m in camera.inbox if m.get_srcComponent() == 1}

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import math
 import os
-import socket
 
 import pytest
 from mission_link import free_udp_port, waypoint
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
+from udp_client import UdpClient
 
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.modes import AutoSubMode, MainMode, custom_mode
@@ -25,38 +25,6 @@ from harness.simulation import PortPlan, Simulation, SimulationConfig
 BAUD = 921600
 LINE_BYTES_S = BAUD / 10  # 8N1
 MAX_FRAME_BYTES = 280
-
-
-class UdpClient:
-    """A pymavlink client on its own UDP socket; the vehicle's link sends to it."""
-
-    def __init__(self, sysid: int, compid: int = 190, port: int = 0) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("127.0.0.1", port))
-        self.sock.setblocking(False)
-        self.mav = mavlink2.MAVLink(None, srcSystem=sysid, srcComponent=compid)
-        self.mav.robust_parsing = True
-        self.inbox: list = []
-        self.vehicle: tuple[str, int] | None = None
-
-    @property
-    def port(self) -> int:
-        return self.sock.getsockname()[1]
-
-    def send(self, msg) -> None:
-        self.sock.sendto(msg.pack(self.mav), self.vehicle)
-        self.mav.seq = (self.mav.seq + 1) & 0xFF
-
-    def drain(self) -> None:
-        while True:
-            try:
-                data = self.sock.recv(65535)
-            except BlockingIOError:
-                return
-            self.inbox.extend(self.mav.parse_buffer(data) or [])
-
-    def close(self) -> None:
-        self.sock.close()
 
 
 class SerialClient:
@@ -97,8 +65,8 @@ class Bench:
                 **config,
             )
         )
-        self.onboard.vehicle = self.sim.endpoints[0].local_address
-        self.extra.vehicle = self.sim.endpoints[-1].local_address
+        self.onboard.to = self.sim.endpoints[0].local_address
+        self.extra.to = self.sim.endpoints[-1].local_address
         self.serial = SerialClient(self.sim.serial_ports[0])
         self.clients = (self.onboard, self.extra, self.serial)
 

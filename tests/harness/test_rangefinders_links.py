@@ -3,11 +3,11 @@ reads the ground; the onboard (offboard API) link too; HAGL goes out in ALTITUDE
 
 from __future__ import annotations
 
-import socket
 from collections import defaultdict
 
 import pytest
 from pymavlink.dialects.v20 import common as mavlink2
+from udp_client import UdpClient
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
@@ -17,41 +17,15 @@ ON = {"rangefinders": True}
 """The rangefinders are off by default in the Python API."""
 
 
-class _Client:
-    """A UDP socket and a pymavlink parser, read without blocking between simulation steps."""
-
-    def __init__(self, port: int) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("127.0.0.1", port))
-        self.sock.setblocking(False)
-        self.mav = mavlink2.MAVLink(None, srcSystem=255, srcComponent=190)
-        self.peer: tuple[str, int] | None = None
-        self.messages: list[mavlink2.MAVLink_message] = []
-
-    def read(self) -> None:
-        while True:
-            try:
-                data, self.peer = self.sock.recvfrom(65535)
-            except BlockingIOError:
-                return
-            self.messages.extend(self.mav.parse_buffer(data) or [])
-
-    def of(self, kind: str) -> list[mavlink2.MAVLink_message]:
-        return [m for m in self.messages if m.get_type() == kind]
-
-    def command(self, command: int, *params: float) -> None:
-        assert self.peer is not None
-        p = [*params, 0, 0, 0, 0, 0, 0, 0][:7]
-        msg = mavlink2.MAVLink_command_long_message(1, 1, command, 0, *p)
-        self.sock.sendto(msg.pack(self.mav), self.peer)
-
-    def close(self) -> None:
-        self.sock.close()
+def _command(client: UdpClient, command: int, *params: float) -> None:
+    """COMMAND_LONG to the autopilot, back where its stream comes from."""
+    p = [*params, 0, 0, 0, 0, 0, 0, 0][:7]
+    client.send(mavlink2.MAVLink_command_long_message(1, 1, command, 0, *p))
 
 
 @pytest.fixture
 def clients():
-    gcs, onboard = _Client(PORTS.gcs_port), _Client(PORTS.sdk_port(0))
+    gcs, onboard = UdpClient(port=PORTS.gcs_port), UdpClient(port=PORTS.sdk_port(0))
     yield gcs, onboard
     gcs.close()
     onboard.close()
@@ -62,7 +36,7 @@ def _run(sim: Simulation, clients, seconds: float) -> None:
         for _ in range(10):
             sim.step()
         for c in clients:
-            c.read()
+            c.drain()
 
 
 def test_ground_station_and_onboard_links_see_every_rangefinder(clients):
@@ -90,19 +64,19 @@ def test_message_interval_and_request_message_for_distance_sensor(clients):
     gcs, onboard = clients
     with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world_overrides=ON)) as sim:
         _run(sim, clients, 0.5)
-        gcs.command(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 132, -1)
+        _command(gcs, mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 132, -1)
         _run(sim, clients, 0.1)
-        gcs.messages.clear()
-        onboard.messages.clear()
+        gcs.inbox.clear()
+        onboard.inbox.clear()
         _run(sim, clients, 1.0)
         assert gcs.of("DISTANCE_SENSOR") == []
         assert len(onboard.of("DISTANCE_SENSOR")) >= 6 * 19
-        gcs.command(mavlink2.MAV_CMD_REQUEST_MESSAGE, 132)
+        _command(gcs, mavlink2.MAV_CMD_REQUEST_MESSAGE, 132)
         _run(sim, clients, 0.1)
         assert len({m.id for m in gcs.of("DISTANCE_SENSOR")}) == 7
-        gcs.command(mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 132, 0)  # back to the default
+        _command(gcs, mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 132, 0)  # back to the default
         _run(sim, clients, 0.1)
-        gcs.messages.clear()
+        gcs.inbox.clear()
         _run(sim, clients, 1.0)
         assert len(gcs.of("DISTANCE_SENSOR")) >= 6 * 19
 
@@ -120,8 +94,8 @@ def test_hagl_over_a_box_and_no_rangefinders(clients):
     assert altitude.altitude_terrain == pytest.approx(
         altitude.altitude_amsl - altitude.bottom_clearance, abs=1e-3
     )
-    gcs.messages.clear()
-    onboard.messages.clear()
+    gcs.inbox.clear()
+    onboard.inbox.clear()
     config = SimulationConfig(ports=PORTS, record_hz=0, world_overrides={"rangefinders": False})
     with Simulation(config) as sim:
         _run(sim, clients, 1.0)

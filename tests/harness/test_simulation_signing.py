@@ -6,67 +6,19 @@ uses fixed ports from this file's block (48000-48099), since the camera's port m
 
 from __future__ import annotations
 
-import socket
 import struct
-import time
 
 import pytest
 from pymavlink.dialects.v20 import common as mavlink2
+from udp_client import UdpClient
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 KEY = bytes.fromhex("5a" * 16 + "c3" * 16)
 OTHER_KEY = bytes.fromhex("11" * 32)
-EPOCH_2015_UNIX_S = 1_420_070_400
+AUTOPILOT = (1, 1)
 ARM = mavlink2.MAV_CMD_COMPONENT_ARM_DISARM
 BASE = 48000
-
-
-class SigningClient:
-    """A pymavlink client on its own UDP socket; signs with ``key`` (None: sends unsigned)."""
-
-    def __init__(self, key: bytes | None, sysid: int, port: int = 0, link_id: int = 1) -> None:
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("127.0.0.1", port))
-        self.sock.setblocking(False)
-        self.mav = mavlink2.MAVLink(None, srcSystem=sysid, srcComponent=190)
-        self.mav.robust_parsing = True
-        if key is not None:  # as mavutil's setup_signing(key, sign_outgoing=True)
-            self.mav.signing.secret_key = key
-            self.mav.signing.sign_outgoing = True
-            self.mav.signing.link_id = link_id
-            self.mav.signing.timestamp = int((time.time() - EPOCH_2015_UNIX_S) * 100_000)
-        self.inbox: list[mavlink2.MAVLink_message] = []
-        self.to: tuple[str, int] | None = None
-
-    @property
-    def port(self) -> int:
-        return self.sock.getsockname()[1]
-
-    def send(self, msg: mavlink2.MAVLink_message) -> None:
-        assert self.to is not None
-        self.sock.sendto(msg.pack(self.mav), self.to)
-        self.mav.seq = (self.mav.seq + 1) & 0xFF
-
-    def drain(self) -> None:
-        while True:
-            try:
-                data = self.sock.recv(65535)
-            except BlockingIOError:
-                return
-            self.inbox += [
-                m for m in self.mav.parse_buffer(data) or [] if m.get_type() != "BAD_DATA"
-            ]
-
-    def of(self, type_name: str, src: tuple[int, int] = (1, 1)) -> list[mavlink2.MAVLink_message]:
-        return [
-            m
-            for m in self.inbox
-            if m.get_type() == type_name and (m.get_srcSystem(), m.get_srcComponent()) == src
-        ]
-
-    def close(self) -> None:
-        self.sock.close()
 
 
 def _arm() -> mavlink2.MAVLink_command_long_message:
@@ -85,9 +37,9 @@ def _run(sim: Simulation, clients, seconds: float, until=None) -> None:
 
 def test_signed_client_flies_the_vehicle_and_others_are_ignored_and_counted():
     """Same key: signed telemetry, parameters, arming. Unsigned and wrong-key clients: nothing."""
-    sdk = SigningClient(KEY, sysid=245)
-    unsigned = SigningClient(None, sysid=246)
-    wrong = SigningClient(OTHER_KEY, sysid=247)
+    sdk = UdpClient(245, key=KEY)
+    unsigned = UdpClient(246)
+    wrong = UdpClient(247, key=OTHER_KEY)
     clients = (sdk, unsigned, wrong)
     config = SimulationConfig(
         record_hz=0,
@@ -112,20 +64,20 @@ def test_signed_client_flies_the_vehicle_and_others_are_ignored_and_counted():
             _run(sim, clients, 0.5)
             assert link.stats.frames_unsigned_rejected == 1
             assert link.stats.frames_bad_signature == 2
-            assert not sdk.of("COMMAND_ACK") and not sim.fleet.commanders[0].armed
+            assert not sdk.of("COMMAND_ACK", AUTOPILOT) and not sim.fleet.commanders[0].armed
             sdk.send(mavlink2.MAVLink_param_request_read_message(1, 1, b"MAV_SYS_ID", -1))
-            _run(sim, clients, 0.5, until=lambda: sdk.of("PARAM_VALUE"))
-            value = sdk.of("PARAM_VALUE")[0]  # an INT32, sent bytewise as PX4 does
+            _run(sim, clients, 0.5, until=lambda: sdk.of("PARAM_VALUE", AUTOPILOT))
+            value = sdk.of("PARAM_VALUE", AUTOPILOT)[0]  # an INT32, sent bytewise as PX4 does
             assert value.param_id == "MAV_SYS_ID"
             assert struct.unpack("<i", struct.pack("<f", value.param_value)) == (1,)
             for _ in range(20):  # the estimator needs a few seconds before arming is allowed
                 sdk.send(_arm())
-                _run(sim, clients, 0.5, until=lambda: sdk.of("COMMAND_ACK"))
-                acks = sdk.of("COMMAND_ACK")
+                _run(sim, clients, 0.5, until=lambda: sdk.of("COMMAND_ACK", AUTOPILOT))
+                acks = sdk.of("COMMAND_ACK", AUTOPILOT)
                 if acks and acks[-1].result == mavlink2.MAV_RESULT_ACCEPTED:
                     break
                 sdk.inbox.clear()
-            assert sdk.of("COMMAND_ACK")[-1].result == mavlink2.MAV_RESULT_ACCEPTED
+            assert sdk.of("COMMAND_ACK", AUTOPILOT)[-1].result == mavlink2.MAV_RESULT_ACCEPTED
             assert sim.fleet.commanders[0].armed
             assert link.stats.frames_bad_signature == 2 and link.stats.frames_replay_rejected == 0
         signing = sdk.mav.signing
@@ -148,7 +100,7 @@ def test_the_camera_signs_too_and_its_heartbeat_reaches_a_signed_client(tmp_path
         payload_listen_base=BASE + 5,
         payload_base=BASE + 6,
     )
-    sdk = SigningClient(KEY, sysid=245, port=BASE)
+    sdk = UdpClient(245, port=BASE, key=KEY)
     sdk.to = ("127.0.0.1", BASE + 1)
     config = SimulationConfig(
         ports=ports,
