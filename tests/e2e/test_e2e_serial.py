@@ -36,8 +36,16 @@ def test_mavsdk_flies_over_the_serial_port_while_a_udp_out_client_watches(tmp_pa
         assert f"serial://{serial}:921600" in swarm.output(), swarm.output()
         assert serial.is_symlink()
         client = start_client(
-            "classic_takeoff_land.py",
-            ["--url", f"serial://{serial}:921600", "--grpc-port", str(PORTS.grpc), "--alt", "3"],
+            "classic_takeoff.py",
+            [
+                "--url",
+                f"serial://{serial}:921600",
+                "--grpc-port",
+                str(PORTS.grpc),
+                "--alt",
+                "3",
+                "--land",
+            ],
             client_logs,
             timeout_s=240,
             grpc_port=PORTS.grpc,

@@ -1,9 +1,11 @@
-"""Classic MAVSDK-Python client for one vehicle of a swarm: identity, arm, take off.
+"""Classic MAVSDK-Python client for one vehicle of a swarm: identity, arm, take off [, land].
 
     python classic_takeoff.py --url udpin://0.0.0.0:PORT --grpc-port GRPC --alt 5
+    python classic_takeoff.py --url serial:///RUN/vehicle1.serial:921600 --grpc-port GRPC --land
 
 Reports the system ids seen in HEARTBEATs (mavlink_direct), MAV_SYS_ID, the home position and
-the relative altitude reached.
+the relative altitude reached; with ``--land`` also whether the vehicle landed and disarmed by
+itself. Any connection URL MAVSDK takes works (UDP, serial).
 """
 
 from __future__ import annotations
@@ -49,6 +51,12 @@ async def fly(args, r: Report) -> None:
         )
         r["rel_alt_reached_m"] = reached.relative_altitude_m
         r["in_air"] = await wait_for(drone.telemetry.in_air(), bool, 60, "in_air")
+        if args.land:
+            r.stage("land")
+            await drone.action.land()
+            await wait_for(drone.telemetry.in_air(), lambda a: not a, 120, "on the ground")
+            await wait_for(drone.telemetry.armed(), lambda a: not a, 60, "disarmed after landing")
+            r["landed"] = True
         r.stage("done")
     finally:
         drone._stop_mavsdk_server()
@@ -56,6 +64,7 @@ async def fly(args, r: Report) -> None:
 
 def _options(ap) -> None:
     ap.add_argument("--alt", type=float, default=5.0)
+    ap.add_argument("--land", action="store_true", help="land after the take-off, wait disarmed")
 
 
 def main() -> None:
