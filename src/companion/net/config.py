@@ -15,6 +15,7 @@ Errors raise ``NetConfigError`` naming the field path (``nodes.edge1.address``).
 
 from __future__ import annotations
 
+import functools
 import ipaddress
 import os
 import re
@@ -58,8 +59,12 @@ def parse_address(text: object, where: str) -> Address:
     return host, int(port_text)
 
 
+@functools.lru_cache(maxsize=64)
 def link_class(role_a: str, role_b: str) -> str:
-    """Name of the link class between two roles, e.g. ``("cloud", "edge") -> "edge-cloud"``."""
+    """Name of the link class between two roles, e.g. ``("cloud", "edge") -> "edge-cloud"``.
+
+    Cached: every datagram a node sends or receives is counted under its link class.
+    """
     for role in (role_a, role_b):
         if role not in ROLES:
             raise ValueError(f"role: unknown role {role!r}, expected one of {ROLES}")

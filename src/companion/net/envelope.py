@@ -87,6 +87,10 @@ _FIELDS: tuple[tuple[str, tuple[type, ...], bool], ...] = (
 )
 
 
+_KIND_SET = frozenset(KINDS)
+_CATEGORY_SET = frozenset(CATEGORIES)
+
+
 def encode(env: Envelope) -> bytes:
     """Encode an envelope to one datagram.
 
@@ -138,6 +142,31 @@ def decode(data: bytes) -> Envelope:
         raise EnvelopeError(f"not a msgpack datagram: {exc}") from exc
     if not isinstance(items, list) or not items:
         raise EnvelopeError("envelope must be a non-empty msgpack array")
+    if len(items) == len(_FIELDS) + 2:
+        # The common case, checked in one expression (exact types: msgpack gives no subclasses,
+        # and bool is not int here); anything off goes to the checks below, which say what.
+        version, src, dst, kind, topic, msg_id, reply_to, category, sent_s, attempt, body = items
+        if (
+            type(version) is int
+            and version == FORMAT_VERSION
+            and type(src) is str
+            and type(dst) is str
+            and type(topic) is str
+            and type(kind) is str
+            and kind in _KIND_SET
+            and type(category) is str
+            and category in _CATEGORY_SET
+            and type(msg_id) is int
+            and msg_id >= 0
+            and (reply_to is None or type(reply_to) is int)
+            and type(attempt) is int
+            and attempt >= 1
+            and type(sent_s) in (float, int)
+            and math.isfinite(sent_s)
+        ):
+            return Envelope(
+                src, dst, kind, topic, msg_id, reply_to, category, float(sent_s), attempt, body
+            )
     if type(items[0]) is not int or items[0] != FORMAT_VERSION:
         raise EnvelopeError(f"envelope format version {items[0]!r}, expected {FORMAT_VERSION}")
     if len(items) != len(_FIELDS) + 2:
