@@ -120,7 +120,14 @@ def test_hold_point_grows_with_the_acceleration_still_building_speed():
     rising = hold_point(np.zeros(3), np.array([4.0, 0, 0]), np.array([3.0, 0, 0]), 5.0, 3.0,
                         4.0, DT)  # fmt: skip
     assert steady[1] == pytest.approx(0.0) and rising[0] > steady[0] + 1.0
-    assert steady[0] > braking_distance(4.0, 3.0, 4.0) - 1.0
+
+
+@pytest.mark.parametrize("speed", [2.0, 4.0, 5.0])
+def test_hold_point_at_a_steady_speed_is_within_0_7_m_of_px4s_braking_point(speed):
+    """Up to the default cruise speed, "no turning back" costs less than 0.7 m past PX4's point."""
+    steady = hold_point(np.zeros(3), np.array([speed, 0, 0]), np.zeros(3), 5.0, 3.0, 4.0, DT)
+    px4 = braking_distance(speed, 3.0, 4.0)
+    assert px4 - 0.2 < steady[0] < px4 + 0.7
 
 
 def test_hold_point_of_a_state_at_rest_is_where_it_is():
