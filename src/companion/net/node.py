@@ -96,7 +96,11 @@ class Node:
         self._next_id = 0
         self._pending: dict[int, PendingRequest] = {}
         self._request_envs: dict[int, Envelope] = {}
-        self._seen: OrderedDict[tuple[str, int], tuple[float, Envelope | None]] = OrderedDict()
+        self._seen: OrderedDict[tuple[str, int], tuple[float, Envelope | None, bool]] = (
+            OrderedDict()
+        )
+        """Requests seen per (sender, msg_id): when, the reply sent (None: none yet), and
+        whether a handler took it (False: it went to :meth:`poll`'s caller)."""
         self._inbox: deque[bytes] = deque()
         self._unconsumed: list[Envelope] = []
 
@@ -155,7 +159,7 @@ class Node:
         env.reply_to = request.msg_id
         env.attempt = request.attempt
         data = encode(env)
-        self._seen[(request.src, request.msg_id)] = (env.sent_s, env)
+        self._seen[(request.src, request.msg_id)] = (env.sent_s, env, True)
         self._transmit(env, data)
 
     # --- receiving -----------------------------------------------------------------------
@@ -280,14 +284,20 @@ class Node:
         now = self.clock()
         key = (env.src, env.msg_id)
         entry = self._seen.get(key)
+        handled = env.topic in self._handlers
         if entry is not None and now - entry[0] <= REPLY_CACHE_WINDOW_S:
+            seen_s, cached, was_handled = entry
+            if cached is None and not was_handled and handled:
+                # Its first copy came before the topic had a handler (a node still starting)
+                # and nobody answered it: the handler has not run for it yet, so it runs now.
+                self._seen[key] = (seen_s, None, True)
+                return False
             self.stats.duplicate_requests += 1
-            cached = entry[1]
             if cached is not None:
                 again = replace(cached, attempt=env.attempt, sent_s=now)
                 self._transmit(again, encode(again))
             return True
-        self._seen[key] = (now, None)
+        self._seen[key] = (now, None, handled)
         self._seen.move_to_end(key)
         while len(self._seen) > REPLY_CACHE_SIZE:
             self._seen.popitem(last=False)

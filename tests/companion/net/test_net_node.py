@@ -86,6 +86,29 @@ def test_duplicate_request_runs_the_handler_once_and_gets_the_cached_reply():
     assert nodes["fog1"].stats.duplicate_requests == 1
 
 
+def test_request_before_its_handler_runs_the_handler_on_the_next_copy():
+    """A node still starting gets a request before it has a handler for it: the copy goes to
+    poll()'s caller; the retransmission after the handler is set runs it (once) and is answered.
+    """
+    clock = ManualClock()
+    port = FakePort()
+    nodes = make_nodes(port, clock, "fog1", "cloud")
+    pending = nodes["fog1"].request("cloud", "register", {"cluster": []}, timeout_s=1.0)
+    clock.t_s = 0.1
+    (early,) = nodes["cloud"].poll()
+    assert early.topic == "register" and not pending.done
+    calls = []
+    nodes["cloud"].on("register", lambda env: calls.append(env.attempt) or "ok")
+    run_until_done(nodes, clock, pending)
+    assert pending.reply.body == "ok" and pending.reply.attempt == 2
+    assert calls == [2] and nodes["cloud"].stats.duplicate_requests == 0
+    # A further copy of the same request is answered from the cache, the handler not run again.
+    port.queues["cloud"].append([d for s, _, d in port.sent if s == "fog1"][-1])
+    nodes["cloud"].poll()
+    assert calls == [2] and nodes["cloud"].stats.duplicate_requests == 1
+    assert [decode(d).kind for s, _, d in port.sent if s == "cloud"] == ["reply", "reply"]
+
+
 def test_late_duplicate_reply_is_counted_and_dropped():
     clock = ManualClock()
     port = FakePort()
