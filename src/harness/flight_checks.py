@@ -35,7 +35,9 @@ FAILSAFE_TEXTS: dict[str, str] = {
 }
 """The failsafe STATUSTEXTs the autopilot emulator sends (autopilot_emu/failsafe.py and the
 commander's offboard-loss failsafe), by name: a text is a failsafe text when it starts with one of
-these. Recoveries ("GCS connection regained", "Geofence OK", ...) are not failsafes."""
+these. Recoveries ("GCS connection regained", "Geofence OK", ...) are not failsafes, nor is a
+data-link loss announced while the vehicle is disarmed: PX4 announces it, but NAV_DLL_ACT acts in
+the air only (a companion that ends after landing leaves its vehicle without a ground station)."""
 
 
 @dataclass(frozen=True)
@@ -338,9 +340,22 @@ def failsafe_texts(
     for v in log.selected(vehicle):
         for s in v.status_texts:
             kind = failsafe_kind(s.text)
-            if kind is not None and kind not in allow:
-                out.append((v, s))
+            if kind is None or kind in allow:
+                continue
+            if kind == "datalink_lost" and _armed_at(v, s.time_s) is False:
+                continue
+            out.append((v, s))
     return out
+
+
+def _armed_at(v: VehicleLog, time_s: float) -> bool | None:
+    """The armed state the vehicle's HEARTBEATs last showed at ``time_s`` (None: none yet)."""
+    armed = None
+    for change in v.state_changes:
+        if change.time_s > time_s:
+            break
+        armed = change.armed
+    return armed
 
 
 def no_failsafe(

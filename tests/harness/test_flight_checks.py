@@ -28,7 +28,7 @@ from harness.flight_checks import (
     stayed_inside,
     waypoints_reached,
 )
-from harness.flight_log import FlightLog
+from harness.flight_log import FlightLog, StateChange
 
 # Vehicle 0 flies (0,0) -> up 10 m -> (20,0) -> (20,20) -> lands; vehicle 1 the same 6 m east.
 ROUTE = [(0.0, 0.0, 10.0), (20.0, 0.0, 10.0), (20.0, 20.0, 10.0), (20.0, 20.0, 0.0)]
@@ -199,6 +199,25 @@ def test_failsafe_texts_fail_the_check_with_vehicle_and_time(tmp_path):
         assert_no_failsafe(log)
     with pytest.raises(ValueError, match="battery_lo"):
         no_failsafe(log, allow=("battery_lo",))
+
+
+def test_a_datalink_loss_counts_in_the_air_not_after_disarming(tmp_path):
+    """PX4 announces a lost ground station on the ground too, but acts on it in the air only."""
+    texts = [
+        (0, 12.0, 2, "Connection to ground station lost"),
+        (1, 30.0, 2, "Connection to ground station lost"),
+    ]
+    log = make_log(tmp_path, texts=texts)
+    for v in log.vehicles:
+        v.state_changes[:] = [
+            StateChange(1.0, False, "AUTO_LOITER"),
+            StateChange(5.0, True, "AUTO_LOITER"),
+            StateChange(25.0, False, "AUTO_LOITER"),
+        ]
+    r = no_failsafe(log)
+    assert not r.ok and r.value == 1 and "vehicle1 at t = 12.0 s" in r.message
+    log.vehicles[0].state_changes.clear()  # armed state unknown: counted
+    assert no_failsafe(log).value == 1
 
 
 def test_a_quiet_flight_has_no_failsafe(log):
