@@ -18,11 +18,17 @@ def _limits(n, cruise=5.0, up=3.0, down=1.5, acc=3.0, jerk=4.0, err=2.0):
     return TrajectoryLimits(f(cruise), f(up), f(down), f(acc), f(4.0), f(3.0), f(jerk), f(err))
 
 
-def _fly(target, limits, seconds, start=None, vehicle=None):
+def _fly(target, limits, seconds, start=None, vehicle=None, velocity=None, acceleration=None):
+    """Position, velocity and acceleration logs of trajectories from ``start`` (and
+    ``velocity``, ``acceleration``: default at rest) towards ``target``."""
     n = len(target)
     traj = JerkLimitedTrajectory(n)
     if start is not None:
         traj.reset(np.ones(n, dtype=bool), start, np.zeros((n, 3)))
+    if velocity is not None:
+        traj.velocity_m_s[:] = velocity
+    if acceleration is not None:
+        traj.acceleration_m_s2[:] = acceleration
     log = []
     for _ in range(int(seconds / DT)):
         here = traj.position_m.copy() if vehicle is None else vehicle
@@ -88,15 +94,10 @@ def test_braking_distance_stops_a_cruising_trajectory():
 
 
 def _run_to_rest(target_xy, pos, vel, acc, seconds=15.0):
-    """Along-track positions of one trajectory from a state towards a horizontal target."""
-    traj = JerkLimitedTrajectory(1)
-    traj.position_m[0], traj.velocity_m_s[0], traj.acceleration_m_s2[0] = pos, vel, acc
+    """North-east track of one trajectory from a state towards a horizontal target."""
     target = np.array([[target_xy[0], target_xy[1], pos[2]]])
-    track = []
-    for _ in range(int(seconds / DT)):
-        traj.update(target, np.zeros((1, 3)), _limits(1), traj.position_m.copy(), DT)
-        track.append(traj.position_m[0, :2].copy())
-    return np.array(track)
+    track, _, _ = _fly(target, _limits(1), seconds, start=pos[None], velocity=vel, acceleration=acc)
+    return track[:, 0, :2]
 
 
 @pytest.mark.parametrize("acc_now", [0.0, 1.5, 3.0])
