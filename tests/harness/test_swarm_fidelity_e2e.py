@@ -20,7 +20,7 @@ SCENARIO = {
     "name": "fidelity-compare",
     "fidelity": "full",
     "seed": 1,
-    "duration_s": 100,
+    "duration_s": 130,
     "spacing_m": 6,
     "fleet": [{"role": "survey", "count": 2, "airframe": "typhoon_h480"}],
     "roles": {

@@ -57,7 +57,7 @@ from companion.planning.coverage_role import (
     world_spills,
 )
 from companion.scenario_env import ScenarioEnv
-from companion.scripts.program import finish, parser, scenario_env
+from companion.scripts.program import finish, parser, run_flight, scenario_env
 from companion.telemetry_waits import FlightError, connect, first, wait_for, wait_position_ok
 from companion.vehicle_clock import VehicleClock
 
@@ -461,7 +461,7 @@ def main(argv: list[str] | None = None) -> None:
     )
 
     def fly_with_params(env: ScenarioEnv) -> Mapping[str, tuple[Any, str]]:
-        return asyncio.run(fly(env, CoverageParams.from_mapping(env.params)))
+        return run_flight(fly(env, CoverageParams.from_mapping(env.params)))
 
     finish(fly_with_params, lambda: scenario_env(args, os.environ), _log)
 

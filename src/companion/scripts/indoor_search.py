@@ -59,7 +59,7 @@ from companion.planning.indoor_route import (
 )
 from companion.role_params import params_from_mapping
 from companion.scenario_env import ScenarioEnv
-from companion.scripts.program import finish, parser, scenario_env
+from companion.scripts.program import finish, parser, run_flight, scenario_env
 from companion.telemetry_waits import FlightError, connect, wait_for
 from companion.vehicle_clock import VehicleClock
 
@@ -708,7 +708,7 @@ def main(argv: list[str] | None = None) -> None:
     )
 
     def fly_with_params(env: ScenarioEnv) -> Mapping[str, tuple[Any, str]]:
-        return asyncio.run(fly(env, SearchParams.from_mapping(env.params)))
+        return run_flight(fly(env, SearchParams.from_mapping(env.params)))
 
     finish(fly_with_params, lambda: scenario_env(args, os.environ), _log)
 

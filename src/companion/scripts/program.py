@@ -9,12 +9,15 @@ and exiting 1.
 from __future__ import annotations
 
 import argparse
+import asyncio
+import faulthandler
 import os
+import signal
 import sys
 import traceback
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Coroutine, Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TypeVar
 
 from companion.scenario_env import ScenarioEnv
 
@@ -32,6 +35,10 @@ OPTIONS = {
     "params": "PARAMS",
 }
 """Command-line option (``--grpc-port``) -> the variable it overrides (``SWARMSITL_GRPC_PORT``)."""
+TEARDOWN_WALL_S = 2.0
+"""Longest wait, wall s, for the tasks a flight left running to end once cancelled."""
+
+T = TypeVar("T")
 
 
 def parser(description: str, world_example: str, params_example: str) -> argparse.ArgumentParser:
@@ -65,6 +72,28 @@ def scenario_env(args: argparse.Namespace, environ: Mapping[str, str]) -> Scenar
     return ScenarioEnv.from_env(merged)
 
 
+def run_flight(flight: Coroutine[Any, Any, T], teardown_wall_s: float = TEARDOWN_WALL_S) -> T:
+    """``asyncio.run(flight)`` whose clean-up after the flight cannot hold the program up.
+
+    ``asyncio.run`` waits without a limit for every task left running (telemetry streams of
+    a mavsdk_server the flight already stopped) to end once cancelled: the only unbounded wait
+    between a flight's end and its ``result.json``. A CI run saw a coverage program that had
+    landed and disarmed still without its result when the run ended. Here the leftovers get
+    ``teardown_wall_s``; the program exits right after (:func:`finish`), so nothing is lost.
+    """
+    loop = asyncio.new_event_loop()
+    asyncio.set_event_loop(loop)
+    try:
+        return loop.run_until_complete(flight)
+    finally:
+        left = [task for task in asyncio.all_tasks(loop) if not task.done()]
+        for task in left:
+            task.cancel()
+        if left:
+            loop.run_until_complete(asyncio.wait(left, timeout=teardown_wall_s))
+        asyncio.set_event_loop(None)
+
+
 def finish(
     fly: Callable[[ScenarioEnv], Mapping[str, tuple[Any, str]]],
     env_of: Callable[[], ScenarioEnv],
@@ -75,6 +104,8 @@ def finish(
     ``os._exit``: mavsdk_grpc leaves a non-daemon log thread behind, which would keep the
     process alive after the flight.
     """
+    # Stopped by the runner (SIGTERM: the run ended first), the log tells where it stood.
+    faulthandler.register(signal.SIGTERM, file=sys.stderr, all_threads=True, chain=True)
     rc = 0
     try:
         env = env_of()
