@@ -29,7 +29,11 @@ from autopilot_emu.control.mixer import MAX_ROTORS, Mixer, RotorGeometry
 from autopilot_emu.control.nav_kernel import nav_kernel
 from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
 from autopilot_emu.control.rate import RateController
-from autopilot_emu.control.trajectory import JerkLimitedTrajectory, TrajectoryLimits
+from autopilot_emu.control.trajectory import (
+    JerkLimitedTrajectory,
+    TrajectoryLimits,
+    load_hold_point_kernel,
+)
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
 from autopilot_emu.hil_sensor_kernel import hil_sensor_kernel
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
@@ -103,6 +107,7 @@ class AutopilotFleet:
         """Vehicles whose position controller tracked the trajectory at the last tick."""
         for i, cmd in enumerate(self.commanders):
             cmd.trajectory_state = functools.partial(self._trajectory_state, i)
+        load_hold_point_kernel()  # not at the first Hold, mid-flight
         self.rate_control = RateController(n)
         self.mixer = Mixer([RotorGeometry.from_params(p) for p in self.params])
         self.battery = FleetBattery(n)

@@ -1,5 +1,8 @@
 """The auto-mode trajectory respects its speed, acceleration and jerk limits and stops on target."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -134,3 +137,15 @@ def test_hold_point_at_a_steady_speed_is_within_0_7_m_of_px4s_braking_point(spee
 def test_hold_point_of_a_state_at_rest_is_where_it_is():
     here = np.array([1.0, 2.0, -3.0])
     assert hold_point(here, np.zeros(3), np.zeros(3), 5.0, 3.0, 4.0, DT) == pytest.approx(here[:2])
+
+
+def test_a_new_fleet_has_the_hold_point_kernel_ready_before_the_first_hold():
+    """Compiling it at the first Hold stood the flight still for seconds (a MAVSDK timeout)."""
+    code = (
+        "from autopilot_emu.control.trajectory_kernel import hold_point_kernel\n"
+        "from autopilot_emu.fleet import AutopilotFleet, FleetConfig\n"
+        "assert not hold_point_kernel.signatures\n"
+        "AutopilotFleet(FleetConfig(n_vehicles=1))\n"
+        "assert hold_point_kernel.signatures\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=600)
