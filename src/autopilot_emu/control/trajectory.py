@@ -106,9 +106,9 @@ def hold_point(
 def load_hold_point_kernel() -> None:
     """Compile :func:`hold_point`'s kernel now, or load it from numba's cache.
 
-    The first switch to Hold mid-flight would otherwise pay for it: 5 s of compiling in a fresh
-    install, half a second to load the cache in a fresh process. The simulation stood still
-    that long, and a MAVSDK ``hold()`` waiting for its COMMAND_ACK timed out (a CI run).
+    The first switch to Hold mid-flight would otherwise pay for it: 5 to 7 s of compiling in a
+    fresh install, about half a second to load the cache in a fresh process. The simulation stood
+    still that long, and a MAVSDK ``hold()`` waiting for its COMMAND_ACK timed out (a CI run).
     """
     zero = np.zeros(3)
     hold_point(zero, zero, zero, 1.0, 1.0, 1.0, 0.01)
