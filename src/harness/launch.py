@@ -17,8 +17,18 @@ console = Console(width=max(Console().width, 140))
 
 
 def default_run_dir() -> Path:
-    """runs/<timestamp> under the current directory."""
-    return Path("runs") / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    """runs/<timestamp> under the current directory, as an absolute path."""
+    return Path.cwd() / "runs" / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+
+
+def run_dir_of(out: Path | None) -> Path:
+    """The run directory of a command's ``--out``: absolute, or :func:`default_run_dir`.
+
+    Everything a run hands on (companions' environment, bridges, the clock file a user copies)
+    names this directory; companions start in other working directories, so it must not be
+    relative to the caller's.
+    """
+    return default_run_dir() if out is None else out.absolute()
 
 
 def open_simulation(cfg: SimulationConfig) -> Simulation:

@@ -18,7 +18,7 @@ from typing import Annotated, Any
 import typer
 from rich.table import Table
 
-from harness.launch import StopFlag, console, default_run_dir, open_simulation
+from harness.launch import StopFlag, console, open_simulation, run_dir_of
 from harness.net_plan import NetPlan, NetRun
 from harness.net_report import energy_table, link_table
 from harness.simulation import Simulation
@@ -217,7 +217,7 @@ def net_demo(
 
     if not duration > 0 or not speed > 0:
         raise typer.BadParameter("--duration and --speed must be > 0")
-    run_dir = out or default_run_dir()
+    run_dir = run_dir_of(out)
     plan = NetPlan(
         roles=("edge", "edge", "fog"),
         node_base=net_port,

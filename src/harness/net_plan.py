@@ -176,6 +176,7 @@ class NetRun:
             self.ledger.add_node(node.node_id, node.role)
         self._vehicle_nodes = [n for n in self.nodes if n.vehicle is not None]
         self._vehicle_index = np.array([n.vehicle for n in self._vehicle_nodes], dtype=int)
+        out_dir = out_dir.absolute()  # handed to role processes (SWARMSITL_NET, records)
         out_dir.mkdir(parents=True, exist_ok=True)
         self.net_path = out_dir / "net.yaml"
         self.net_path.write_text(json.dumps(plan.net_file(), indent=1))  # JSON is YAML

@@ -227,10 +227,30 @@ def swarmsitl_ports() -> RunPorts:
     return free_ports()
 
 
+def _beside(test_file: Path, path: str | Path) -> Path:
+    """``path`` as the calling test means it: a relative path starts at the test file's folder.
+
+    So ``swarmsitl_run("hop.yaml")`` finds the scenario next to the test whether pytest runs
+    from the project root, the test's folder or anywhere else.
+    """
+    return (test_file.parent / path).absolute()
+
+
+def _world_arg(test_file: Path, world: str | Path) -> str | Path:
+    """A ``--world`` value: ``example:KIND`` as it is, a file path beside the test file."""
+    if isinstance(world, str) and world.startswith("example:"):
+        return world
+    return _beside(test_file, world)
+
+
 @pytest.fixture
-def swarmsitl_run(tmp_path: Path, swarmsitl_ports: RunPorts) -> Callable[..., RunResult]:
+def swarmsitl_run(
+    request: pytest.FixtureRequest, tmp_path: Path, swarmsitl_ports: RunPorts
+) -> Callable[..., RunResult]:
     """Run a scenario: ``swarmsitl_run("my.yaml", seed=1)`` -> :class:`RunResult`.
 
+    A relative scenario path starts at the calling test file's folder; a relative ``out`` at
+    the current directory.
     Keyword arguments: ``seed``, ``speed`` (None: lockstep), ``out`` (default: a directory
     under the test's tmp_path), ``timeout_wall_s`` (the run is stopped and reported incomplete
     after it), ``extra_args`` (more ``swarmsitl run`` options).
@@ -247,8 +267,9 @@ def swarmsitl_run(tmp_path: Path, swarmsitl_ports: RunPorts) -> Callable[..., Ru
         extra_args: Sequence[object] = (),
     ) -> RunResult:
         count[0] += 1
-        run_dir = out or tmp_path / f"run{count[0]}"
+        run_dir = (out or tmp_path / f"run{count[0]}").absolute()
         ports = swarmsitl_ports
+        scenario = _beside(request.path, scenario)
         args: list[object] = ["run", scenario, "--out", run_dir, *_port_options(ports)]
         args += ["--grpc-port", ports.grpc, "--net-port", ports.net, "--mocap-port", ports.mocap]
         args += ["--net-proxy-port", ports.net_proxy, "--timeout", timeout_wall_s]
@@ -268,7 +289,9 @@ def swarmsitl_run(tmp_path: Path, swarmsitl_ports: RunPorts) -> Callable[..., Ru
 
 
 @pytest.fixture
-def swarmsitl_fleet(tmp_path: Path, swarmsitl_ports: RunPorts) -> Iterator[Callable[..., Fleet]]:
+def swarmsitl_fleet(
+    request: pytest.FixtureRequest, tmp_path: Path, swarmsitl_ports: RunPorts
+) -> Iterator[Callable[..., Fleet]]:
     """Start vehicles with ``swarmsitl up``; returns the start function.
 
     ``fleet = swarmsitl_fleet(vehicles=2, world="example:offshore")``. Keyword arguments:
@@ -295,7 +318,7 @@ def swarmsitl_fleet(tmp_path: Path, swarmsitl_ports: RunPorts) -> Iterator[Calla
         args += [*_port_options(ports), "--video-port", 0, "--payload-listen-port", 0]
         args += ["--lockstep"] if lockstep else ["--speed", speed]
         if world is not None:
-            args += ["--world", world]
+            args += ["--world", _world_arg(request.path, world)]
         if launch_area is not None:
             args += ["--launch-area", launch_area]
         if frame is not None:

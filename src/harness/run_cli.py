@@ -11,7 +11,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from autopilot_emu.mavlink.endpoint import PortInUseError
-from harness.launch import console, default_run_dir
+from harness.launch import console, run_dir_of
 from harness.scenario import Scenario, ScenarioError, load_scenario
 from harness.scenario_run import RunOptions, RunPorts, ScenarioRun
 from harness.swarm_run import run_swarm
@@ -105,9 +105,9 @@ def run(
     and every check passed, 1 when not, 2 for a bad scenario, 130 after Ctrl-C (the partial
     report is written, marked incomplete).
 
-    Example:  swarmsitl run scenarios/offshore_demo.yaml --out runs/offshore
+    Example:  swarmsitl run src/harness/scenarios/offshore_demo.yaml --out runs/offshore
 
-    Example:  swarmsitl run my_scenario.yaml --seed 3 --speed 2
+    Example:  swarmsitl run src/harness/scenarios/city.yaml --seed 3 --speed 2
 
     A scenario with ``fidelity: swarm`` runs on the swarm-scale engine, in this process, in
     lockstep (docs/swarm.md).
@@ -121,7 +121,7 @@ def run(
     except ScenarioError as exc:
         console.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(EXIT_BAD_INPUT) from exc
-    run_dir = out or default_run_dir()
+    run_dir = run_dir_of(out)
     if scenario.spec.fidelity == "swarm":
         if speed is not None:
             raise typer.BadParameter(

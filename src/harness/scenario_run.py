@@ -147,7 +147,7 @@ class ScenarioRun:
         self.options = options
         spec = scenario.spec
         self.seed = spec.seed if options.seed is None else options.seed
-        self.run_dir = options.out_dir
+        self.run_dir = options.out_dir.absolute()  # companions start in other directories
         self.vehicles = scenario.vehicles
         self.companions: list[Companion] = []
         self.net_procs: dict[str, subprocess.Popen] = {}

@@ -19,7 +19,7 @@ class ClockFile:
     """Publishes the simulation time at ``path`` (created or truncated)."""
 
     def __init__(self, path: Path) -> None:
-        self.path = path
+        self.path = path = path.absolute()  # other processes, in other directories, open it
         path.parent.mkdir(parents=True, exist_ok=True)
         with path.open("wb") as f:
             f.write(struct.pack(CLOCK_FORMAT, 0.0))

@@ -41,6 +41,7 @@ from harness.link_options import (
 from harness.mocap_publisher import MocapPublisher
 from harness.param_options import save_client_params
 from harness.recorder import FlightRecorder
+from harness.suggest import did_you_mean
 from sitl.devices.camera_manager import CameraManager, CameraProtocol, JpegStore
 from sitl.devices.link_router import LinkRouter
 from sitl.devices.mjpeg_server import MjpegServer
@@ -230,6 +231,10 @@ class SimulationConfig:
     cameras sign too); None: no signing."""
 
     def __post_init__(self) -> None:
+        for name in ("out_dir", "links_file"):  # absolute: printed to users, handed to processes
+            path = getattr(self, name)
+            if path is not None:
+                object.__setattr__(self, name, Path(path).absolute())
         links = links_config(self.links_file)
         check_link_model(self.onboard_link, "onboard_link", links)
         check_link_model(self.gcs_link, "gcs_link", links)
@@ -295,7 +300,8 @@ def check_params(params: dict[str, float]) -> dict[str, float | int]:
     known = set(store.names)
     unknown = sorted(name for name in params if name not in known)
     if unknown:
-        raise ValueError(f"params: unknown autopilot parameter {unknown[0]!r} (of {unknown})")
+        hint = did_you_mean(unknown[0], store.names, otherwise=f" (of {unknown})")
+        raise ValueError(f"params: unknown autopilot parameter {unknown[0]!r}{hint}")
     out: dict[str, float | int] = {}
     for name, value in params.items():
         if (

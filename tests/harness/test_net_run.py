@@ -10,6 +10,7 @@ from companion.net import NetConfig, Node, UdpTransport
 from harness.link_options import links_config
 from harness.net_cli import attach
 from harness.net_plan import NetPlan, NetRun
+from harness.run_ports import free_ports
 from harness.simulation import Simulation, SimulationConfig
 from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork
@@ -32,7 +33,8 @@ def _nodes(net: NetRun, sim: Simulation, ids: list[str]) -> dict[str, Node]:
 def test_datagrams_cross_the_router_in_simulation_time(tmp_path):
     """Every message edge1 sends to fog1 arrives after its modelled delay (simulated time),
     or is dropped by the link model; the receiver's count equals the model's."""
-    plan = NetPlan(("edge", "fog"), cloud=True, node_base=47110, proxy_base=47150)
+    ports = free_ports()
+    plan = NetPlan(("edge", "fog"), cloud=True, node_base=ports.net, proxy_base=ports.net_proxy)
     net = NetRun(plan, seed=5, out_dir=tmp_path)
     sim = _sim(net, 2)
     nodes = _nodes(net, sim, ["edge1", "fog1", "cloud"])
@@ -69,7 +71,8 @@ def test_datagrams_cross_the_router_in_simulation_time(tmp_path):
 
 def test_vehicles_beyond_wifi_range_lose_everything(tmp_path):
     """The vehicles' positions reach the network: 300 m apart, WiFi (range 100 m) drops all."""
-    plan = NetPlan(("edge", "edge"), cloud=False, node_base=47120, proxy_base=47160)
+    ports = free_ports()
+    plan = NetPlan(("edge", "edge"), cloud=False, node_base=ports.net, proxy_base=ports.net_proxy)
     net = NetRun(plan, seed=5, out_dir=tmp_path)
     sim = _sim(net, 2, spacing_m=300.0)
     nodes = _nodes(net, sim, ["edge1", "edge2"])
@@ -91,7 +94,8 @@ def test_vehicles_beyond_wifi_range_lose_everything(tmp_path):
 def test_paced_router_and_lockstep_port_agree(tmp_path):
     """The same traffic through the UDP router (polled on a simulated clock) and through the
     lockstep in-process port gives the same deliveries, at the same poll, and the same drops."""
-    plan = NetPlan(("edge", "fog"), cloud=True, node_base=47130, proxy_base=47170)
+    ports = free_ports()
+    plan = NetPlan(("edge", "fog"), cloud=True, node_base=ports.net, proxy_base=ports.net_proxy)
     paced = NetRun(plan, seed=9, out_dir=tmp_path)
     lockstep = LinkNetwork(links_config(), seed=9)
     for node in plan.nodes():

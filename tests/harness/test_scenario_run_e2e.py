@@ -132,26 +132,27 @@ def _took_off(out: Path) -> bool:
 
 
 def test_a_user_test_written_with_the_plugin_passes_and_fails_when_the_companion_breaks(
-    pytester, tmp_path
+    pytester,
 ):
-    scenario_variant(tmp_path, "good")
+    """A user's test file names its scenarios relative to itself, as
+    docs/testing_your_companion.md shows, and pytest runs from the project root above it."""
+    tests_dir = pytester.mkdir("tests")
+    scenario_variant(tests_dir, "good")
     scenario_variant(
-        tmp_path, "broken",
+        tests_dir, "broken",
         roles={"hop": {"script": "hop.py", "args": {"altitude_m": 4, "break_after": "takeoff"}}},
         duration_s=45,
     )  # fmt: skip
-    pytester.makepyfile(
-        test_my_companion=textwrap.dedent(
-            f"""
-            SCENARIOS = {str(tmp_path)!r}
-
+    (tests_dir / "test_my_companion.py").write_text(
+        textwrap.dedent(
+            """
             def test_good(swarmsitl_run):
-                run = swarmsitl_run(SCENARIOS + "/good.yaml")
+                run = swarmsitl_run("good.yaml")
                 run.assert_passed()
                 run.assert_min_separation(2.0)
 
             def test_broken(swarmsitl_run):
-                run = swarmsitl_run(SCENARIOS + "/broken.yaml")
+                run = swarmsitl_run("broken.yaml")
                 run.assert_passed()
             """
         )

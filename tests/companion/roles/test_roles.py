@@ -16,6 +16,7 @@ from companion.imaging.image_source import SyntheticImages
 from companion.imaging.relay import project_codec
 from companion.net import NetConfig, NetConfigError
 from companion.roles.cluster import clusters, coordinator_of, nodes_with_role
+from harness.run_ports import free_ports
 
 NET = {
     "nodes": {
@@ -60,8 +61,14 @@ def test_roles_exchange_their_traffic(tmp_path):
     The images are real codec output: each edge's are decoded by the fog, which sends each on
     to the cloud re-compressed; every hop writes a row per image to ``<node>_images.csv``.
     """
-    net = dict(NET)
-    net["nodes"] = {k: v for k, v in NET["nodes"].items() if k != "edge3"}
+    base = free_ports().net  # a block no other test or worker holds
+    net = {
+        "nodes": {
+            k: v | {"address": f"127.0.0.1:{base + i}"}
+            for i, (k, v) in enumerate(NET["nodes"].items())
+            if k != "edge3"
+        }
+    }
     path = tmp_path / "net.yaml"
     path.write_text(json.dumps(net))  # JSON is YAML
     env = os.environ | {
