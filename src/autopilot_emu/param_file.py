@@ -36,6 +36,7 @@ from autopilot_emu.params import (
     ParamError,
     ParamStore,
     ParamValue,
+    unknown_param_message,
 )
 
 AUTOPILOT_COMPONENT_ID = 1
@@ -141,7 +142,7 @@ def _autopilot_value(
     try:
         spec = store.spec(name)
     except ParamError:
-        fail(f"unknown parameter {name!r} (this autopilot's are in autopilot_emu/px4_params.yaml)")
+        fail(unknown_param_message(name, store.names))
     if mav_type != spec.mav_type:
         fail(
             f"{name} is {type_name(spec.mav_type)} (type {spec.mav_type}), the line gives type "

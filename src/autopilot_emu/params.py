@@ -13,13 +13,14 @@ float ``param_value`` field instead of converting the number.
 
 from __future__ import annotations
 
+import difflib
 import functools
 import importlib.resources
 import math
 import numbers
 import operator
 import struct
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,6 +52,18 @@ _INT32_WIRE_SAFE_MIN = -(1 << 22)
 _INT32_WIRE_SAFE_MAX = 0x7F800000
 
 ParamValue = int | float
+
+
+def unknown_param_message(name: str, names: Iterable[str]) -> str:
+    """``unknown parameter 'X'; did you mean Y or Z?`` with the close names among ``names``.
+
+    ``difflib`` with ``harness.suggest``'s settings (the autopilot cannot import the harness);
+    with no close name it says where the table is.
+    """
+    near = difflib.get_close_matches(name, list(names), n=3, cutoff=0.5)
+    if near:
+        return f"unknown parameter {name!r}; did you mean {' or '.join(near)}?"
+    return f"unknown parameter {name!r} (this autopilot's are in autopilot_emu/{_SPEC_RESOURCE})"
 
 
 class ParamError(Exception):
@@ -243,7 +256,9 @@ class ParamStore:
         try:
             return self._index[name]
         except KeyError:
-            raise ParamError(PARAM_ERROR_DOES_NOT_EXIST, f"unknown parameter {name!r}") from None
+            raise ParamError(
+                PARAM_ERROR_DOES_NOT_EXIST, unknown_param_message(name, self._names)
+            ) from None
 
     def name_at(self, index: int) -> str:
         """Name of the parameter at MAVLink param_index ``index``."""
@@ -260,7 +275,9 @@ class ParamStore:
         try:
             return self._values[name]
         except KeyError:
-            raise ParamError(PARAM_ERROR_DOES_NOT_EXIST, f"unknown parameter {name!r}") from None
+            raise ParamError(
+                PARAM_ERROR_DOES_NOT_EXIST, unknown_param_message(name, self._names)
+            ) from None
 
     def floats(self) -> Mapping[str, float]:
         """Every value as a float, name -> value (read-only by convention).

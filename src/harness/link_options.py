@@ -16,6 +16,7 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
+from harness.suggest import did_you_mean
 from sitl.links.config import LinksConfig
 from sitl.links.network import mavlink_channels
 from sitl.links.shaper import MavlinkLinkShaper
@@ -47,7 +48,7 @@ def check_link_model(name: str, field: str, config: LinksConfig | None = None) -
     """``name`` if it is ``none`` or a preset, else a ValueError naming ``field``."""
     known = link_models(config)
     if name not in known:
-        raise ValueError(f"{field}: unknown link model {name!r}; known: {', '.join(known)}")
+        raise ValueError(f"{field}: unknown link model {name!r}{did_you_mean(name, known)}")
     return name
 
 

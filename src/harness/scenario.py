@@ -3,7 +3,9 @@
 ``load_scenario(path)`` validates a scenario YAML against a pydantic schema (unknown keys, wrong
 types and missing fields are errors naming file, line and field, as for world files), then checks
 what the schema alone cannot: that every group's role has a program, that the world file exists
-and is valid, that airframes, launch areas, link presets and autopilot parameters are known.
+and is valid, that airframes, launch areas, link presets and autopilot parameters are known, and
+that each role's ``args`` are what its program declares it takes (``harness.companion_args``).
+A misspelt name is reported with the close known ones ("did you mean ...?", ``harness.suggest``).
 Nothing starts before all of that passed. ``docs/scenarios.md`` describes every key.
 """
 
@@ -12,6 +14,8 @@ from __future__ import annotations
 import hashlib
 import json
 import sys
+import types
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -21,8 +25,10 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 import worlds
 from autopilot_emu.params import ParamStore
+from harness.companion_args import DeclarationError, check_args, declared_params, program_module
 from harness.link_options import check_link_model, links_config
 from harness.net_plan import VEHICLE_ROLES
+from harness.suggest import did_you_mean
 from sitl.power.loads import LOAD_PRESETS
 from sitl.vehicles.multirotor import airframe_yaml_path
 from worlds.examples import EXAMPLE_PREFIX, world_path
@@ -33,6 +39,9 @@ DEFAULT_PARAMS: dict[str, float] = {"NAV_DLL_ACT": 2.0}
 companion falls silent (PX4's data-link-loss failsafe after COM_DL_LOSS_T without a HEARTBEAT;
 PX4's own default, 0, would let a vehicle whose companion crashed hover until its battery ends)."""
 
+
+PARAMS_ELSEWHERE = " (the autopilot's are in autopilot_emu/px4_params.yaml)"
+"""Said of an unknown autopilot parameter with no close match (too many to list)."""
 
 MAX_FULL_VEHICLES = 255
 """Vehicles of a ``fidelity: full`` fleet at most (MAVLink system ids 1..255)."""
@@ -100,7 +109,8 @@ class FleetGroup(_Model):
                 f"start_enu_m has {len(self.start_enu_m)} points for count {self.count}"
             )
         if self.node is not None and self.node not in VEHICLE_ROLES:
-            raise ValueError(f"node: unknown role {self.node!r}; one of {VEHICLE_ROLES}")
+            hint = did_you_mean(self.node, VEHICLE_ROLES, listing="one of")
+            raise ValueError(f"node: unknown role {self.node!r}{hint}")
         return self
 
 
@@ -143,7 +153,8 @@ class SwarmSpec(_Model):
     @model_validator(mode="after")
     def _rates(self) -> SwarmSpec:
         if self.loads not in LOAD_PRESETS:
-            raise ValueError(f"loads: unknown preset {self.loads!r}; one of {sorted(LOAD_PRESETS)}")
+            hint = did_you_mean(self.loads, sorted(LOAD_PRESETS), listing="one of")
+            raise ValueError(f"loads: unknown preset {self.loads!r}{hint}")
         ratio = self.step_hz / self.decision_hz
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError(
@@ -209,9 +220,10 @@ class ScenarioSpec(_Model):
     def _roles_have_programs(self) -> ScenarioSpec:
         missing = sorted({g.role for g in self.fleet} - set(self.roles))
         if missing:
+            near = did_you_mean(missing[0], self.roles, listing="roles given")
             raise ValueError(
                 f"roles: no entry for {', '.join(missing)} (a role without a program: "
-                f"`{missing[0]}: {{}}`)"
+                f"`{missing[0]}: {{}}`){near}"
             )
         if self.fidelity == "full" and self.n_vehicles > MAX_FULL_VEHICLES:
             raise ValueError(
@@ -302,6 +314,40 @@ class Scenario:
         return DEFAULT_PARAMS | dict(self.spec.roles[vehicle.group.role].params)
 
 
+def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
+    """The schema model of the scenario mapping at pydantic's ``loc`` (None: a free mapping)."""
+
+    def unwrap(shape: Any) -> Any:
+        if typing.get_origin(shape) is Annotated:
+            return unwrap(typing.get_args(shape)[0])
+        if typing.get_origin(shape) in (typing.Union, types.UnionType):
+            members = [a for a in typing.get_args(shape) if a is not type(None)]
+            return unwrap(members[0]) if len(members) == 1 else None
+        return shape
+
+    shape: Any = ScenarioSpec
+    for part in loc:
+        shape = unwrap(shape)
+        if isinstance(shape, type) and issubclass(shape, BaseModel):
+            field = shape.model_fields.get(str(part))
+            shape = None if field is None else field.annotation
+        elif typing.get_origin(shape) in (list, dict):
+            shape = typing.get_args(shape)[-1]
+        else:
+            return None
+    shape = unwrap(shape)
+    return shape if isinstance(shape, type) and issubclass(shape, BaseModel) else None
+
+
+def _schema_hint(error: dict[str, Any]) -> str:
+    """An unknown key's close matches among the keys its section takes ("did you mean ...?")."""
+    loc = tuple(error["loc"])
+    if error["type"] != "extra_forbidden" or not loc:
+        return ""
+    model = _model_at(loc[:-1])
+    return "" if model is None else did_you_mean(str(loc[-1]), model.model_fields)
+
+
 def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = None) -> Scenario:
     """Validate scenario YAML ``text`` completely: :class:`ScenarioError` naming file and line."""
     spec: ScenarioSpec = validate_yaml(  # type: ignore[assignment]
@@ -310,9 +356,10 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
         lambda data, root: ScenarioSpec,
         ScenarioError,
         "a scenario file is a mapping with at least name, duration_s, fleet and roles",
+        hint=_schema_hint,
     )
     root = yaml.compose(text, Loader=yaml.SafeLoader)  # valid: validate_yaml parsed it
-    base = base_dir if base_dir is not None else Path.cwd()
+    base = (base_dir if base_dir is not None else Path.cwd()).absolute()
 
     def fail(loc: tuple[Any, ...], message: str) -> ScenarioError:
         node, _ = node_at(root, loc)
@@ -339,13 +386,15 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
             check_link_model(getattr(spec.links, key), key, links)
         except ValueError as exc:
             raise fail(("links", key), str(exc).removeprefix(f"{key}: ")) from exc
-    known_params = set(ParamStore().names)
+    known_params = ParamStore().names
     for name, role in spec.roles.items():
         for p in role.params:
             if p not in known_params:
-                raise fail(("roles", name, "params", p), "unknown autopilot parameter")
+                hint = did_you_mean(p, known_params, otherwise=PARAMS_ELSEWHERE)
+                raise fail(("roles", name, "params", p), f"unknown autopilot parameter{hint}")
         if role.script and not (base / role.script).is_file():
             raise fail(("roles", name, "script"), f"no such file: {(base / role.script)}")
+        _check_role_args(name, role, base, fail)
     for k, group in enumerate(spec.fleet):
         try:
             airframe_yaml_path(group.airframe)
@@ -361,6 +410,24 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
                 loc = ("fleet", k, "launch_area") if group.launch_area else ("launch_area",)
                 raise fail(loc, str(exc.args[0])) from exc
     return Scenario(spec, None, text, world_spec, world, links_file)
+
+
+def _check_role_args(name: str, role: RoleSpec, base: Path, fail: Any) -> None:
+    """The role's ``args`` read as its program reads them, if its module declares ``PARAMS``."""
+    module = program_module(role.module, role.command)
+    if module is None:
+        return
+    where = ("roles", name, "module" if role.module else "command")
+    try:
+        params = declared_params(module, base)
+    except DeclarationError as exc:
+        raise fail(where, str(exc)) from exc
+    if params is None:
+        return
+    problem = check_args(params, role.args, module)
+    if problem is not None:
+        loc = ("roles", name, "args") + (() if problem.key is None else (problem.key,))
+        raise fail(loc if role.args else where, problem.message)
 
 
 def _world_spec(spec: ScenarioSpec, base: Path, fail: Any) -> worlds.WorldSpec | None:
@@ -387,7 +454,7 @@ def _world_spec(spec: ScenarioSpec, base: Path, fail: Any) -> worlds.WorldSpec |
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and completely validate the scenario file at ``path``."""
-    path = Path(path)
+    path = Path(path).absolute()  # base_dir, and so every path the run hands on, is absolute
     try:
         text = path.read_text()
     except OSError as exc:

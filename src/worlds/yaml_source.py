@@ -56,6 +56,7 @@ def validate_yaml(
     model_of: Callable[[dict[str, Any], yaml.Node], type[BaseModel]],
     error: type[ValueError],
     shape_hint: str,
+    hint: Callable[[dict[str, Any]], str] | None = None,
 ) -> BaseModel:
     """Parse YAML ``text`` and validate it with the model ``model_of(data, root)`` picks.
 
@@ -65,6 +66,8 @@ def validate_yaml(
         model_of: the pydantic model for this mapping (may raise ``error`` itself).
         error: the exception raised, with one ``source:line: field: problem`` line per problem.
         shape_hint: what the top level must be, for files that are not a mapping.
+        hint: more words for one pydantic error (``ErrorDetails``), appended to its problem,
+            e.g. the scenario loader's "; did you mean count?" for an unknown key.
     """
     try:
         root = yaml.compose(text, Loader=yaml.SafeLoader)
@@ -96,5 +99,7 @@ def validate_yaml(
                 msg = "unknown key"
             elif err["type"] == "missing":
                 msg = "missing field"
+            if hint is not None:
+                msg += hint(dict(err))
             lines.append(f"{source}:{node.start_mark.line + 1}: {field}: {msg}")
         raise error("\n".join(lines)) from None

@@ -107,6 +107,7 @@ HEAD = "# Vehicle-Id Component-Id Name Value Type\n1\t1\tMPC_XY_CRUISE\t6\t9\n"
     ("line", "says"),
     [
         ("1\t1\tNO_SUCH_PARAM\t1\t9", "unknown parameter 'NO_SUCH_PARAM'"),
+        ("1\t1\tMPC_XY_CRUSE\t6\t9", "'MPC_XY_CRUSE'; did you mean MPC_XY_CRUISE"),
         ("1\t1\tMPC_XY_CRUISE\t6\t6", "MPC_XY_CRUISE is REAL32 (type 9), the line gives type 6"),
         ("1\t1\tSYS_AUTOSTART\t4001\t9", "SYS_AUTOSTART is INT32 (type 6)"),
         ("1\t1\tBAT1_N_CELLS\t4", "expected 5 tab-separated fields"),

@@ -132,6 +132,17 @@ def test_unknown_name_lookups_raise_does_not_exist():
         assert info.value.code == PARAM_ERROR_DOES_NOT_EXIST
 
 
+def test_an_unknown_name_gets_the_close_names_or_where_the_table_is():
+    with pytest.raises(
+        ParamError, match=r"unknown parameter 'MPC_XY_CRUSE'; did you mean MPC_XY_CRUISE"
+    ):
+        ParamStore({"MPC_XY_CRUSE": 6.0})
+    with pytest.raises(
+        ParamError, match=r"'QQQQ' \(this autopilot's are in autopilot_emu/px4_params"
+    ):
+        ParamStore().get("QQQQ")
+
+
 def test_overrides_apply_and_are_validated():
     """Overrides replace defaults; a bad override fails construction."""
     store = ParamStore({"MAV_SYS_ID": 3, "MIS_TAKEOFF_ALT": 10.0})

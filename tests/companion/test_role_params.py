@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from companion.role_params import params_from_mapping
+from companion.role_params import UnknownParamsError, params_from_mapping
 
 
 @dataclass(frozen=True)
@@ -21,3 +21,11 @@ def test_known_keys_are_taken_and_the_rest_default():
 def test_an_unknown_key_names_itself_and_the_known_ones():
     with pytest.raises(ValueError, match=r"unknown key\(s\) \['sped_m_s'\].*altitude_m"):
         params_from_mapping(_Params, {"sped_m_s": 7.0})
+
+
+def test_an_unknown_key_carries_the_close_known_key_for_the_scenario_loader():
+    with pytest.raises(UnknownParamsError) as info:
+        params_from_mapping(_Params, {"sped_m_s": 7.0, "zzz": 1})
+    assert info.value.unknown == ["sped_m_s", "zzz"]
+    assert info.value.known == ["altitude_m", "speed_m_s"]
+    assert "did you mean speed_m_s?" in str(info.value)

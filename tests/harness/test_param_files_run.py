@@ -88,6 +88,16 @@ def test_up_refuses_a_bad_file_with_one_line_naming_file_and_line(tmp_path):
         assert line.startswith(f"error: {says or 'nope.params: '}"), line
 
 
+def test_up_suggests_the_parameter_a_misspelt_row_meant(tmp_path):
+    bad = tmp_path / "typo.params"
+    bad.write_text("1\t1\tMPC_XY_CRUSE\t7.5\t9\n")
+    result = CliRunner().invoke(app, ["up", "--params", f"all={bad}", "--duration", "1"])
+    assert result.exit_code == 2
+    (line,) = result.output.strip().splitlines()
+    assert line.startswith(f"error: {bad}:1: unknown parameter 'MPC_XY_CRUSE'; did you mean "), line
+    assert "MPC_XY_CRUISE" in line
+
+
 def test_ctrl_c_saves_what_a_client_set_over_mavlink(tmp_path):
     """A pymavlink client sets a parameter during `swarmsitl up`, then Ctrl-C: the run's
     client_params.params holds it (and the tlog and truth.csv are written as always)."""

@@ -120,6 +120,43 @@ def test_mistakes_name_file_line_and_field(tmp_path, change, where):
     assert str(tmp_path / "s.yaml") in str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        (("launch_area: heli", "launch_aera: heli"), ":5: launch_aera: unknown key; did you mean "),
+        (("    count: 2\n", "    cont: 2\n"), ":8: fleet.0.cont: unknown key; did you mean count?"),
+        (
+            ("    module:", "    modul:"),
+            ":13: roles.survey.modul: unknown key; did you mean module?",
+        ),
+        (
+            ("  landed_and", "  landed_adn"),
+            "checks.landed_adn_disarmed: unknown key; did you mean ",
+        ),
+        (("checks:", "sensor: {}\nchecks:"), ":17: sensor: unknown key; did you mean sensors?"),
+        (
+            ("checks:", "links: {onbord: x}\nchecks:"),
+            "links.onbord: unknown key; did you mean onboard?",
+        ),
+        (("  - role: spare", "  - role: spar"), "no entry for spar (a role"),
+        (("MPC_XY_CRUISE: 6", "MPC_XY_CRUSE: 6"), "parameter; did you mean MPC_XY_CRUISE"),
+        (("MPC_XY_CRUISE: 6", "QQQQ: 6"), "parameter (the autopilot's are in autopilot_emu/"),
+        (("{altitude_m: 25}", "{altitde_m: 25}"), ":14: roles.survey.args.altitde_m: unknown arg"),
+    ],
+)
+def test_a_misspelt_name_gets_the_close_known_names(tmp_path, change, says):
+    text = GOOD.replace(*change)
+    assert text != GOOD
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(write(tmp_path, text))
+    assert says in str(info.value)
+    meant = {"launch_aera": "launch_area", "landed_adn": "landed_and_disarmed", "spar": "spare"}
+    meant |= {"altitde_m": "altitude_m"}
+    for typo, name in meant.items():
+        if typo in change[1]:
+            assert f"did you mean {name}" in str(info.value)
+
+
 def test_a_world_mistake_names_the_world_file(tmp_path):
     (tmp_path / "bad.yaml").write_text("kind: offshore\nseed: 1\nspill_cont: 3\n")
     with pytest.raises(ScenarioError, match=r"bad.yaml:3: spill_cont: unknown key"):

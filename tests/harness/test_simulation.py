@@ -6,7 +6,7 @@ import numpy as np
 import pymap3d
 import pytest
 
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.simulation import PortPlan, Simulation, SimulationConfig, check_params
 
 
 def _fly_takeoff(seed, seconds=6.0):
@@ -222,3 +222,10 @@ def test_stream_rate_overrides_reach_the_onboard_link():
                         msgs = mav.parse_buffer(data) or []
                         count += sum(m.get_type() == "ATTITUDE" for m in msgs)
     assert count in (40, 41)
+
+
+def test_a_misspelt_autopilot_parameter_gets_the_close_names():
+    with pytest.raises(ValueError, match=r"'MPC_XY_CRUSE'; did you mean MPC_XY_CRUISE"):
+        check_params({"MPC_XY_CRUSE": 6.0})
+    with pytest.raises(ValueError, match=r"'QQQQ' \(of \['QQQQ'\]\)"):
+        check_params({"QQQQ": 6.0})

@@ -61,6 +61,9 @@ from companion.scripts.program import finish, parser, run_flight, scenario_env
 from companion.telemetry_waits import FlightError, connect, first, wait_for, wait_position_ok
 from companion.vehicle_clock import VehicleClock
 
+PARAMS = CoverageParams
+"""The dataclass of this program's ``args``: ``swarmsitl run`` checks a role's ``args`` with it
+when it loads the scenario (``companion.role_params``)."""
 LAND_ACCURACY_M = 0.5
 """Horizontal distance from home within which the vehicle starts its descent, m."""
 FOOTPRINT_PERIOD_S = 0.5

@@ -167,6 +167,11 @@ class SearchParams:
         return self.altitude_m + role_index * self.altitude_step_m
 
 
+PARAMS = SearchParams
+"""The dataclass of this program's ``args``: ``swarmsitl run`` checks a role's ``args`` with it
+when it loads the scenario (``companion.role_params``)."""
+
+
 @dataclass(frozen=True)
 class LocalFrame:
     """World ENU <-> the vehicle's local NED: horizontal origin and the floor's local down."""

@@ -10,7 +10,6 @@ already has, so that a typo is an error instead of a value no program reads.
 from __future__ import annotations
 
 import copy
-import difflib
 import types
 import typing
 from typing import Any
@@ -18,6 +17,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from harness.scenario import ScenarioSpec
+from harness.suggest import did_you_mean
 
 
 class ParameterError(ValueError):
@@ -59,13 +59,6 @@ def _schema_keys(shape: Any) -> list[str]:
     return list(shape.model_fields) if _is_model(shape) else []
 
 
-def _close(part: str, keys: list[str]) -> str:
-    near = difflib.get_close_matches(part, keys, n=3, cutoff=0.5)
-    if near:
-        return f"; did you mean {' or '.join(near)}?"
-    return f"; there: {', '.join(keys)}" if keys else ""
-
-
 def set_parameter(data: dict[str, Any], dotted: str, value: Any) -> None:
     """Set the scenario value at ``dotted`` in the parsed YAML ``data`` (in place).
 
@@ -99,7 +92,8 @@ def set_parameter(data: dict[str, Any], dotted: str, value: Any) -> None:
         schema_keys = _schema_keys(shape)
         if part not in node and part not in schema_keys:
             keys = sorted(set(node) | set(schema_keys))
-            raise ParameterError(f"{dotted}: {where} has no {part!r}{_close(part, keys)}")
+            hint = did_you_mean(part, keys, listing="there")
+            raise ParameterError(f"{dotted}: {where} has no {part!r}{hint}")
         if last:
             node[part] = value
             return

@@ -18,7 +18,7 @@ from companion.planning.coverage_role import (
     return_altitude_m,
 )
 from companion.scenario_env import ScenarioEnv, ScenarioEnvError
-from companion.scripts.coverage import Track, _metrics, scenario_env
+from companion.scripts.coverage import PARAMS, Track, _metrics, scenario_env
 from worlds.examples import example_path
 
 
@@ -40,6 +40,10 @@ def _env(index: int, count: int, duration_s: float | None = 120.0) -> ScenarioEn
         out_dir=".",
         duration_s=duration_s,
     )
+
+
+def test_the_program_declares_its_parameters_for_the_scenario_loader():
+    assert PARAMS is CoverageParams
 
 
 def test_params_reject_unknown_keys_and_bad_values_naming_them():

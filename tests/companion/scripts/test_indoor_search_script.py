@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from companion.scripts.indoor_search import (
+    PARAMS,
     LocalFrame,
     SearchParams,
     Trajectory,
@@ -17,6 +18,10 @@ from companion.scripts.indoor_search import (
 )
 from worlds.model import LaunchArea, Surface, World
 from worlds.shapes import centred_rectangle
+
+
+def test_the_program_declares_its_parameters_for_the_scenario_loader() -> None:
+    assert PARAMS is SearchParams
 
 
 def test_params_from_mapping_and_errors_naming_the_key() -> None:
