@@ -27,6 +27,7 @@ from rich.console import Console
 
 from harness.sweep.runner import run_sweep, worker_environment
 from harness.sweep.spec import SweepError, plan_sweep
+from harness.sweep_cli import exit_status
 
 
 def main() -> int:
@@ -78,7 +79,7 @@ def main() -> int:
             summary = run_sweep(plan, out, client=client, console=console)
         console.print(summary.describe(), markup=False, highlight=False)
         console.print(f"table: {summary.table}", markup=False, highlight=False)
-        return 1 if summary.failed else 0
+        return exit_status(summary.outcome)  # as swarmsitl sweep: 1 errored, 3 failed checks
     finally:
         cluster.close()
 

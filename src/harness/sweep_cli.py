@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -12,12 +12,51 @@ from rich.markup import escape
 from harness.launch import console
 from harness.sweep.spec import SweepError, SweepPlan, plan_sweep
 
-EXIT_FAILED = 1
-"""At least one trial failed (its row holds the traceback)."""
+if TYPE_CHECKING:
+    from harness.sweep.runner import SweepOutcome
+
+EXIT_OK = 0
+"""Every trial that ran passed its scenario's checks."""
+EXIT_ERRORED = 1
+"""At least one trial errored (raised, or its workers kept dying; its row holds the traceback).
+Running the command again reruns those trials."""
 EXIT_BAD_INPUT = 2
-"""The sweep file (or its scenario, or a grid value) is wrong: nothing was submitted."""
+"""The sweep file (or its scenario, or a grid value) is wrong, or the scheduler is unreachable:
+nothing was submitted."""
+EXIT_CHECKS_FAILED = 3
+"""No trial errored but at least one failed its scenario's checks (``passed`` false). Running
+the command again does not rerun them: their result is what the scenario, values and seed give."""
 EXIT_INTERRUPTED = 130
 """Ctrl-C: the rows of the trials that finished are kept (the next run resumes)."""
+SHOWN_FAILURES = 5
+"""Failing trials listed by name at the end of a sweep (the table has them all)."""
+
+
+def exit_status(outcome: SweepOutcome) -> int:
+    """The exit status of a sweep that ran to its end: errors first, then failed checks.
+
+    Trials not run (``--max-trials``) do not count: a partial sweep that passed so far exits 0.
+    """
+    if outcome.errored:
+        return EXIT_ERRORED
+    if outcome.checks_failed:
+        return EXIT_CHECKS_FAILED
+    return EXIT_OK
+
+
+def failure_line(row: dict[str, Any], parameters: list[str]) -> str:
+    """One failing trial: its id, grid point, seed, and the checks it failed or its error."""
+    head = (
+        f"{row['trial_id']}  {json.dumps({k: row.get(k) for k in parameters})}  seed {row['seed']}"
+    )
+    if row.get("status") != "ok":
+        lines = (row.get("error") or "").strip().splitlines()
+        return f"{head}  errored: {lines[-1] if lines else '?'}"
+    if row.get("failed_checks"):
+        return f"{head}  failed checks: {row['failed_checks']}"
+    if not row.get("complete"):
+        return f"{head}  failed: the run did not complete"
+    return f"{head}  failed its checks"
 
 
 def print_trials(plan: SweepPlan, out_dir: Path) -> None:
@@ -76,19 +115,24 @@ def sweep(
     (--scheduler), skipping those that already finished ok in the output directory. Writes
     OUT/results.parquet (a row per trial: parameters, seed, status, traceback, retries, metrics),
     OUT/trials/ (a row per finished trial, written as it finishes) and OUT/plots/METRIC.png
-    (mean over seeds with its 95 % confidence interval). Exit status: 0 when every trial ran ok,
-    1 when one failed, 2 for a bad sweep file (nothing ran), 130 after Ctrl-C.
+    (mean over seeds; its 95 % confidence band where a point has 3 or more seeds). Ends with
+    the counts of trials that passed, failed the scenario's checks, errored, or are not run yet.
+
+    Exit status: 0 when every trial that ran passed its checks; 1 when a trial errored (raised or
+    lost its workers; rerun the command to retry them); 2 for a bad sweep file or an unreachable
+    scheduler (nothing ran); 3 when no trial errored but one failed its checks (passed = false
+    in the table); 130 after Ctrl-C.
 
     Example:  swarmsitl sweep examples/sweeps/coverage_1_to_1000.yaml --workers 2
 
-    Example:  swarmsitl sweep my_sweep.yaml --scheduler tcp://10.0.0.5:8786 --out runs/big
+    Example:  swarmsitl sweep examples/sweeps/coverage_1_to_1000.yaml --dry-run
     """
     try:
         plan = plan_sweep(file)
     except SweepError as exc:
         console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(EXIT_BAD_INPUT) from exc
-    out_dir = out or Path("runs") / f"sweep-{plan.name}"
+    out_dir = (out or Path("runs") / f"sweep-{plan.name}").absolute()
     if dry_run:
         print_trials(plan, out_dir)
         return
@@ -117,14 +161,27 @@ def sweep(
         raise typer.Exit(EXIT_INTERRUPTED) from None
     for warning in summary.warnings:
         console.print(f"[yellow]warning:[/yellow] {escape(warning)}")
-    console.print(summary.describe(), markup=False, highlight=False)
     if summary.table is not None:
         console.print(f"table: {summary.table}", markup=False, highlight=False)
     if summary.plots:
         console.print(f"plots: {summary.plots[0].parent}/ ({len(summary.plots)} PNG)", markup=False)
-    if summary.failed:
+    parameters = list(plan.spec.grid)
+    for row in summary.failing[:SHOWN_FAILURES]:
+        console.print(failure_line(row, parameters), markup=False, highlight=False)
+    if len(summary.failing) > SHOWN_FAILURES:
+        console.print(f"... and {len(summary.failing) - SHOWN_FAILURES} more in the table")
+    console.print(summary.describe(), markup=False, highlight=False)
+    outcome = summary.outcome
+    if outcome.checks_failed:
         console.print(
-            f"[red]{summary.failed} trial(s) failed[/red]: their tracebacks are in the error "
+            f"[yellow]{outcome.checks_failed} trial(s) failed their checks[/yellow]: passed = "
+            "false in the table, the checks in its failed_checks column"
+        )
+    if outcome.errored:
+        console.print(
+            f"[red]{outcome.errored} trial(s) errored[/red]: their tracebacks are in the error "
             "column; run the same command again to rerun only them"
         )
-        raise typer.Exit(EXIT_FAILED)
+    status = exit_status(outcome)
+    if status != EXIT_OK:
+        raise typer.Exit(status)

@@ -45,13 +45,53 @@ KEY_PREFIX = "swarmsitl-trial-"
 
 
 @dataclass
+class SweepOutcome:
+    """Where every trial of the sweep stands, from its rows in the output directory.
+
+    Counted over all the sweep's trials, not only those this run ran: a resumed sweep whose
+    earlier trials failed their checks still reports (and exits with) the failure.
+    """
+
+    passed: int = 0
+    """Trials that ran and passed the scenario's checks (``status`` ok, ``passed``)."""
+    checks_failed: int = 0
+    """Trials that ran but failed a check or did not complete (``status`` ok, not ``passed``)."""
+    errored: int = 0
+    """Trials that raised or whose workers kept dying (``status`` failed): no metrics."""
+    missing: int = 0
+    """Trials without a row yet (``max_trials``, an interruption)."""
+
+    @classmethod
+    def of_rows(cls, rows: list[dict[str, Any]], trials: int) -> SweepOutcome:
+        """Count the rows of the sweep's ``trials`` trials (one row per trial at most)."""
+        out = cls(missing=trials - len(rows))
+        for row in rows:
+            if row.get("status") != "ok":
+                out.errored += 1
+            elif row.get("passed"):
+                out.passed += 1
+            else:
+                out.checks_failed += 1
+        return out
+
+    def describe(self) -> str:
+        """One line: passed, failed checks, errored, not run yet."""
+        return (
+            f"results: {self.passed} passed, {self.checks_failed} failed checks, "
+            f"{self.errored} errored, {self.missing} not run"
+        )
+
+
+@dataclass
 class SweepSummary:
     """What a sweep did (printed at the end, returned to programs)."""
 
     trials: int
     """Trials in the sweep."""
     ok: int = 0
+    """Trials this run ran that finished (``status`` ok; their checks may have failed)."""
     failed: int = 0
+    """Trials this run ran that errored (``status`` failed)."""
     skipped: int = 0
     """Trials already ``ok`` in the output directory (resume)."""
     retried: int = 0
@@ -61,16 +101,22 @@ class SweepSummary:
     not_run: int = 0
     """Trials left out by ``max_trials`` or an interruption."""
     wall_s: float = 0.0
+    outcome: SweepOutcome = field(default_factory=SweepOutcome)
+    """Every trial of the sweep (this run's and earlier runs'): passed, failed checks, errored."""
+    failing: list[dict[str, Any]] = field(default_factory=list)
+    """Rows of the trials that failed their checks or errored, in grid order."""
     table: Path | None = None
     plots: list[Path] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
     def describe(self) -> str:
-        """One line: trials ok/failed/skipped/not run, retries, wall time, rate."""
+        """Two lines: the sweep's outcome; this run's trials, retries, wall time and rate."""
         return (
-            f"trials: {self.ok} ok, {self.failed} failed, {self.skipped} skipped (done before), "
-            f"{self.not_run} not run; {self.retried} retried after a lost worker ({self.retries} "
-            f"retries); {self.wall_s:.1f} s wall, {self.trials_per_min:.1f} trials/min"
+            f"{self.outcome.describe()} (of {self.trials} trials)\n"
+            f"this run: {self.ok} finished, {self.failed} errored, {self.skipped} skipped "
+            f"(done before), {self.not_run} not run; {self.retried} retried after a lost worker "
+            f"({self.retries} retries); {self.wall_s:.1f} s wall, "
+            f"{self.trials_per_min:.1f} trials/min"
         )
 
     @property
@@ -218,6 +264,9 @@ def run_sweep(
         summary.wall_s = time.monotonic() - start
         table = combine(out_dir, (t.trial_id for t in plan.trials))
         summary.table = out_dir / RESULTS_FILE if table is not None else None
+    rows = table.to_pylist() if table is not None else []
+    summary.outcome = SweepOutcome.of_rows(rows, len(plan.trials))
+    summary.failing = [r for r in rows if r.get("status") != "ok" or not r.get("passed")]
     if table is not None:
         summary.plots, summary.warnings = plot_sweep(
             table, plan.spec.grid, plan.spec.x_parameter, plan.spec.metrics, out_dir / "plots"
@@ -252,7 +301,7 @@ def _run(
         disable=console is None,
         transient=False,
     )
-    done = 0
+    done = checks_failed = 0
     try:
         with progress:
             task = progress.add_task("trials", total=len(futures), status="")
@@ -274,13 +323,16 @@ def _run(
                 done += 1
                 summary.ok += row["status"] == "ok"
                 summary.failed += row["status"] != "ok"
+                checks_failed += row["status"] == "ok" and not row["passed"]
                 summary.retried += retries > 0
                 summary.retries += retries
                 if on_row is not None:
                     on_row(row)
-                status = f"ok {summary.ok}"
+                status = f"passed {summary.ok - checks_failed}"
+                if checks_failed:
+                    status += f", [yellow]failed checks {checks_failed}[/yellow]"
                 if summary.failed:
-                    status += f", [red]failed {summary.failed}[/red]"
+                    status += f", [red]errored {summary.failed}[/red]"
                 if summary.retries:
                     status += f", retried {summary.retried}"
                 progress.update(task, advance=1, status=status)

@@ -7,9 +7,11 @@ resumed sweep reads the part files to skip the trials that finished ``ok``.
 
 Columns: ``trial_id``, each grid parameter (its dotted name), ``seed``, ``status`` (``ok`` or
 ``failed``), ``error`` (the traceback; empty when ok), ``retries`` (times a worker died while
-running the trial), ``worker``, ``wall_s``, ``sim_time_s``, ``passed``, ``complete``, then every
-flattened report metric (``fleet.NAME``, float64, null where a trial did not report it; its unit
-in the field's metadata ``unit``).
+running the trial), ``worker``, ``wall_s``, ``sim_time_s``, ``passed``, ``complete``,
+``failed_checks`` (the names of the checks that failed, comma-separated), then every flattened
+report metric (``fleet.NAME``, float64, null where a trial did not report it; its unit in the
+field's metadata ``unit``). A trial with ``status`` ok and ``passed`` false ran but failed its
+checks; ``status`` failed means it errored (raised, or its workers kept dying).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ FIXED_COLUMNS: dict[str, pa.DataType] = {
     "sim_time_s": pa.float64(),
     "passed": pa.bool_(),
     "complete": pa.bool_(),
+    "failed_checks": pa.string(),
 }
 """Columns of every row after ``trial_id`` and the grid parameters."""
 

@@ -150,6 +150,20 @@ def flatten_metrics(report: dict[str, Any]) -> dict[str, float]:
     return out
 
 
+def failed_checks(report: dict[str, Any]) -> list[str]:
+    """Names of the report's checks that did not pass, in report order.
+
+    Kept in the row because a swarm-fidelity trial writes no report.json: without it the table
+    would say that a trial failed its checks but not which.
+    """
+    checks = report.get("checks") or {}
+    return [
+        str(name)
+        for name, check in checks.items()
+        if isinstance(check, dict) and not check.get("ok", True)
+    ]
+
+
 def _worker_name() -> str:
     """The Dask worker running this (its address), or the host's name outside a worker."""
     try:
@@ -174,6 +188,7 @@ def base_row(trial: Trial) -> dict[str, Any]:
         "sim_time_s": math.nan,
         "passed": False,
         "complete": False,
+        "failed_checks": "",
     }
 
 
@@ -194,6 +209,7 @@ def run_trial(trial: Trial, execute: Execute | None = None) -> dict[str, Any]:
         row["sim_time_s"] = float(report.get("sim_time_s", math.nan))
         row["passed"] = bool(report.get("passed", False))
         row["complete"] = bool(report.get("complete", False))
+        row["failed_checks"] = ", ".join(failed_checks(report))
         row |= flatten_metrics(report)
         row[UNITS_KEY] = metric_units(report)
         row["status"] = "ok"

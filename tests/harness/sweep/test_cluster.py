@@ -12,6 +12,7 @@ from harness.cli import app
 from harness.sweep.runner import run_sweep
 from harness.sweep.spec import plan_sweep
 from harness.sweep.table import RESULTS_FILE
+from harness.sweep_cli import EXIT_CHECKS_FAILED
 
 DATA = Path(__file__).with_name("data")
 
@@ -52,12 +53,18 @@ def test_swarmsitl_sweep_runs_on_a_dask_scheduler_and_two_dask_workers(tmp_path)
             app,
             ["sweep", str(DATA / "small_coverage.yaml"), "--scheduler", address, "--out", str(out)],
         )
-    assert result.exit_code == 0, result.output
-    assert "trials: 4 ok, 0 failed, 0 skipped" in result.output
+    # at 60 s the 4-vehicle fleet's companions have no time to fly their strips: they fail the
+    # scenario's companions_succeeded check, which the summary and the exit status report
+    assert result.exit_code == EXIT_CHECKS_FAILED, result.output
+    output = " ".join(result.output.split())
+    assert "results: 2 passed, 2 failed checks, 0 errored, 0 not run (of 4 trials)" in output
+    assert "this run: 4 finished, 0 errored, 0 skipped" in output
     rows = pq.read_table(out / RESULTS_FILE).to_pylist()
     assert [(r["fleet.0.count"], r["seed"]) for r in rows] == [(1, 0), (1, 1), (4, 0), (4, 1)]
     assert all(r["status"] == "ok" and r["duration_s"] == 60 for r in rows)
     assert len({r["worker"] for r in rows}) == 2
     assert all(r["fleet.vehicles"] == r["fleet.0.count"] for r in rows)
+    assert [r["passed"] for r in rows] == [True, True, False, False]
+    assert {r["failed_checks"] for r in rows if not r["passed"]} == {"companions_succeeded"}
     for metric in ("fleet.companions.coverage_fraction", "fleet.energy"):
         assert (out / "plots" / f"{metric}.png").stat().st_size > 10_000

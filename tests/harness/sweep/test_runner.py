@@ -8,7 +8,7 @@ import pytest
 import trial_bodies
 from distributed import Client, LocalCluster
 
-from harness.sweep.runner import run_sweep
+from harness.sweep.runner import SweepOutcome, run_sweep
 from harness.sweep.spec import plan_sweep
 from harness.sweep.table import RESULTS_FILE, TRIALS_DIR, unit_of
 
@@ -64,6 +64,36 @@ def test_a_failing_trial_is_recorded_with_its_traceback_and_the_others_finish(tm
         "fleet.companions.detected.png",
     ]
     assert all(p.stat().st_size > 10_000 for p in summary.plots)
+
+
+def test_the_summary_counts_passed_failed_checks_and_errored_over_the_whole_sweep(tmp_path, client):
+    """Issue 25: a trial whose checks failed is ``ok`` in status but counted as failed checks."""
+    plan = sweep_file(tmp_path)
+    out = tmp_path / "out"
+    body = trial_bodies.checks_fail_for_speed_12_errors_for_100
+    summary = run_sweep(plan, out, client=client, execute=body)
+    # counts 1 and 10 x speeds 8 and 12 x 2 seeds ran; count 100 (4 trials) raised
+    assert summary.outcome == SweepOutcome(passed=4, checks_failed=4, errored=4, missing=0)
+    assert (summary.ok, summary.failed) == (8, 4)
+    assert "results: 4 passed, 4 failed checks, 4 errored, 0 not run" in summary.describe()
+    rows = pq.read_table(out / RESULTS_FILE).to_pylist()
+    failed_checks = [r for r in rows if r["status"] == "ok" and not r["passed"]]
+    assert {r["roles.survey.args.speed_m_s"] for r in failed_checks} == {12}
+    assert {r["failed_checks"] for r in failed_checks} == {"metric fleet.coverage_fraction"}
+    assert {r["trial_id"] for r in summary.failing} == {
+        r["trial_id"] for r in rows if r["status"] != "ok" or not r["passed"]
+    }
+    # a resumed run reruns only the errored trials and still counts the earlier failed checks
+    again = run_sweep(plan, out, client=client, execute=trial_bodies.synthetic_report)
+    assert (again.ok, again.failed, again.skipped) == (4, 0, 8)
+    assert again.outcome == SweepOutcome(passed=8, checks_failed=4, errored=0, missing=0)
+
+
+def test_trials_left_out_by_max_trials_are_counted_as_not_run(tmp_path, client):
+    plan = sweep_file(tmp_path, seeds=1)
+    body = trial_bodies.checks_fail_for_speed_12_errors_for_100
+    summary = run_sweep(plan, tmp_path / "out", client=client, max_trials=3, execute=body)
+    assert summary.outcome == SweepOutcome(passed=2, checks_failed=1, errored=0, missing=3)
 
 
 def test_a_resumed_sweep_runs_only_what_did_not_finish_ok(tmp_path, client):

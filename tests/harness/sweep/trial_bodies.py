@@ -67,3 +67,20 @@ def dies_for_two_vehicles(scenario, seed, run_dir, timeout_wall_s):
     if scenario.spec.n_vehicles == 2:
         os.kill(os.getpid(), signal.SIGKILL)
     return synthetic_report(scenario, seed, run_dir, timeout_wall_s)
+
+
+def checks_fail_for_speed_12_errors_for_100(scenario, seed, run_dir, timeout_wall_s):
+    """Fails a check at 12 m/s, raises with a fleet of 100, else ``synthetic_report``.
+
+    The three outcomes of a trial: passed, ran but failed its checks, errored.
+    """
+    if scenario.spec.n_vehicles == 100:
+        raise RuntimeError("trial body failed on purpose with 100 vehicles")
+    report = synthetic_report(scenario, seed, run_dir, timeout_wall_s)
+    bad = scenario.spec.roles["survey"].args["speed_m_s"] == 12
+    report["checks"] = {
+        "companions_succeeded": {"ok": True, "value": 0},
+        "metric fleet.coverage_fraction": {"ok": not bad, "value": 0.1},
+    }
+    report["passed"] = not bad
+    return report
