@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib.metadata
 import math
 import os
 import signal
@@ -30,7 +31,8 @@ from harness.autopilot_cli import (
     wait_for_autopilots,
 )
 from harness.client_links import parse_udp_out
-from harness.launch import StopFlag, console, default_run_dir, open_simulation
+from harness.endpoint_table import VehicleEndpoints, endpoint_table
+from harness.launch import StopFlag, console, open_simulation, run_dir_of
 from harness.link_options import NO_LINK, check_link_model, describe, links_config
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
@@ -68,8 +70,40 @@ from sitl.vehicles.multirotor import load_airframe
 app = typer.Typer(
     add_completion=False,
     no_args_is_help=True,
-    help="swarmsitl: PyBullet UAV swarm SITL with PX4-flavoured MAVLink autopilots.",
+    help="swarmsitl: PyBullet UAV swarm SITL with PX4-flavoured MAVLink autopilots.\n\n"
+    "Example:  swarmsitl run src/harness/scenarios/city.yaml   (a scenario; `swarmsitl up` for "
+    "vehicles only, `swarmsitl COMMAND --help` for each command)",
 )
+
+
+def installed_version() -> str:
+    """The installed swarmsitl distribution's version (what a bug report should quote)."""
+    try:
+        return importlib.metadata.version("swarmsitl")
+    except importlib.metadata.PackageNotFoundError:  # a source tree on sys.path, not installed
+        return "unknown (not installed)"
+
+
+def _print_version(value: bool) -> None:
+    """``--version``: print ``swarmsitl VERSION`` and exit 0 before any command runs."""
+    if value:
+        typer.echo(f"swarmsitl {installed_version()}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _top_level(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version",
+            callback=_print_version,
+            is_eager=True,
+            help="Print the installed swarmsitl version and exit.",
+        ),
+    ] = False,
+) -> None:
+    """swarmsitl: PyBullet UAV swarm SITL with PX4-flavoured MAVLink autopilots."""
 
 
 def camera_override(
@@ -486,8 +520,9 @@ def up(
     Example:  swarmsitl up -n 2 --lockstep --out runs/ci   (as fast as possible; companions:
     SWARMSITL_CLOCK_FILE=runs/ci/clock python my_companion.py, waits via companion.clock)
 
-    Example:  swarmsitl up -n 3 --params all=tuning.params   (a QGroundControl file, every
-    vehicle; what clients set goes to RUN/client_params.params, which --params takes back)
+    Example:  swarmsitl up -n 3 --params all=examples/params/tuning.params   (a QGroundControl
+    file, every vehicle; what clients set goes to RUN/client_params.params, which --params
+    takes back)
 
     Example:  swarmsitl up --bind 0.0.0.0 --signing-key key.hex   (MAVLink 2 signing on every
     link; key.hex from: openssl rand -hex 32 > key.hex)
@@ -559,7 +594,7 @@ def up(
         )
     setup = world_options(world, launch_area, vehicles, spacing)
     params_load = load_params_or_exit(params, vehicles)
-    run_dir = out or default_run_dir()
+    run_dir = run_dir_of(out)
     net_run = None
     if roles is not None:
         try:
@@ -623,21 +658,8 @@ def up(
         print_external_table(sim, run_dir, "lockstep" if lockstep else f"speed {speed:g}x")
     else:
         title = f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}"
-        table = Table(title=title)
         modelled = link != NO_LINK or (gcs_link != NO_LINK and ports.gcs_port)
-        columns = (
-            "sysid",
-            "airframe",
-            "onboard link",
-            "MAVSDK connects with",
-            "GCS link",
-            *(("link models (onboard / GCS)",) if modelled else ()),
-            *(("serial (uart)",) if serial else ()),
-            *(("UDP out",) if udp_outs else ()),
-            "home lat, lon, alt",
-        )
-        for col in columns:
-            table.add_column(col, no_wrap=True)
+        rows = []
         for i in range(vehicles):
             lat, lon, alt = sim.world.home_geodetic(i)
             gcs = (
@@ -649,18 +671,21 @@ def up(
                 f"{describe(link, links_config(links))} / "
                 f"{describe(gcs_link, links_config(links)) if ports.gcs_port else '-'}"
             )
-            table.add_row(
-                str(i + 1),
-                sim.world.airframes[i].name,
-                f"{bind}:{ports.listen_port(i)} -> {ports.peer_addr}:{ports.sdk_port(i)}",
-                f"udpin://0.0.0.0:{ports.sdk_port(i)}",
-                gcs,
-                *((models,) if modelled else ()),
-                *((f"RUN/{Path(str(sim.serial_ports[i])).name}",) if serial else ()),
-                *((", ".join(d.describe(i) for d in udp_outs),) if udp_outs else ()),
-                f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
+            rows.append(
+                VehicleEndpoints(
+                    sysid=i + 1,
+                    airframe=sim.world.airframes[i].name,
+                    onboard=f"{bind}:{ports.listen_port(i)} -> "
+                    f"{ports.peer_addr}:{ports.sdk_port(i)}",
+                    mavsdk=f"udpin://0.0.0.0:{ports.sdk_port(i)}",
+                    gcs=gcs,
+                    home=f"{lat:.6f}, {lon:.6f}, {alt:.1f}",
+                    models=models if modelled else None,
+                    serial=f"RUN/{Path(str(sim.serial_ports[i])).name}" if serial else None,
+                    udp_out=", ".join(d.describe(i) for d in udp_outs) if udp_outs else None,
+                )
             )
-        console.print(table)
+        console.print(endpoint_table(console, title, rows))  # fits the terminal, URLs whole
     if key is not None:
         console.print(
             "MAVLink 2 signing: every link signs its frames and accepts only frames signed with "
@@ -865,7 +890,7 @@ def first_flight(
     """
     from harness.report import demo_metrics, plot_trajectory, write_report
 
-    run_dir = out or default_run_dir()
+    run_dir = run_dir_of(out)
     ports = PortPlan(sdk_base=sdk_port, listen_base=listen_port, gcs_port=0)
     cfg = SimulationConfig(n_vehicles=1, seed=seed, ports=ports, out_dir=run_dir)
     sim = open_simulation(cfg)

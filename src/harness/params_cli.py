@@ -17,7 +17,8 @@ from harness.simulation import Simulation, SimulationConfig
 
 params_app = typer.Typer(
     no_args_is_help=True,
-    help="The autopilot's parameters as QGroundControl .params files (docs/cli.md).",
+    help="The autopilot's parameters as QGroundControl .params files (docs/cli.md).\n\n"
+    "Example:  swarmsitl params dump -n 3 --params all=examples/params/tuning.params",
 )
 
 
@@ -92,7 +93,8 @@ def dump(
 
     Example:  swarmsitl params dump -n 3 --frame typhoon_h480,x500,x500 --sysid 2 -o x500.params
 
-    Example:  swarmsitl params dump --params all=tuning.params   (the merged result, to stdout)
+    Example:  swarmsitl params dump --params all=examples/params/tuning.params   (the merged
+    result, to stdout)
     """
     frames = parse_frames(frame, vehicles)
     if sysid is not None and sysid > vehicles:

@@ -36,10 +36,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import pybullet as p
 
 import worlds
 from harness.run_manifest import MANIFEST_FILE, ManifestError, RunManifest, read_manifest
+from sitl.physics.bullet_import import pybullet as p
 from sitl.physics.moving_solids import MovingSolids
 from sitl.physics.obstacles import add_solids
 from sitl.vehicles.multirotor import load_airframe

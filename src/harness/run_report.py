@@ -187,7 +187,7 @@ def write_run_report(
         vehicles[v.name] = metrics
     report |= {"vehicles": vehicles, "fleet": fleet_metrics(log)}
     try:
-        report["files"] = _write_outputs(run_dir, log, world, spawns)
+        report["files"] = _write_outputs(run_dir, log, world, spawns, extra.get("seed"))
     except Exception as exc:  # a failed plot must not cost the report
         report["files"] = []
         warnings.append(f"time series or plots not written: {exc!r}")
@@ -202,8 +202,12 @@ def _write_outputs(
     log: FlightLog,
     world: worlds.World | None,
     spawns: np.ndarray,
+    seed: int | None = None,
 ) -> list[str]:
-    """Time-series CSVs and plots; the paths written, relative to ``run_dir``."""
+    """Time-series CSVs and plots; the paths written, relative to ``run_dir``.
+
+    ``seed`` is the run's seed, for the map's title (the world's own seed is another number).
+    """
     written = []
     series_dir = run_dir / "timeseries"
     series_dir.mkdir(exist_ok=True)
@@ -226,7 +230,7 @@ def _write_outputs(
         written.append(str(path.relative_to(run_dir)))
     plots = run_dir / "plots"
     plots.mkdir(exist_ok=True)
-    plot_map(plots / "map.png", log, world)
+    plot_map(plots / "map.png", log, world, seed)
     plot_errors(plots / "errors.png", log, errors)
     plot_battery(plots / "battery.png", log)
     written += [f"plots/{name}" for name in ("map.png", "errors.png", "battery.png")]
@@ -357,43 +361,97 @@ def _draw_world(ax: Axes, world: worlds.World) -> None:
         )
 
 
-def plot_map(path: Path, log: FlightLog, world: worlds.World | None) -> None:
+MAP_MARGIN_FRACTION = 0.15
+"""Margin of the map around the tracks, as a fraction of their larger extent."""
+MAP_MARGIN_MIN_M = 10.0
+"""Smallest margin around the tracks, m: a hover or a 20 m hop still shows its surroundings."""
+
+
+def plot_map(
+    path: Path, log: FlightLog, world: worlds.World | None, seed: int | None = None
+) -> None:
     """PNG: :func:`draw_map`."""
     fig, (ax,) = _figure((10.5, 8.0))
-    draw_map(ax, log, world)
+    draw_map(ax, log, world, seed)
     _save(fig, path)
 
 
-def draw_map(ax: Axes, log: FlightLog, world: worlds.World | None) -> None:
-    """Top view of every vehicle's true trajectory over the world map (or a plain plane)."""
+def draw_map(ax: Axes, log: FlightLog, world: worlds.World | None, seed: int | None = None) -> None:
+    """Top view of every vehicle's true trajectory over the world map (or a plain plane).
+
+    The axes frame the tracks (:func:`track_window`), not the whole world: a 20 m flight over a
+    2 km city would otherwise be a speck. World features inside the window are drawn; ``seed``
+    (the run's seed) goes into the title.
+    """
     if world is not None:
         _draw_world(ax, world)
+    east, north = [], []
     for v in log.vehicles:
         if len(v.track) == 0:
             continue
         e, n = v.track["east_m"], v.track["north_m"]
+        east.append(e)
+        north.append(n)
         (line,) = ax.plot(e, n, lw=1.3, label=v.name)
         ax.plot(e[:1], n[:1], "o", color=line.get_color(), ms=5)
         ax.plot(e[-1:], n[-1:], "x", color=line.get_color(), ms=7)
-    _map_axes(ax, world, "trajectories (truth; o start, x end)")
+    window = track_window(np.concatenate(east), np.concatenate(north)) if east else None
+    _map_axes(ax, world, "trajectories (truth; o start, x end)", seed, window)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
 
 
-def _map_axes(ax: Axes, world: worlds.World | None, what: str) -> None:
-    """Equal axes in metres, grid, and a title naming ``what`` is drawn over which world."""
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.autoscale_view()
+def track_window(
+    east_m: np.ndarray, north_m: np.ndarray
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """(east, north) axis limits framing the track points with a margin; None: no finite point.
+
+    The margin is :data:`MAP_MARGIN_FRACTION` of the tracks' larger extent, at least
+    :data:`MAP_MARGIN_MIN_M`, so the map shows what the vehicles flew among.
+    """
+    east_m, north_m = np.asarray(east_m, dtype=float), np.asarray(north_m, dtype=float)
+    finite = np.isfinite(east_m) & np.isfinite(north_m)
+    if not finite.any():
+        return None
+    e, n = east_m[finite], north_m[finite]
+    extent = max(float(np.ptp(e)), float(np.ptp(n)))
+    margin = max(MAP_MARGIN_FRACTION * extent, MAP_MARGIN_MIN_M)
+    return (
+        (float(e.min()) - margin, float(e.max()) + margin),
+        (float(n.min()) - margin, float(n.max()) + margin),
+    )
+
+
+def _map_axes(
+    ax: Axes,
+    world: worlds.World | None,
+    what: str,
+    seed: int | None = None,
+    window: tuple[tuple[float, float], tuple[float, float]] | None = None,
+) -> None:
+    """Equal axes in metres over ``window`` (None: all drawn), grid, and a title.
+
+    The title names ``what`` is drawn, over which world, and the run's ``seed`` if given.
+    """
+    ax.set_aspect("equal", adjustable="datalim")  # widens one axis: the window stays in view
+    if window is None:
+        ax.autoscale_view()
+    else:  # auto=None: the equal aspect may still widen the limits (no "fixed limits" warning)
+        ax.set_xlim(*window[0], auto=None)
+        ax.set_ylim(*window[1], auto=None)
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.grid(True, alpha=0.3)
-    title = f"{world.kind} world (seed {world.seed})" if world is not None else "plain plane"
-    ax.set_title(f"{what} over {title}")
+    title = f"{what} over {f'{world.kind} world' if world is not None else 'a plain plane'}"
+    ax.set_title(title if seed is None else f"{title}, run seed {seed}")
 
 
-def plot_tracks(path: Path, position_enu_m: np.ndarray, world: worlds.World | None) -> None:
+def plot_tracks(
+    path: Path, position_enu_m: np.ndarray, world: worlds.World | None, seed: int | None = None
+) -> None:
     """PNG: top view of (T, N, 3) sampled positions over the world (swarm-scale runs).
 
-    One line collection for the fleet, so a thousand vehicles draw as fast as ten.
+    One line collection for the fleet, so a thousand vehicles draw as fast as ten. The axes
+    frame the tracks (:func:`track_window`); ``seed`` (the run's seed) goes into the title.
     """
     from matplotlib.collections import LineCollection
 
@@ -406,7 +464,8 @@ def plot_tracks(path: Path, position_enu_m: np.ndarray, world: worlds.World | No
                                      array=np.arange(n, dtype=float)))  # fmt: skip
     if len(tracks) and tracks.shape[1]:
         ax.plot(tracks[:, 0, 0], tracks[:, 0, 1], "k.", ms=2)
-    _map_axes(ax, world, f"{n} kinematic vehicles (colour: vehicle index; . start)")
+    window = track_window(tracks[..., 0].ravel(), tracks[..., 1].ravel()) if tracks.size else None
+    _map_axes(ax, world, f"{n} kinematic vehicles (colour: vehicle index; . start)", seed, window)
     _save(fig, path)
 
 

@@ -357,7 +357,7 @@ def _write_outputs(report: dict, scenario: Scenario, engine: SwarmEngine, out: P
         report["files"].append("world.yaml")
     try:
         (out / "plots").mkdir(exist_ok=True)
-        plot_tracks(out / "plots" / "map.png", tracks, scenario.world)
+        plot_tracks(out / "plots" / "map.png", tracks, scenario.world, report.get("seed"))
         report["files"].append("plots/map.png")
     except Exception as exc:  # a failed plot must not cost the report
         report["warnings"].append(f"plots/map.png not written: {exc!r}")

@@ -901,7 +901,7 @@ def profile(
         ``step``: ``World.step`` alone; ``step+poll``: with ``poll_sensors`` after each step;
         ``pybullet``: ``stepSimulation`` alone on the same bodies in free fall (the floor).
     """
-    import pybullet as p  # only the profiler calls PyBullet directly
+    from sitl.physics.bullet_import import pybullet as p  # only the profiler calls it directly
 
     # Wind tips an open-loop hover over within the 2 s: start high enough not to land.
     height_m = 10.0 if wind is None else 100.0

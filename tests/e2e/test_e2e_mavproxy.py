@@ -8,6 +8,10 @@ seen by a raw pymavlink client listening in parallel (HEARTBEAT custom_mode and 
 GLOBAL_POSITION_INT, EXTENDED_SYS_STATE, and the uploaded lists read back with
 MISSION_REQUEST_LIST). The tests run in file order on one vehicle.
 
+Mode changes use the ``long DO_SET_MODE 1 MAIN SUB`` commands of the table in docs/cli.md
+("MAVProxy as the ground station"), read from the file: MAVProxy's own ``mode NAME`` cannot reach
+a PX4 vehicle (see :func:`test_mode_by_name_fails_as_documented`).
+
 MAVProxy talks to a PX4 autopilot the way it does to PX4 SITL: the vehicle's ground-station
 link (PX4's normal stream profile) streams from ``--gcs-listen-port`` to ``--gcs-port``, and
 MAVProxy (``--master=udpin:127.0.0.1:<port>``) answers to where the stream comes from. The raw
@@ -17,10 +21,13 @@ MAVProxy changes must show there too.
 
 from __future__ import annotations
 
+import math
 import re
+from functools import cache
 
 import pytest
 from e2e_support import (
+    REPO_ROOT,
     SPEED,
     MavProxy,
     RawLink,
@@ -40,12 +47,43 @@ ACK_WAIT_S = 10.0
 """Wall seconds for an acknowledgement (40 simulated seconds at SPEED 4)."""
 HOME_LAT, HOME_LON = 47.397742, 8.545594
 """Vehicle 1's home (PX4 SITL's, as ``swarmsitl up`` spawns it)."""
+DOCS = REPO_ROOT / "docs" / "cli.md"
+DOCS_SECTION = "### MAVProxy as the ground station"
+DOCS_ROW = re.compile(
+    r"^\| [^|`]*\(`(\w+)`\) \| `(long DO_SET_MODE (\d+) (\d+) (\d+))` \| (0x[0-9A-Fa-f]{8}) \|$",
+    re.MULTILINE,
+)
+"""A row of the mode table: | Land (`LAND`) | `long DO_SET_MODE 1 4 6` | 0x06040000 |"""
+EARTH_RADIUS_M = 6371000.0
 
 
 def px4_custom_mode(name: str) -> int:
     """HEARTBEAT.custom_mode of PX4 mode ``name`` as MAVProxy maps it (pymavlink ``px4_map``)."""
     _, main, sub = mavutil.px4_map[name]
     return (main << 16) | (sub << 24)
+
+
+@cache
+def documented_rows() -> dict[str, re.Match]:
+    """The rows of docs/cli.md's MAVProxy mode table, by MAVProxy mode name."""
+    text = DOCS.read_text()
+    assert DOCS_SECTION in text, f"{DOCS} has no section {DOCS_SECTION!r}"
+    section = text.split(DOCS_SECTION, 1)[1].split("\n## ", 1)[0]
+    return {row.group(1): row for row in DOCS_ROW.finditer(section)}
+
+
+def documented_command(name: str) -> str:
+    """The MAVProxy command docs/cli.md gives for PX4 mode ``name``, e.g. long DO_SET_MODE 1 4 6."""
+    rows = documented_rows()
+    assert name in rows, f"{DOCS} ({DOCS_SECTION}) gives no command for {name}: {sorted(rows)}"
+    return rows[name].group(2)
+
+
+def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    """Horizontal distance between two nearby points (degrees), flat-earth."""
+    north = math.radians(lat2 - lat1) * EARTH_RADIUS_M
+    east = math.radians(lon2 - lon1) * EARTH_RADIUS_M * math.cos(math.radians(lat1))
+    return math.hypot(north, east)
 
 
 # --- fixtures --------------------------------------------------------------------------------
@@ -145,20 +183,40 @@ def command_ack(mp: MavProxy, command: str, since: int) -> str:
 
 
 def set_mode(mp: MavProxy, name: str) -> str:
-    """``mode NAME``; returns the DO_SET_MODE result MAVProxy printed.
+    """The documented command for PX4 mode ``name``; returns the DO_SET_MODE result printed.
 
-    With MAVProxy 1.8.75 / pymavlink 2.4.50 ``mode NAME`` cannot reach a PX4 vehicle: ModeModule
-    hands the ``px4_map`` tuple to ``set_mode_px4``, which expects a name, and MAVProxy prints
-    "ERROR in command [...]: required argument is not a float". Then the same DO_SET_MODE
-    (base mode, PX4 main mode, sub mode from ``px4_map``) goes out through MAVProxy's ``long``.
+    ``long DO_SET_MODE 1 MAIN SUB`` as docs/cli.md gives it, not ``mode NAME``: with MAVProxy
+    1.8.75 / pymavlink 2.4.50 ModeModule hands the ``px4_map`` tuple to ``set_mode_px4``, which
+    packs it as param1 and fails ("required argument is not a float"), sending nothing.
     """
-    mark = mp.send(f"mode {name}")
-    found = mp.wait_for(r"Got COMMAND_ACK: DO_SET_MODE: (\w+)|ERROR in command", mark, ACK_WAIT_S)
-    if found.group(1) is not None:
-        return found.group(1)
-    base, main, sub = mavutil.px4_map[name]
-    mark = mp.send(f"long DO_SET_MODE {base} {main} {sub}")
+    mark = mp.send(documented_command(name))
     return command_ack(mp, "DO_SET_MODE", mark)
+
+
+def wait_position(lk: RawLink, mp: MavProxy, predicate, what: str, timeout_s: float):
+    """First GLOBAL_POSITION_INT with ``predicate(lat_deg, lon_deg, relative_alt_m)``."""
+    lk.drain()
+    msg = lk.wait_for(
+        lambda m: (
+            m.get_type() == "GLOBAL_POSITION_INT"
+            and predicate(m.lat * 1e-7, m.lon * 1e-7, m.relative_alt / 1000.0)
+        ),
+        timeout_s,
+    )
+    if msg is None:
+        mp.fail(f"vehicle never {what} within {timeout_s} s")
+    return msg
+
+
+def set_param(mp: MavProxy, name: str, value: float) -> None:
+    """``param set NAME VALUE``, confirmed by reading it back with ``param fetch NAME``."""
+    mp.send(f"param set {name} {value}")
+    for _ in range(3):
+        mark = mp.send(f"param fetch {name}")
+        found = mp.wait_for(rf"{name} = ([-\d.]+)", mark, ACK_WAIT_S)
+        if float(found.group(1)) == pytest.approx(value):
+            return
+    mp.fail(f"{name} did not become {value}")
 
 
 def arm(mp: MavProxy, lk: RawLink) -> None:
@@ -207,6 +265,20 @@ def qgc_wpl(items: list[tuple]) -> str:
 
 
 # --- the tests, in flight order --------------------------------------------------------------
+
+
+def test_documented_mode_commands_are_px4s():
+    """docs/cli.md's MAVProxy mode table: each ``long DO_SET_MODE`` row is base mode 1
+    (CUSTOM_MODE_ENABLED) with the main and sub mode pymavlink's ``px4_map`` gives that name, and
+    its custom_mode column is the HEARTBEAT value; LAND, RTL, TAKEOFF and LOITER are there."""
+    rows = documented_rows()
+    assert {"LAND", "RTL", "TAKEOFF", "LOITER"} <= rows.keys(), sorted(rows)
+    for name, row in rows.items():
+        _, base, main, sub, custom_mode = row.groups()[1:]
+        _, px4_main, px4_sub = mavutil.px4_map[name]
+        assert int(base) == mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, row.group(0)
+        assert (int(main), int(sub)) == (px4_main, px4_sub), row.group(0)
+        assert int(custom_mode, 16) == px4_custom_mode(name), row.group(0)
 
 
 def test_connect_does_not_report_a_fence_breach(mavproxy, link):
@@ -273,6 +345,82 @@ def test_takeoff_below_home_climbs_to_the_minimum_takeoff_altitude(mavproxy, lin
         mark = mavproxy.send("takeoff 10")
         assert command_ack(mavproxy, "NAV_TAKEOFF", mark) == "ACCEPTED", mavproxy.tail()
         wait_relative_alt(link, mavproxy, 1.5, timeout_s=40 / SPEED + 5)
+    finally:
+        land_and_disarm(mavproxy, link)
+
+
+def test_documented_takeoff_then_return_flies_home(mavproxy, link):
+    """docs/cli.md's flight: ``long DO_SET_MODE 1 4 2`` (Takeoff) climbs to MIS_TAKEOFF_ALT (set
+    to 10 m with ``param set``) and switches to Hold; ``guided`` flies 33 m north; ``long
+    DO_SET_MODE 1 4 5`` (Return) shows in HEARTBEAT, flies back, lands within 2 m of the take-off
+    point and disarms."""
+    start = wait_position(link, mavproxy, lambda *_: True, "sent GLOBAL_POSITION_INT", 10)
+    home = (start.lat * 1e-7, start.lon * 1e-7)
+    set_param(mavproxy, "MIS_TAKEOFF_ALT", 10.0)
+    try:
+        arm(mavproxy, link)
+        try:
+            assert set_mode(mavproxy, "TAKEOFF") == "ACCEPTED", mavproxy.tail()
+            takeoff = px4_custom_mode("TAKEOFF")
+            wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == takeoff, "TAKEOFF")
+            wait_relative_alt(link, mavproxy, 8.0, timeout_s=60 / SPEED + 10)
+            loiter = px4_custom_mode("LOITER")
+            wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == loiter, "LOITER", 20)
+
+            mark = mavproxy.send(f"guided {home[0] + 0.0003:.7f} {home[1]:.7f} 10")
+            assert command_ack(mavproxy, "DO_REPOSITION", mark) == "ACCEPTED", mavproxy.tail()
+            wait_position(
+                link,
+                mavproxy,
+                lambda lat, lon, _: distance_m(*home, lat, lon) > 25.0,
+                "flew 25 m from home",
+                60 / SPEED + 10,
+            )
+
+            assert set_mode(mavproxy, "RTL") == "ACCEPTED", mavproxy.tail()
+            rtl = px4_custom_mode("RTL")
+            wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == rtl, "RTL")
+            disarmed = wait_heartbeat(
+                link,
+                mavproxy,
+                lambda m: not m.base_mode & ARMED_FLAG,
+                "disarmed after the return",
+                150 / SPEED + 15,
+            )
+            assert disarmed.custom_mode == rtl
+            landed = wait_position(link, mavproxy, lambda *_: True, "sent GLOBAL_POSITION_INT", 10)
+            off_m = distance_m(*home, landed.lat * 1e-7, landed.lon * 1e-7)
+            assert off_m < 2.0, f"landed {off_m:.1f} m from the take-off point"
+            assert abs(landed.relative_alt / 1000.0) < 0.5, str(landed)
+        finally:
+            land_and_disarm(mavproxy, link)
+    finally:
+        set_param(mavproxy, "MIS_TAKEOFF_ALT", 2.5)
+
+
+def test_documented_land_lands_and_disarms(mavproxy, link):
+    """``long DO_SET_MODE 1 4 2`` (Takeoff, to 2.5 m) then ``long DO_SET_MODE 1 4 6`` (Land):
+    HEARTBEAT shows LAND, the vehicle descends, reports ON_GROUND and disarms."""
+    arm(mavproxy, link)
+    try:
+        assert set_mode(mavproxy, "TAKEOFF") == "ACCEPTED", mavproxy.tail()
+        wait_relative_alt(link, mavproxy, 2.0, timeout_s=40 / SPEED + 5)
+        loiter = px4_custom_mode("LOITER")
+        wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == loiter, "LOITER", 20)
+
+        assert set_mode(mavproxy, "LAND") == "ACCEPTED", mavproxy.tail()
+        land = px4_custom_mode("LAND")
+        wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == land, "LAND")
+        disarmed = wait_heartbeat(
+            link,
+            mavproxy,
+            lambda m: not m.base_mode & ARMED_FLAG,
+            "disarmed after landing",
+            60 / SPEED + 15,
+        )
+        assert disarmed.custom_mode == land
+        ext = link.wait_for(lambda m: m.get_type() == "EXTENDED_SYS_STATE", 10)
+        assert ext is not None and ext.landed_state == mavlink2.MAV_LANDED_STATE_ON_GROUND
     finally:
         land_and_disarm(mavproxy, link)
 

@@ -1,20 +1,98 @@
 """Every CLI command documents itself with an example."""
 
+import re
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
+import typer
 from typer.testing import CliRunner
 
 from harness.cli import app
 
+REPO = Path(__file__).resolve().parents[2]
+FILE_SUFFIXES = (".yaml", ".yml", ".csv", ".params", ".json", ".hex", ".tlog", ".npz", ".txt")
+"""Tokens ending so name a file."""
+OUTPUT_OPTIONS = ("-o", "--out", "--output", "--video")
+"""Options whose value a command writes: it need not exist."""
 
-@pytest.mark.parametrize(
-    "args",
-    [["--help"], ["up", "--help"], ["demo", "--help"], ["cloud", "--help"], ["net-demo", "--help"]],
-)
-def test_help_has_example(args):
-    result = CliRunner().invoke(app, args)
-    assert result.exit_code == 0
-    if args != ["--help"]:
-        assert "Example:" in result.output
+
+def _commands(command=None, path=()):
+    """(argv prefix, click command) of the app and of every command and sub-app below it."""
+    command = typer.main.get_command(app) if command is None else command
+    yield list(path), command
+    for name, sub in getattr(command, "commands", {}).items():
+        yield from _commands(sub, (*path, name))
+
+
+COMMANDS = list(_commands())
+IDS = [" ".join(path) or "swarmsitl" for path, _ in COMMANDS]
+
+
+def example_files(help_text):
+    """File paths named as inputs in the help's ``Example:`` lines.
+
+    Left out: an output option's value, anything under runs/ (run directories, written by an
+    earlier command) and a file the example's own note writes (``> key.hex``). The note after
+    `` (`` is prose; the command before it is checked.
+    """
+    paths = []
+    for paragraph in help_text.split("\n\n"):
+        paragraph = " ".join(paragraph.split())
+        if not paragraph.startswith("Example:"):
+            continue
+        command, _, note = paragraph.removeprefix("Example:").partition(" (")
+        written = {path.rstrip(").,;") for path in re.findall(r">\s*(\S+)", note)}
+        tokens = command.split()
+        for before, token in zip(["", *tokens], tokens, strict=False):
+            name = re.split("[=,]", token)[-1].strip("'\"")
+            if not name.endswith(FILE_SUFFIXES) or before in OUTPUT_OPTIONS:
+                continue
+            if name.startswith("runs/") or name in written:
+                continue
+            paths.append(name)
+    return paths
+
+
+@pytest.mark.parametrize(("args", "command"), COMMANDS, ids=IDS)
+def test_every_command_has_an_example_naming_real_files(args, command):
+    result = CliRunner().invoke(app, [*args, "--help"])
+    assert result.exit_code == 0, result.output
+    assert "Example:" in result.output
+    missing = [p for p in example_files(command.help or "") if not (REPO / p).exists()]
+    assert not missing, f"swarmsitl {' '.join(args)} --help: examples name missing {missing}"
+
+
+def test_example_files_finds_inputs_and_skips_outputs():
+    """The check above can fail: a made-up input is found, outputs and run files are not."""
+    text = (
+        "Intro.\n\nExample:  swarmsitl run my_scenario.yaml -o out.params --out runs/x\n\n"
+        "Example:  swarmsitl up --params all=tuning.params --net runs/x/net.yaml   (key.hex\n"
+        "from: openssl rand -hex 32 > key.hex)\n\n"
+        "Example:  swarmsitl up --signing-key key.hex   (key.hex from: openssl > key.hex)"
+    )
+    assert example_files(text) == ["my_scenario.yaml", "tuning.params"]
+
+
+def test_version_prints_the_installed_distribution_version():
+    from importlib.metadata import version
+
+    result = CliRunner().invoke(app, ["--version"])
+    assert result.exit_code == 0, result.output
+    assert result.output.strip() == f"swarmsitl {version('swarmsitl')}"
+
+
+def test_the_cli_prints_no_pybullet_banner():
+    """PyBullet's C extension prints its build time on import; the CLI silences it."""
+    result = subprocess.run(
+        [sys.executable, "-c", "from harness.cli import main; main()", "--help"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert "Usage:" in result.stdout
+    assert "pybullet build time" not in result.stdout + result.stderr
 
 
 def test_up_rejects_bad_vehicle_count():

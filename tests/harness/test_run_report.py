@@ -202,3 +202,65 @@ def test_summary_table_shows_vehicles_and_fleet(run):
     assert "60 m" in out  # distance flown
     assert "min separation 6.0 m (vehicle1 / vehicle2" in out
     assert "failsafe texts: 1" in out
+
+
+def _drawn_map(run_dir, world, seed):
+    """The map's axes after drawing (limits settled by the equal aspect)."""
+    from harness.flight_log import FlightLog
+    from harness.run_report import _figure, draw_map
+
+    fig, (ax,) = _figure((10.5, 8.0))
+    draw_map(ax, FlightLog.load(run_dir, require_tlogs=False), world, seed)
+    fig.canvas.draw()
+    return ax
+
+
+def test_the_map_frames_a_small_flight_not_the_whole_world(run):
+    run_dir, tracks = run
+    world = worlds.build(worlds.load_world(example_path("city")))
+    ax = _drawn_map(run_dir, world, 42)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    for tr in tracks:
+        assert x0 < tr["east_m"].min() and tr["east_m"].max() < x1
+        assert y0 < tr["north_m"].min() and tr["north_m"].max() < y1
+    minx, miny, maxx, maxy = world.boundary.bounds
+    # A 26 m x 20 m flight: the view is tens of metres, the city hundreds.
+    assert max(x1 - x0, y1 - y0) < 0.25 * min(maxx - minx, maxy - miny)
+    assert min(x1 - x0, y1 - y0) >= 26.0
+
+
+def test_the_map_title_carries_the_runs_seed_not_the_worlds(run, monkeypatch):
+    import harness.run_report as run_report
+
+    run_dir, _ = run
+    world = worlds.build(worlds.load_world(example_path("city")))
+    assert world.seed != 42
+    title = _drawn_map(run_dir, world, 42).get_title()
+    assert "run seed 42" in title and f"seed {world.seed}" not in title
+    seeds = []
+    monkeypatch.setattr(run_report, "plot_map", lambda path, log, world, seed: seeds.append(seed))
+    write_run_report(run_dir, world, None, {"seed": 42})
+    assert seeds == [42]
+
+
+def test_a_swarm_map_frames_its_tracks(tmp_path, offshore, monkeypatch):
+    import harness.run_report as run_report
+
+    # Three vehicles flying 30 m east, 5 m apart, 100 samples: (T, N, 3).
+    t = np.linspace(0.0, 1.0, 100)[:, None]
+    east = 30.0 * t + np.arange(3) * 5.0
+    tracks = np.stack((east, np.full_like(east, 2.0), np.full_like(east, 10.0)), axis=-1)
+    drawn = []
+
+    def keep(fig, path):
+        fig.canvas.draw()
+        drawn.append(fig.axes[0])
+
+    monkeypatch.setattr(run_report, "_save", keep)
+    run_report.plot_tracks(tmp_path / "map.png", tracks, offshore, 5)
+    (ax,) = drawn
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert x0 < 0.0 and x1 > 40.0 and y0 < 2.0 < y1
+    minx, _, maxx, _ = offshore.boundary.bounds
+    assert x1 - x0 < 0.5 * (maxx - minx)
+    assert "run seed 5" in ax.get_title()

@@ -29,10 +29,10 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 import shapely
 
 import worlds
+from sitl.physics.bullet_import import pybullet as p
 from sitl.physics.moving_solids import MovingSolids
 from sitl.physics.obstacles import add_solids
 from sitl.physics.spills import OilSpills, add_people

@@ -12,8 +12,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-import pybullet as p
 
+from sitl.physics.bullet_import import pybullet as p
 from sitl.physics.earth import GRAVITY_M_S2
 from sitl.physics.state_kernel import complete_state, wrench_to_world
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import pybullet as p
 
+from sitl.physics.bullet_import import pybullet as p
 from worlds import Solid
 from worlds.model import bounce
 

@@ -11,8 +11,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import pybullet as p
-
+from sitl.physics.bullet_import import pybullet as p
 from worlds import Solid
 
 

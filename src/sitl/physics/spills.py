@@ -16,9 +16,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-import pybullet as p
 import shapely
 
+from sitl.physics.bullet_import import pybullet as p
 from sitl.physics.obstacles import CylinderObstacle, add_cylinders
 from worlds import OilSpill, Person
 

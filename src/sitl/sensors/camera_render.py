@@ -17,9 +17,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-import pybullet as p
 
 from sitl.clock import rate_divisor
+from sitl.physics.bullet_import import pybullet as p
 from sitl.sensors.camera import (
     SKY_RGB,
     CameraFrame,

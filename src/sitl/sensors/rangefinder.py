@@ -40,9 +40,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 
 import numpy as np
-import pybullet as p
 
 from sitl.clock import rate_divisor
+from sitl.physics.bullet_import import pybullet as p
 
 RINGS = 2
 """Rings of rays around the centre ray (the outer one on the cone's edge)."""
