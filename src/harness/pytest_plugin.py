@@ -8,7 +8,8 @@ Installed with swarmsitl (entry point ``pytest11``), so any test suite gets the 
 * ``swarmsitl_fleet``: a function that starts ``swarmsitl up`` (vehicles on a world, paced or
   lockstep) and returns a :class:`Fleet` with each vehicle's connection URL; the test runs its own
   companion code against them, then ``fleet.stop()`` returns the flight log;
-* ``swarmsitl_ports``: free port bases for this test (two tests may run at once).
+* ``swarmsitl_ports``: free port bases for this test (two tests may run at once: under
+  pytest-xdist each worker draws from its own slice of ports).
 
 Waits and windows are in simulation time; nothing here asserts wall-clock timings. The module
 imports nothing heavy at start-up (pytest loads it in every session): the simulator's packages
@@ -223,7 +224,10 @@ class Fleet(_Checks):
 
 @pytest.fixture
 def swarmsitl_ports() -> RunPorts:
-    """Free port bases for this test."""
+    """Free port bases for this test, from this xdist worker's own slice of ports.
+
+    Two tests on two workers never get the same ports (:func:`harness.run_ports.free_ports`).
+    """
     return free_ports()
 
 

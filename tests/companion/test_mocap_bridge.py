@@ -14,6 +14,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 from companion import mocap_wire
 from companion.scripts import mocap_bridge
 from harness.mocap_publisher import MocapPublisher
+from harness.run_ports import free_port_block
 from sitl.sensors.mocap import MocapSample
 
 YAW = 0.7
@@ -21,9 +22,8 @@ Q_YAW = (math.cos(YAW / 2), 0.0, 0.0, math.sin(YAW / 2))
 
 
 def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    """A port nobody holds, from the suite's allocator (this xdist worker's own slice)."""
+    return free_port_block()
 
 
 def test_datagram_round_trip():

@@ -10,8 +10,8 @@ from companion.scenario_env import ScenarioEnv, ScenarioEnvError
 
 def full_env(tmp_path: Path) -> ScenarioEnv:
     return ScenarioEnv(
-        mavlink_url="udpin://0.0.0.0:14541",
-        grpc_port=50052,
+        mavlink_url="udpin://0.0.0.0:14541",  # port-literal: vehicle 2's default, not bound
+        grpc_port=50052,  # port-literal: MAVSDK's default for vehicle 2, not bound
         vehicle=2,
         vehicles=3,
         role="survey",
@@ -21,7 +21,7 @@ def full_env(tmp_path: Path) -> ScenarioEnv:
         out_dir=tmp_path / "vehicle2",
         world=tmp_path / "world.yaml",
         origin=(47.397742, 8.545594, 488.0),
-        video_uri="http://127.0.0.1:5601/video.mjpg",
+        video_uri="http://127.0.0.1:5601/video.mjpg",  # port-literal: a default, not bound
         duration_s=120.0,
         params={"altitude_m": 30, "area": [[0, 0], [10, 0], [10, 10]]},
     )
@@ -35,15 +35,19 @@ def test_round_trip_through_the_environment(tmp_path):
 
 
 def test_pymavlink_url_is_the_same_port(tmp_path):
-    assert full_env(tmp_path).pymavlink_url == "udpin:0.0.0.0:14541"
+    url = "udpin:0.0.0.0:14541"  # port-literal: vehicle 2's default, not bound
+    assert full_env(tmp_path).pymavlink_url == url
 
 
 def test_optional_fields_absent(tmp_path):
     env = ScenarioEnv.from_env(
-        {"SWARMSITL_MAVLINK_URL": "udpin://0.0.0.0:14540", "SWARMSITL_VEHICLE": "1"}
+        {
+            "SWARMSITL_MAVLINK_URL": "udpin://0.0.0.0:14540",  # port-literal: PX4's default
+            "SWARMSITL_VEHICLE": "1",
+        }
     )
     assert (env.world, env.origin, env.video_uri, env.params, env.duration_s) == (None,) * 5
-    assert env.grpc_port == 50051  # 50050 + sysid, MAVSDK's default for vehicle 1
+    assert env.grpc_port == 50051  # port-literal: 50050 + sysid, MAVSDK's default for vehicle 1
 
 
 @pytest.mark.parametrize(

@@ -15,13 +15,14 @@ from e2e_support import module_ports, running_swarm
 
 pytestmark = [pytest.mark.e2e, pytest.mark.conformance]
 
-SLOTS = {"classic": 15, "native": 16}
+APIS = ("classic", "native")
+"""The client APIs the suite runs (each run on its own block of ports from module_ports)."""
 
 
-@pytest.fixture(scope="module", params=list(SLOTS))
+@pytest.fixture(scope="module", params=APIS)
 def run(request, tmp_path_factory) -> Run:
     api = request.param
-    ports = module_ports(SLOTS[api])
+    ports = module_ports()
     out = tmp_path_factory.mktemp(f"offboard-{api}")
     with running_swarm(1, ports, out / "run"):
         return run_conformance_client(

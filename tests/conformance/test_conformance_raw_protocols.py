@@ -21,7 +21,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 pytestmark = [pytest.mark.e2e, pytest.mark.conformance]
 
-PORTS = module_ports(14)
+PORTS = module_ports()
 MISSION = mavlink2.MAV_MISSION_TYPE_MISSION
 FENCE = mavlink2.MAV_MISSION_TYPE_FENCE
 RALLY = mavlink2.MAV_MISSION_TYPE_RALLY

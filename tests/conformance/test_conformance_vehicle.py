@@ -19,7 +19,8 @@ from e2e_support import module_ports, running_swarm
 
 pytestmark = [pytest.mark.e2e, pytest.mark.conformance]
 
-SLOTS = {"classic": 12, "native": 13}
+APIS = ("classic", "native")
+"""The client APIs the suite runs (each run on its own block of ports from module_ports)."""
 PX4_HOME = (47.397742, 8.545594)
 """PX4 SITL's default home (Zurich), deg."""
 TAKEOFF_ALT_M = 5.0
@@ -28,11 +29,11 @@ MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION = 5001
 MAV_CMD_NAV_RALLY_POINT = 5100
 
 
-@pytest.fixture(scope="module", params=list(SLOTS))
+@pytest.fixture(scope="module", params=APIS)
 def run(request, tmp_path_factory) -> Run:
     """The report of one conformance client run against its own vehicle."""
     api = request.param
-    ports = module_ports(SLOTS[api])
+    ports = module_ports()
     out = tmp_path_factory.mktemp(f"vehicle-{api}")
     extra = ["--plugins"] if api == "classic" else []
     with running_swarm(1, ports, out / "run"):

@@ -9,9 +9,10 @@
   reads a mission, geofence or rally list back with it (mission protocol, as PX4 serves it).
 * :class:`MavProxy` runs MAVProxy as the ground station, driven line by line through its stdin.
 
-Each test module gets its own block of ports from :func:`module_ports`, so modules never
-collide with each other nor with a developer's ``swarmsitl up`` on the default ports
-(14540/14550/14580/18570). Move the blocks with SWARMSITL_E2E_PORT_BASE / SWARMSITL_E2E_GRPC_BASE.
+Each test module gets its own block of ports from :func:`module_ports`, drawn from the one port
+allocator of the suite (:func:`harness.run_ports.free_port_block`: this xdist worker's slice of
+20000-32767, never a block handed out before in this process), so modules never collide with
+each other, with the other worker, nor with a developer's ``swarmsitl up`` on the default ports.
 """
 
 from __future__ import annotations
@@ -34,6 +35,8 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
+from harness.run_ports import free_port_block
+
 E2E_DIR = Path(__file__).resolve().parent
 CLIENTS_DIR = E2E_DIR / "clients"
 REPO_ROOT = E2E_DIR.parents[1]
@@ -41,14 +44,10 @@ REPO_ROOT = E2E_DIR.parents[1]
 SPEED = 4.0
 """Simulated seconds per wall second for every e2e run (paced, not lockstep)."""
 
-PORT_BASE = int(os.environ.get("SWARMSITL_E2E_PORT_BASE", "24500"))
-GRPC_BASE = int(os.environ.get("SWARMSITL_E2E_GRPC_BASE", "51500"))
 PORT_BLOCK = 10
-"""Ports per module: sdk ports at +0..+4, listen ports at +5..+9 (up to 5 vehicles)."""
-GCS_LISTEN_OFFSET = 400
-"""The GCS-link listen ports of module ``slot`` start at PORT_BASE + GCS_LISTEN_OFFSET +
-PORT_BLOCK * slot, clear of every module's block (slots 0..39)."""
-RESERVED_PORTS = frozenset({14540, 14550, 14580, 18570})
+"""Onboard-link ports per module: sdk ports at +0..+4, listen ports at +5..+9 (up to 5 vehicles)."""
+MODULE_BLOCK = 20
+"""All ports of a module: the onboard block, then 5 GCS-link listen ports and 5 gRPC ports."""
 
 READY_MARKER = "Press Ctrl-C to stop."
 STARTUP_TIMEOUT_S = 90.0
@@ -80,19 +79,20 @@ class Ports:
         return self.sdk + PORT_BLOCK // 2 - 1
 
 
-def module_ports(slot: int) -> Ports:
-    """The port block of test module number ``slot`` (each module uses its own slot)."""
-    base = PORT_BASE + PORT_BLOCK * slot
-    gcs_listen = PORT_BASE + GCS_LISTEN_OFFSET + PORT_BLOCK * slot
-    ports = Ports(
+def module_ports() -> Ports:
+    """A fresh block of ports for one test module (called once, at import, by each module).
+
+    The block comes from :func:`harness.run_ports.free_port_block`, the suite's one allocator:
+    free for UDP and TCP when chosen, inside this xdist worker's own slice, and never handed out
+    again by this process, so a module imported early still owns its block when it runs.
+    """
+    base = free_port_block(MODULE_BLOCK)
+    return Ports(
         sdk=base,
         listen=base + PORT_BLOCK // 2,
-        gcs_listen=gcs_listen,
-        grpc=GRPC_BASE + PORT_BLOCK * slot,
+        gcs_listen=base + PORT_BLOCK,
+        grpc=base + PORT_BLOCK + 5,
     )
-    used = set(range(base, base + PORT_BLOCK)) | set(range(gcs_listen, gcs_listen + 5))
-    assert not used & RESERVED_PORTS, f"e2e port block {base}.. overlaps {RESERVED_PORTS}"
-    return ports
 
 
 def udp_port_free(port: int) -> bool:
@@ -112,7 +112,7 @@ def require_free_udp(ports: list[int]) -> None:
     if busy:
         pytest.fail(
             f"UDP port(s) {busy} already in use (another e2e run or a leftover mavsdk_server?); "
-            "stop it or move the e2e ports with SWARMSITL_E2E_PORT_BASE"
+            "stop it (the ports are drawn afresh on the next run)"
         )
 
 

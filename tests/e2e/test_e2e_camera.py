@@ -1,7 +1,8 @@
 """MAVSDK's camera plugin against the simulated camera (component 100, via the vehicle's links).
 
 The simulation runs in this process, paced at :data:`e2e_support.SPEED`; the client runs in its
-own process with its own mavsdk_server (gRPC 58000+). UDP ports: 47100-47199.
+own process with its own mavsdk_server. Each test's UDP and gRPC ports are a block of the
+suite's allocator (:func:`harness.run_ports.free_port_block`).
 """
 
 from __future__ import annotations
@@ -14,17 +15,19 @@ import numpy as np
 import pytest
 from e2e_support import SPEED, require_free_udp, start_client
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 
 pytestmark = pytest.mark.e2e
 
-BASE = 47100
-GRPC = 58000
+PORT_BLOCK = 8
+"""Ports of one test: the vehicle's links at +0..+6, the client's mavsdk_server at +7."""
 
 
-def _ports(offset: int) -> PortPlan:
-    b = BASE + offset
+def _ports() -> PortPlan:
+    """A fresh block of ports of the suite's allocator for one vehicle's links."""
+    b = free_port_block(PORT_BLOCK)
     return PortPlan(
         sdk_base=b,
         listen_base=b + 1,
@@ -46,15 +49,16 @@ def _run_with_client(sim: Simulation, script: str, args: list[str], logs: Path, 
 
 
 @pytest.mark.parametrize(
-    ("script", "offset", "grpc"),
-    [("classic_camera.py", 0, GRPC), ("native_camera.py", 10, None)],
+    ("script", "own_server"),
+    [("classic_camera.py", True), ("native_camera.py", False)],
     ids=["classic", "native"],
 )
-def test_camera_plugin_takes_a_geotagged_photo(tmp_path, client_logs, script, offset, grpc):
+def test_camera_plugin_takes_a_geotagged_photo(tmp_path, client_logs, script, own_server):
     """MAVSDK's camera plugin (classic mavsdk_grpc, native mavsdk 4.x): the camera is listed
     with the spec's optics, its stream URI is the simulation's, and take_photo yields a
     successful CaptureInfo whose file exists and whose position is where the vehicle stands."""
-    ports = _ports(offset)
+    ports = _ports()
+    grpc = ports.sdk_base + PORT_BLOCK - 1 if own_server else None
     require_free_udp([ports.sdk_port(0)])
     config = SimulationConfig(
         ports=ports, record_hz=0, out_dir=tmp_path / "run", world_overrides={"cameras": True}

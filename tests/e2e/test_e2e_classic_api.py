@@ -13,7 +13,7 @@ from e2e_support import module_ports, run_client, running_swarm
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(0)
+PORTS = module_ports()
 
 
 @pytest.fixture(scope="module")

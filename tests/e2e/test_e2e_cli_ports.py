@@ -20,7 +20,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(4)
+PORTS = module_ports()
 
 
 def run_up(out, vehicles: int, sdk: int, listen: int) -> subprocess.CompletedProcess:

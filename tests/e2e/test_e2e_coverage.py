@@ -3,7 +3,8 @@
 One vehicle with its camera streaming, paced at :data:`e2e_support.SPEED`; the companion runs
 as ``swarmsitl run`` would start it: its own process, told everything by ``SWARMSITL_*``
 variables, a small rectangle at 8 m so the flight takes about a simulated minute.
-UDP/TCP ports 43000-43099, gRPC 43100.
+Its ports come from the suite's allocator (:func:`e2e_support.module_ports`,
+:func:`harness.run_ports.free_port_block`).
 """
 
 from __future__ import annotations
@@ -20,21 +21,24 @@ import pytest
 from e2e_support import (
     REPO_ROOT,
     SPEED,
-    Ports,
     kill_mavsdk_servers,
     mavsdk_servers,
+    module_ports,
     require_free_udp,
     start_swarm,
     stop_swarm,
 )
 from pymavlink import mavutil
 
+from harness.run_ports import free_port_block
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.e2e
 
-PORTS = Ports(sdk=43000, listen=43005, gcs_listen=43010, grpc=43100)
-VIDEO_PORT = 43020
+PORTS = module_ports()
+EXTRA = free_port_block(3)
+"""The up run's video (TCP) port, then its payload and payload-listen ports."""
+VIDEO_PORT = EXTRA
 AREA_ENU_M = (-10.0, -10.0, 30.0, 15.0)
 ALTITUDE_M = 8.0
 TIMEOUT_WALL_S = 240.0
@@ -141,7 +145,7 @@ def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
     assert not mavsdk_servers(PORTS.grpc)
     extra = (
         "--camera", "--video-port", VIDEO_PORT,
-        "--payload-port", 43030, "--payload-listen-port", 43035,
+        "--payload-port", EXTRA + 1, "--payload-listen-port", EXTRA + 2,
     )  # fmt: skip
     swarm = start_swarm(1, PORTS, tmp_path / "run", extra=extra)
     out_dir = tmp_path / "vehicle1"
@@ -176,11 +180,12 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
     from harness.simulation import PortPlan, Simulation, SimulationConfig
     from sitl.physics.obstacles import BoxObstacle
 
+    b = free_port_block(6)
     ports = PortPlan(
-        sdk_base=43040, listen_base=43041, gcs_port=0, video_base=43044,
-        payload_listen_base=43045, payload_base=43046,
+        sdk_base=b, listen_base=b + 1, gcs_port=0, video_base=b + 2,
+        payload_listen_base=b + 3, payload_base=b + 4,
     )  # fmt: skip
-    require_free_udp([43040, 43041])
+    require_free_udp([b, b + 1])
     slabs_xy = [(5.0, -3.0), (22.0, 9.0)]
     slabs = tuple(
         BoxObstacle((x, y, 0.05), (8.0, 6.0, 0.1), rgba=(0.06, 0.05, 0.05, 1.0))
@@ -192,7 +197,7 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
         out_dir=tmp_path / "run",
         world_overrides={"cameras": True, "obstacles": slabs},
     )
-    grpc = 43101
+    grpc = b + 5
     with Simulation(config) as sim:
         origin = sim.world.origin
         env = os.environ | {

@@ -28,11 +28,14 @@ from e2e_support import (
     run_client,
 )
 
+from harness.run_ports import free_port_block
+
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(13)
-HIL_PORT = 48250
-"""TCP port of the simulator's vehicle 0 (this module's; PX4 would use 4560)."""
+PORTS = module_ports()
+HIL_PORT = free_port_block(2)
+"""TCP port of the simulator's vehicle 0 (+1 in the second test; PX4 would use 4560), from the
+suite's allocator."""
 READY = "Press Ctrl-C to stop."
 
 

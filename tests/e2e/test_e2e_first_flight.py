@@ -27,7 +27,7 @@ from e2e_support import (
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(5)
+PORTS = module_ports()
 
 
 def test_first_flight_writes_a_good_report(tmp_path):

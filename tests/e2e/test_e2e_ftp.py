@@ -14,7 +14,7 @@ from e2e_support import module_ports, run_client, running_swarm
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(11)
+PORTS = module_ports()
 SEED_BYTES = 80_000
 """Size of the file downloaded: three bursts (35 000 bytes each at most) of 239-byte packets."""
 

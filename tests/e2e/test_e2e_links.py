@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import pytest
 from e2e_support import (
-    Ports,
     RawLink,
     command_long,
+    module_ports,
     require_free_udp,
     run_client,
     start_swarm,
@@ -24,8 +24,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 pytestmark = pytest.mark.e2e
 
-PORTS = Ports(sdk=46200, listen=46205, gcs_listen=46210, grpc=46390)
-"""Ports of this module (46200-46399 is the link work's block; gcs port 46204)."""
+PORTS = module_ports()
+"""Ports of this module, from the suite's allocator (the GCS port is the block's PORTS.gcs)."""
 
 
 @pytest.fixture(scope="module")

@@ -41,7 +41,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(7)
+PORTS = module_ports()
 ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
 ACK_WAIT_S = 10.0
 """Wall seconds for an acknowledgement (40 simulated seconds at SPEED 4)."""

@@ -13,7 +13,7 @@ from mission_checks import check_geofence, check_mission_flight, check_raw_plans
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(8)
+PORTS = module_ports()
 
 
 @pytest.fixture

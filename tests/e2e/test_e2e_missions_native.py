@@ -12,7 +12,7 @@ from mission_checks import check_geofence, check_mission_flight, check_raw_plans
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(9)
+PORTS = module_ports()
 
 
 @pytest.fixture

@@ -19,21 +19,24 @@ import time
 import pytest
 from e2e_support import REPO_ROOT, SPEED, cli_command, cli_env, module_ports, require_free_udp
 
+from harness.run_ports import free_port_block
+
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(12)
+PORTS = module_ports()
 
 
 def test_net_demo_flies_messages_and_reports_links_and_energy(tmp_path):
     """Edges, fog and cloud exchange their traffic; per-class metrics and energy are reported."""
-    net_ports = [47200 + k for k in range(4)] + [47250 + k for k in range(4)]
+    net, proxy = free_port_block(4), free_port_block(4)  # nodes' ports, the router's ports
+    net_ports = [net + k for k in range(4)] + [proxy + k for k in range(4)]
     require_free_udp([PORTS.sdk + i for i in range(3)] + [PORTS.listen + i for i in range(3)])
     require_free_udp(net_ports)
     out = tmp_path / "run"
     cmd = cli_command(
         "net-demo", "--duration", 12, "--speed", SPEED, "--out", out,
         "--sdk-port", PORTS.sdk, "--listen-port", PORTS.listen,
-        "--net-port", 47200, "--proxy-port", 47250,
+        "--net-port", net, "--proxy-port", proxy,
     )  # fmt: skip
     result = subprocess.run(
         cmd, cwd=REPO_ROOT, env=cli_env(), capture_output=True, text=True, timeout=400
@@ -68,13 +71,14 @@ def test_net_demo_flies_messages_and_reports_links_and_energy(tmp_path):
 
 def test_up_with_net_lets_any_companion_program_reach_the_others(tmp_path):
     """Two companions (net_ping) and the cloud that ``up --net`` starts ping each other."""
-    net_ports = [47300 + k for k in range(3)] + [47350 + k for k in range(3)]
+    net, proxy = free_port_block(3), free_port_block(3)  # nodes' ports, the router's ports
+    net_ports = [net + k for k in range(3)] + [proxy + k for k in range(3)]
     require_free_udp([PORTS.sdk, PORTS.sdk + 1, PORTS.listen, PORTS.listen + 1, *net_ports])
     out = tmp_path / "run"
     cmd = cli_command(
         "up", "--vehicles", 2, "--net", "edge,fog", "--speed", SPEED, "--duration", 20,
         "--out", out, "--sdk-port", PORTS.sdk, "--listen-port", PORTS.listen, "--gcs-port", 0,
-        "--no-camera", "--net-port", 47300, "--net-proxy-port", 47350,
+        "--no-camera", "--net-port", net, "--net-proxy-port", proxy,
     )  # fmt: skip
     log_path = tmp_path / "up.log"
     with log_path.open("w") as log:

@@ -13,7 +13,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(6)
+PORTS = module_ports()
 CLIENTS = 18
 COMMAND = 40150  # not defined in common.xml -> UNSUPPORTED, no side effect
 

@@ -18,7 +18,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(2)
+PORTS = module_ports()
 ARM = mavlink2.MAV_CMD_COMPONENT_ARM_DISARM
 ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
 _KNOWN_COMMANDS = set(mavlink2.enums["MAV_CMD"])

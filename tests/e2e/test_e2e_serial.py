@@ -1,7 +1,8 @@
 """``swarmsitl up --serial --udp-out``: MAVSDK classic flies over the serial port (a pty, as a
 Pi's TELEM2) while a pymavlink script on the extra UDP output watches the same vehicle.
 
-Ports come from this module's own block (48120..48149), clear of the other modules' blocks.
+Ports come from the suite's allocator (:func:`e2e_support.module_ports`), clear of every other
+module's and of the other xdist worker's.
 """
 
 from __future__ import annotations
@@ -9,13 +10,22 @@ from __future__ import annotations
 import time
 
 import pytest
-from e2e_support import Ports, check_tlog, require_free_udp, start_client, start_swarm, stop_swarm
+from e2e_support import (
+    check_tlog,
+    module_ports,
+    require_free_udp,
+    start_client,
+    start_swarm,
+    stop_swarm,
+)
 from pymavlink import mavutil
+
+from harness.run_ports import free_port_block
 
 pytestmark = pytest.mark.e2e
 
-PORTS = Ports(sdk=48120, listen=48125, gcs_listen=48130, grpc=48140)
-UDP_OUT = 48135
+PORTS = module_ports()
+UDP_OUT = free_port_block()
 """Where the vehicle's extra link (``--udp-out``) sends; the pymavlink watcher listens here."""
 ARMED = mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED
 ONBOARD_CONTROLLER = mavutil.mavlink.MAV_TYPE_ONBOARD_CONTROLLER

@@ -14,7 +14,7 @@ from e2e_support import module_ports, running_swarm, start_client
 
 pytestmark = pytest.mark.e2e
 
-PORTS = module_ports(3)
+PORTS = module_ports()
 N = 3
 ALT_M = 5.0
 

@@ -13,15 +13,15 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 HOME_LAT, HOME_LON = 47.397742, 8.545594
 
 
 def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    """A port for a client to listen on, from the suite's allocator (this xdist worker's slice)."""
+    return free_port_block()
 
 
 def offset_deg(north_m: float, east_m: float) -> tuple[float, float]:

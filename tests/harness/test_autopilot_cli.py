@@ -7,7 +7,10 @@ from typer.testing import CliRunner
 
 from harness.cli import app
 from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan
+
+UDP_CONNECT = "udp:127.0.0.1:4560"  # port-literal: PX4's simulator port, refused before binding
 
 
 @pytest.mark.parametrize(
@@ -27,7 +30,7 @@ from harness.simulation import PortPlan
             ["up", "--autopilot", "external", "--hil-serial", "/dev/ttyACM0", "--lockstep"],
             "--speed 1",
         ),
-        (["autopilot", "--connect", "udp:127.0.0.1:4560"], "expected tcp:HOST:PORT"),
+        (["autopilot", "--connect", UDP_CONNECT], "expected tcp:HOST:PORT"),
         (["autopilot", "--connect", "tcp:host:99999"], "expected tcp:HOST:PORT"),
     ],
 )
@@ -39,10 +42,11 @@ def test_bad_options_exit_2_naming_the_problem(args, message):
 
 def test_autopilot_without_a_simulator_gives_up_after_its_timeout(tmp_path):
     """Nothing listens on the port: it retries as PX4 does, then exits 1 (no hang)."""
+    sdk_port = str(free_port_block())
     result = CliRunner().invoke(
         app,
         ["autopilot", "--connect", "tcp:127.0.0.1:1", "--connect-timeout", "1",
-         "--listen-port", "0", "--gcs-port", "0", "--sdk-port", "48290"],
+         "--listen-port", "0", "--gcs-port", "0", "--sdk-port", sdk_port],
     )  # fmt: skip
     assert result.exit_code == 1, result.output
     assert "no simulator" in result.output
@@ -64,11 +68,12 @@ def test_the_autopilot_loads_its_own_rows_of_a_parameter_file(tmp_path):
     """A fleet file: instance 1 (system id 2) takes the rows of vehicle 2 only."""
     path = tmp_path / "fleet.params"
     path.write_text("# fleet\n1\t1\tMPC_XY_CRUISE\t7.5\t9\n2\t1\tMPC_XY_CRUISE\t3.5\t9\n")
+    sdk_port = free_port_block()
     result = CliRunner().invoke(
         app,
         ["autopilot", "--instance", "1", "--params", str(path), "--connect", "tcp:127.0.0.1:1",
          "--connect-timeout", "0.5", "--listen-port", "0", "--gcs-port", "0",
-         "--sdk-port", "48290"],
+         "--sdk-port", str(sdk_port)],
     )  # fmt: skip
     assert result.exit_code == 1, result.output  # no simulator, after loading
     assert "1 parameter(s) from" in result.output
@@ -76,7 +81,7 @@ def test_the_autopilot_loads_its_own_rows_of_a_parameter_file(tmp_path):
         ExternalAutopilotConfig(
             instance=1,
             params=(("MPC_XY_CRUISE", 3.5),),
-            ports=PortPlan(listen_base=0, gcs_port=0, sdk_base=48290),
+            ports=PortPlan(listen_base=0, gcs_port=0, sdk_base=sdk_port),
         )
     )
     try:

@@ -3,7 +3,7 @@
 A plain pymavlink client on the onboard link (MAVSDK's place) and one on the ground-station port
 talk to a running simulation: the camera's heartbeat reaches both; VIDEO_STREAM_INFORMATION
 answers with the stream URI, which OpenCV in another process opens; a photo is written and
-geotagged where the vehicle is. Ports: 47000-47099.
+geotagged where the vehicle is. Each simulation gets 7 ports of the suite's allocator.
 """
 
 from __future__ import annotations
@@ -19,15 +19,16 @@ from pymavlink.dialects.v20 import common as mavlink2
 from stream_reader import read_while_running
 from udp_client import UdpClient
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 
-BASE = 47000
 CAMERA = (1, 100)
 
 
-def _ports(offset: int) -> PortPlan:
-    b = BASE + offset
+def _ports() -> PortPlan:
+    """Every link of one vehicle on a fresh block of ports (the camera's must be known)."""
+    b = free_port_block(7)
     return PortPlan(
         sdk_base=b,
         listen_base=b + 1,
@@ -52,7 +53,7 @@ def _run(sim: Simulation, clients, seconds: float, until=None) -> None:
 @pytest.fixture
 def rig(tmp_path):
     config = SimulationConfig(
-        ports=_ports(0),
+        ports=_ports(),
         record_hz=0,
         out_dir=tmp_path / "run",
         world_overrides={"cameras": True},
@@ -92,7 +93,11 @@ def test_video_stream_information_answers_with_a_uri_opencv_reads(rig):
     acks = sdk.of("COMMAND_ACK", CAMERA)
     assert [(a.command, a.result) for a in acks] == [(512, mavlink2.MAV_RESULT_ACCEPTED)]
     (info,) = sdk.of("VIDEO_STREAM_INFORMATION", CAMERA)
-    assert info.uri == sim.video_uris[0] == f"http://127.0.0.1:{BASE + 4}/video.mjpg"
+    assert (
+        info.uri
+        == sim.video_uris[0]
+        == f"http://127.0.0.1:{sim.config.ports.video_base}/video.mjpg"
+    )
     result, err = read_while_running(sim, info.uri, 3, max_duration_s=120.0, timeout_s=30)
     assert result["opened"], err
     assert len(result["stds"]) == 3 and min(result["stds"]) > 1.0
@@ -120,7 +125,7 @@ def test_photo_is_written_and_geotagged_where_the_vehicle_is(rig, tmp_path):
 def test_a_command_for_the_camera_comes_out_of_the_payload_link(tmp_path):
     """With the simulated camera unplugged, a raw socket on its port receives MAVSDK's command
     for compid 100 verbatim, and what it sends as compid 100 reaches the onboard client."""
-    ports = _ports(20)
+    ports = _ports()
     config = SimulationConfig(ports=ports, record_hz=0, world_overrides={"cameras": True})
     with Simulation(config) as sim:
         sim.camera_managers[0].close()
@@ -148,7 +153,7 @@ def test_a_command_for_the_camera_comes_out_of_the_payload_link(tmp_path):
 
 
 def test_a_taken_camera_port_is_a_clear_error():
-    ports = _ports(40)
+    ports = _ports()
     blocker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     blocker.bind(("127.0.0.1", ports.payload_port(0)))
     try:

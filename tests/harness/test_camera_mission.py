@@ -1,7 +1,8 @@
 """A mission's camera item on the full stack: the autopilot sends IMAGE_START_CAPTURE to its
 camera (compid 100) over the payload link and the camera's CAMERA_IMAGE_CAPTURED reaches the
 client, geotagged where the item was reached. Lockstep; waits in simulated time. Ports:
-payload link 47200 (the other links on OS-chosen ports)."""
+the payload link's from the suite's allocator (the camera's port must be known), the others
+OS-chosen."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from mission_link import SimLink, free_udp_port, mission_cmd, offset_deg, waypoi
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.modes import AutoSubMode
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 AUTO = 4
@@ -32,7 +34,7 @@ def link(tmp_path):
                 gcs_port=0,
                 video_base=0,
                 payload_listen_base=0,
-                payload_base=47200,
+                payload_base=free_port_block(),
             ),
             world_overrides={"cameras": True},
         )

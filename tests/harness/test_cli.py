@@ -192,7 +192,11 @@ def test_bad_gps_outage_options_are_refused(spec):
     assert "--gps-outage" in result.output
 
 
-@pytest.mark.parametrize("spec", ["14600", "host:", "127.0.0.1:99999", "127.0.0.1:14600+2"])
+BAD_UDP_OUT = ["14600", "host:", "127.0.0.1:99999", "127.0.0.1:14600+2"]  # port-literal: refused
+"""``--udp-out`` values refused before anything binds."""
+
+
+@pytest.mark.parametrize("spec", BAD_UDP_OUT)
 def test_bad_udp_out_is_refused_with_a_reason(spec):
     result = CliRunner().invoke(app, ["up", "--udp-out", spec, "--duration", "1"])
     assert result.exit_code == 2  # a usage error, before anything starts

@@ -3,9 +3,9 @@
 import pytest
 import typer
 from typer.testing import CliRunner
-from video_ports import free_tcp_base
 
 from harness.cli import app, camera_override
+from harness.run_ports import free_port_block
 from sitl.vehicles.multirotor import load_airframe
 
 
@@ -47,7 +47,7 @@ def test_a_bad_mount_is_a_usage_error():
 
 
 def test_up_prints_the_stream_uri(tmp_path):
-    port = free_tcp_base(1)
+    port = free_port_block(1)
     args = ["up", "--speed", "50", "--duration", "0.5", "--gcs-port", "0", "--sdk-port", "0"]
     args += ["--listen-port", "0", "--out", str(tmp_path / "run")]
     args += ["--video-port", str(port), "--camera-size", "160x120", "--camera-hz", "5"]

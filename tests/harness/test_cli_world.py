@@ -6,16 +6,17 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
+from harness.run_ports import RunPorts, free_ports
 from worlds.examples import example_path
 
-PORTS = [
-    "--gcs-port", "0", "--no-camera", "--sdk-port", "42040", "--listen-port", "42050",
-    "--mocap-port", "42060", "--payload-port", "0", "--video-port", "0",
-]  # fmt: skip
 
-
-def _up(tmp_path, *args: str):
-    base = ["up", "--speed", "50", "--duration", "0.3", "--out", str(tmp_path), *PORTS]
+def _up(tmp_path, *args: str, ports: RunPorts | None = None):
+    """``swarmsitl up`` briefly, on ``ports`` (fresh ones from the suite's allocator if None)."""
+    ports = ports or free_ports(vehicles=2)
+    base = ["up", "--speed", "50", "--duration", "0.3", "--out", str(tmp_path)]
+    base += ["--gcs-port", "0", "--no-camera", "--payload-port", "0", "--video-port", "0"]
+    base += ["--sdk-port", str(ports.sdk), "--listen-port", str(ports.listen)]
+    base += ["--mocap-port", str(ports.mocap)]
     return CliRunner().invoke(app, [*base, *args])
 
 
@@ -40,14 +41,15 @@ def test_wind_options_replace_the_worlds_wind(tmp_path):
 
 def test_a_gps_denied_world_prints_each_vehicles_bridge(tmp_path):
     args = ["-n", "2", "--spacing", "1.2", "--world", str(example_path("indoor"))]
-    result = _up(tmp_path, *args)
+    ports = free_ports(vehicles=2)
+    result = _up(tmp_path, *args, ports=ports)
     assert result.exit_code == 0, result.output
     out = _flat(result.output)
     assert "launch area safe_point" in out and "motion capture: 50 Hz" in out
     for i in range(2):
         assert (
             f"python -m companion.scripts.mocap_bridge --vehicle {i} --listen "
-            f"127.0.0.1:{42060 + i} --mavlink udpout:127.0.0.1:{42050 + i}"
+            f"127.0.0.1:{ports.mocap + i} --mavlink udpout:127.0.0.1:{ports.listen + i}"
         ) in out
 
 

@@ -120,12 +120,14 @@ def bench(tmp_path):
 
 
 def test_udp_out_parses_host_port_and_per_vehicle_ports():
-    assert parse_udp_out("127.0.0.1:14600") == UdpOut("127.0.0.1", 14600)
-    assert parse_udp_out("gcs.local:14600+i").port_of(2) == 14602
-    assert parse_udp_out("10.0.0.2:14600").port_of(2) == 14600
-    for bad in ("14600", "host:", "host:port", "host:70000", "host:14600+2"):
+    port = 14600  # port-literal: parsed only
+    assert parse_udp_out(f"127.0.0.1:{port}") == UdpOut("127.0.0.1", port)
+    assert parse_udp_out("gcs.local:14600+i").port_of(2) == 14602  # port-literal: parsed only
+    assert parse_udp_out("10.0.0.2:14600").port_of(2) == 14600  # port-literal: parsed only
+    bad = ("14600", "host:", "host:port", "host:70000", "host:14600+2")  # port-literal: refused
+    for spec in bad:
         with pytest.raises(ValueError, match="--udp-out"):
-            parse_udp_out(bad)
+            parse_udp_out(spec)
 
 
 def test_pymavlink_flies_over_the_serial_port(bench, tmp_path):

@@ -18,10 +18,12 @@ import pytest
 from autopilot_emu.fleet import AutopilotFleet
 from autopilot_emu.simulator_link import SimulatorLinkConfig
 from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
+from harness.run_ports import free_port_block
 from harness.simulation import EXTERNAL, PortPlan, Simulation, SimulationConfig
 
-SDK_BASE = 48200
-"""Where the external autopilots' onboard links send (nobody listens; a port of this module's)."""
+SDK_BASE = free_port_block(4)
+"""Where the external autopilots' onboard links send (+instance; nobody listens): ports of this
+module's, from the suite's allocator."""
 TAKEOFF_AT_S = 2.0
 GOTO_AT_S = 8.0
 END_S = 14.0

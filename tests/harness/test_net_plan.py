@@ -7,11 +7,16 @@ import pytest
 from companion.net import NetConfig
 from companion.roles.cluster import clusters
 from harness.net_plan import NetPlan, parse_roles
+from harness.run_ports import free_ports
+
+NET = free_ports(vehicles=8)
+"""Node and router port bases of the plans (from the suite's allocator, though nothing binds)."""
+NODE, PROXY = NET.net, NET.net_proxy
 
 
 def test_nodes_are_the_cloud_then_the_vehicles_with_fog_clusters():
     """Edges are dealt to the fogs in turn; every node gets its port and its router port."""
-    plan = NetPlan(("edge", "fog", "edge", "edge", "fog"), node_base=47010, proxy_base=47050)
+    plan = NetPlan(("edge", "fog", "edge", "edge", "fog"), node_base=NODE, proxy_base=PROXY)
     nodes = plan.nodes()
     assert [(n.node_id, n.role, n.vehicle) for n in nodes] == [
         ("cloud", "cloud", None),
@@ -21,21 +26,21 @@ def test_nodes_are_the_cloud_then_the_vehicles_with_fog_clusters():
         ("edge3", "edge", 3),
         ("fog2", "fog", 4),
     ]
-    assert [n.address[1] for n in nodes] == list(range(47010, 47016))
-    assert [n.proxy_port for n in nodes] == list(range(47050, 47056))
+    assert [n.address[1] for n in nodes] == list(range(NODE, NODE + 6))
+    assert [n.proxy_port for n in nodes] == list(range(PROXY, PROXY + 6))
     config = NetConfig.from_dict(plan.net_file())
     assert clusters(config) == {"fog1": ["edge1", "edge3"], "fog2": ["edge2"]}
     # Everyone reaches everyone through the router: the routes are the proxies.
-    assert config.send_address("edge2") == ("127.0.0.1", 47053)
-    assert config.nodes["edge2"].address == ("127.0.0.1", 47013)
+    assert config.send_address("edge2") == ("127.0.0.1", PROXY + 3)
+    assert config.nodes["edge2"].address == ("127.0.0.1", NODE + 3)
 
 
 def test_without_cloud_or_fog():
     """No cloud: vehicles start at node_base; no fog: edges have no group."""
-    plan = NetPlan(("edge", "edge"), cloud=False, node_base=47020, proxy_base=47060)
+    plan = NetPlan(("edge", "edge"), cloud=False, node_base=NODE, proxy_base=PROXY)
     nodes = plan.nodes()
     assert [n.node_id for n in nodes] == ["edge1", "edge2"]
-    assert nodes[0].address[1] == 47020 and nodes[0].groups == ()
+    assert nodes[0].address[1] == NODE and nodes[0].groups == ()
 
 
 @pytest.mark.parametrize(
@@ -44,8 +49,8 @@ def test_without_cloud_or_fog():
         ({"roles": ()}, "roles"),
         ({"roles": ("edge", "cloud")}, r"roles\[1\]"),
         ({"roles": ("edge",), "node_base": 80}, "node_base"),
-        ({"roles": ("edge",), "proxy_base": 65535}, "proxy_base"),
-        ({"roles": ("edge", "fog"), "node_base": 47000, "proxy_base": 47002}, "overlap"),
+        ({"roles": ("edge",), "proxy_base": 65535}, "proxy_base"),  # port-literal: too high
+        ({"roles": ("edge", "fog"), "node_base": NODE, "proxy_base": NODE + 2}, "overlap"),
     ],
 )
 def test_bad_plans_name_the_field(kwargs, field):

@@ -17,10 +17,8 @@ from autopilot_emu.param_file import parse_param_file, read_param_file
 from autopilot_emu.params import MAV_PARAM_TYPE_REAL32, decode_param_value, encode_param_value
 from harness.cli import app
 from harness.param_options import CLIENT_PARAMS_FILE, load_params_options
+from harness.run_ports import free_port_block
 from harness.simulation import Simulation, SimulationConfig
-
-UP_PORT, UP_SDK_PORT = 48310, 48311
-"""Fixed ports of the Ctrl-C test (this suite's block 48300-48399)."""
 
 
 def _read(link: SimLink, name: str) -> float:
@@ -104,11 +102,13 @@ def test_ctrl_c_saves_what_a_client_set_over_mavlink(tmp_path):
     out = tmp_path / "run"
     errors: list[BaseException] = []
     up_returned = threading.Event()
+    up_port = free_port_block(2)  # the vehicle listens here, the client at up_port + 1
+    up_sdk_port = up_port + 1
 
     def client() -> None:
         try:
             with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-                sock.bind(("127.0.0.1", UP_SDK_PORT))
+                sock.bind(("127.0.0.1", up_sdk_port))
                 sock.settimeout(0.2)
                 mav = mavlink2.MAVLink(None, srcSystem=245, srcComponent=190)
                 value = encode_param_value(33.0, MAV_PARAM_TYPE_REAL32)
@@ -117,7 +117,7 @@ def test_ctrl_c_saves_what_a_client_set_over_mavlink(tmp_path):
                 )
                 deadline = time.monotonic() + 60.0
                 while time.monotonic() < deadline and not up_returned.is_set():
-                    sock.sendto(msg.pack(mav), ("127.0.0.1", UP_PORT))
+                    sock.sendto(msg.pack(mav), ("127.0.0.1", up_port))
                     try:
                         data = sock.recv(65535)
                     except (TimeoutError, ConnectionRefusedError):
@@ -133,7 +133,7 @@ def test_ctrl_c_saves_what_a_client_set_over_mavlink(tmp_path):
                 os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C
 
     args = ["up", "--duration", "600", "--gcs-port", "0", "--no-camera", "--out", str(out)]
-    args += ["--listen-port", str(UP_PORT), "--sdk-port", str(UP_SDK_PORT)]
+    args += ["--listen-port", str(up_port), "--sdk-port", str(up_sdk_port)]
     thread = threading.Thread(target=client)
     thread.start()
     try:

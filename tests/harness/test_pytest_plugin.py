@@ -1,5 +1,6 @@
 """The pytest plugin's parts that need no flight: ports, the report's verdict, the entry point."""
 
+import itertools
 import json
 import random
 import socket
@@ -7,7 +8,9 @@ from importlib import metadata
 
 import pytest
 
+from harness import run_ports
 from harness.pytest_plugin import RunResult, free_ports
+from harness.run_ports import PORTS_HIGH, PORTS_LOW, free_port_block, worker_slice
 
 
 def test_the_plugin_is_registered_for_every_pytest_session():
@@ -15,14 +18,43 @@ def test_the_plugin_is_registered_for_every_pytest_session():
     assert [e.value for e in entry] == ["harness.pytest_plugin"]
 
 
-def test_free_ports_skips_a_block_someone_holds():
+def test_free_ports_skips_a_block_someone_holds(monkeypatch):
+    monkeypatch.setattr(run_ports, "_HANDED_OUT", [])  # the free check alone must skip it
     rng = random.Random(3)
     first = free_ports(vehicles=4, rng=random.Random(3))
+    run_ports._HANDED_OUT.clear()
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
         held.bind(("0.0.0.0", first.listen + 2))  # one port of the block is taken
         again = free_ports(vehicles=4, rng=rng)
     assert again.sdk != first.sdk
     assert len({again.sdk, again.listen, again.grpc, again.payload, again.mocap, again.net}) == 6
+
+
+def test_each_xdist_worker_owns_its_own_slice_below_the_ephemeral_ports(monkeypatch):
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)
+    monkeypatch.delenv("PYTEST_XDIST_WORKER_COUNT", raising=False)
+    ephemeral = 32768  # port-literal: Linux's first ephemeral port, a limit
+    assert worker_slice() == (PORTS_LOW, PORTS_HIGH) and ephemeral >= PORTS_HIGH
+    monkeypatch.setenv("PYTEST_XDIST_WORKER_COUNT", "3")
+    slices = []
+    for i in range(3):
+        monkeypatch.setenv("PYTEST_XDIST_WORKER", f"gw{i}")
+        slices.append(worker_slice())
+        for _ in range(10):  # every block of this worker lies in its slice
+            ports = free_ports(vehicles=2)
+            assert slices[i][0] <= ports.sdk and ports.net_proxy + 2 <= slices[i][1]
+            base = free_port_block(5)
+            assert slices[i][0] <= base and base + 5 <= slices[i][1]
+    assert slices[0][0] == PORTS_LOW and slices[2][1] <= PORTS_HIGH
+    assert all(a[1] <= b[0] for a, b in itertools.pairwise(slices))
+
+
+def test_one_process_never_gets_the_same_port_twice():
+    """Ports handed out and not bound yet (a module's, at import) are not handed out again."""
+    blocks = [range(b, b + 20) for b in (free_port_block(20) for _ in range(30))]
+    blocks += [range(p.sdk, p.sdk + 200) for p in (free_ports() for _ in range(5))]
+    ports = [p for block in blocks for p in block]
+    assert len(ports) == len(set(ports))
 
 
 def write_report(tmp_path, **report):

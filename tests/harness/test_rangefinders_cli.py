@@ -14,10 +14,11 @@ from harness.cli import app
 def _distance_sensors_sent(tmp_path, *flags: str) -> set[int]:
     """Run ``up`` for 1 simulated second; ids of the DISTANCE_SENSOR its onboard link sent."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sink:
-        sink.bind(("127.0.0.1", 45150))
+        sink.bind(("127.0.0.1", 0))  # the OS picks the port the vehicle streams to
         sink.setblocking(False)
+        sdk_port = str(sink.getsockname()[1])
         args = ["up", "--speed", "50", "--duration", "1", "--gcs-port", "0"]
-        args += ["--out", str(tmp_path), "--sdk-port", "45150", "--listen-port", "0", *flags]
+        args += ["--out", str(tmp_path), "--sdk-port", sdk_port, "--listen-port", "0", *flags]
         result = CliRunner().invoke(app, args)
         assert result.exit_code == 0, result.output
         parser = mavlink2.MAVLink(None)

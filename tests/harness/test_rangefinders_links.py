@@ -9,10 +9,13 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 from udp_client import UdpClient
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 
-PORTS = PortPlan(sdk_base=45140, listen_base=45180, gcs_port=45050, gcs_listen_base=45270)
+_CLIENTS = free_port_block(2)
+PORTS = PortPlan(sdk_base=_CLIENTS, listen_base=0, gcs_port=_CLIENTS + 1, gcs_listen_base=0)
+"""The clients' ports from the suite's allocator; the vehicle's own listen ports OS-chosen."""
 ON = {"rangefinders": True}
 """The rangefinders are off by default in the Python API."""
 

@@ -89,10 +89,12 @@ def test_mavlink_poll_rate_must_divide_physics_rate():
 def test_port_plan_follows_px4_sitl_convention():
     """px4-rc.mavlink: onboard link 14580+i -> 14540+i, GCS link 18570+i -> 14550."""
     ports = PortPlan()
-    assert [ports.listen_port(i) for i in range(3)] == [14580, 14581, 14582]
-    assert ports.onboard_peers(2) == (("127.0.0.1", 14542),)
-    assert [ports.gcs_listen_port(i) for i in range(3)] == [18570, 18571, 18572]
-    assert ports.gcs_peers() == (("127.0.0.1", 14550),)
+    listen, sdk = 14580, 14540  # port-literal: PX4's default, not bound
+    gcs_listen, gcs = 18570, 14550  # port-literal: PX4's default, not bound
+    assert [ports.listen_port(i) for i in range(3)] == [listen, listen + 1, listen + 2]
+    assert ports.onboard_peers(2) == (("127.0.0.1", sdk + 2),)
+    assert [ports.gcs_listen_port(i) for i in range(3)] == [gcs_listen + i for i in range(3)]
+    assert ports.gcs_peers() == (("127.0.0.1", gcs),)
     assert PortPlan(gcs_port=0).gcs_peers() == ()
     with pytest.raises(ValueError, match="gcs_listen_base"):
         PortPlan(gcs_listen_base=70000)

@@ -8,29 +8,12 @@ import time
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.ftp_codec import FtpPayload, Opcode, decode
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 
-def _consecutive_free_udp_ports(count: int) -> int:
-    """A base port such that base .. base + count - 1 are free on 127.0.0.1 (checked now)."""
-    for base in range(26000, 27000, count):
-        socks = []
-        try:
-            for port in range(base, base + count):
-                sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-                socks.append(sock)
-                sock.bind(("127.0.0.1", port))
-            return base
-        except OSError:
-            continue
-        finally:
-            for sock in socks:
-                sock.close()
-    raise RuntimeError("no free UDP ports")
-
-
 def _sim(n_vehicles: int, out_dir=None) -> Simulation:
-    base = _consecutive_free_udp_ports(2 * n_vehicles)
+    base = free_port_block(2 * n_vehicles)
     ports = PortPlan(listen_base=base, sdk_base=base + n_vehicles, gcs_port=0)
     return Simulation(
         SimulationConfig(n_vehicles=n_vehicles, ports=ports, out_dir=out_dir, record_hz=0)

@@ -1,7 +1,7 @@
 """A running simulation with MAVLink 2 signing, flown by pymavlink clients that sign too.
 
 Real UDP on loopback: the onboard link streams to an OS-picked client port; the camera test
-uses fixed ports from this file's block (48000-48099), since the camera's port must be known.
+takes a block of ports from the suite's allocator, since the camera's port must be known.
 """
 
 from __future__ import annotations
@@ -12,13 +12,13 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 from udp_client import UdpClient
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 KEY = bytes.fromhex("5a" * 16 + "c3" * 16)
 OTHER_KEY = bytes.fromhex("11" * 32)
 AUTOPILOT = (1, 1)
 ARM = mavlink2.MAV_CMD_COMPONENT_ARM_DISARM
-BASE = 48000
 
 
 def _arm() -> mavlink2.MAVLink_command_long_message:
@@ -92,16 +92,17 @@ def test_signed_client_flies_the_vehicle_and_others_are_ignored_and_counted():
 
 def test_the_camera_signs_too_and_its_heartbeat_reaches_a_signed_client(tmp_path):
     """The MAVLink camera (component 100) signs with the vehicle's key on its payload link."""
+    base = free_port_block(7)
     ports = PortPlan(
-        sdk_base=BASE,
-        listen_base=BASE + 1,
+        sdk_base=base,
+        listen_base=base + 1,
         gcs_port=0,
-        video_base=BASE + 4,
-        payload_listen_base=BASE + 5,
-        payload_base=BASE + 6,
+        video_base=base + 4,
+        payload_listen_base=base + 5,
+        payload_base=base + 6,
     )
-    sdk = UdpClient(245, port=BASE, key=KEY)
-    sdk.to = ("127.0.0.1", BASE + 1)
+    sdk = UdpClient(245, port=base, key=KEY)
+    sdk.to = ("127.0.0.1", base + 1)
     config = SimulationConfig(
         ports=ports,
         record_hz=0,
@@ -118,7 +119,7 @@ def test_the_camera_signs_too_and_its_heartbeat_reaches_a_signed_client(tmp_path
                 )
             )
             _run(sim, (sdk,), 1.0, until=lambda: sdk.of("CAMERA_INFORMATION", (1, 100)))
-            payload = next(ep for ep in sim.endpoints if ep.local_address[1] == BASE + 5)
+            payload = next(ep for ep in sim.endpoints if ep.local_address[1] == base + 5)
             assert payload.stats.frames_unsigned_rejected == 0
             assert payload.stats.frames_bad_signature == 0
         beats = sdk.of("HEARTBEAT", (1, 100))

@@ -8,8 +8,8 @@ import urllib.request
 
 import pytest
 from stream_reader import read_while_running
-from video_ports import free_tcp_base
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 from sitl.sensors.camera import CameraSpec, with_mount
@@ -32,7 +32,7 @@ def test_opencv_reads_each_vehicles_stream_while_the_simulation_runs():
     """Two Typhoons with forward cameras facing a wall: a separate OpenCV process reads
     non-blank 320x240 frames from vehicle 2's URI (video_base + 1) while the simulation steps."""
     camera = with_mount(CameraSpec(hfov_deg=90.0, rate_hz=10.0), "forward")
-    base = free_tcp_base(2)
+    base = free_port_block(2)
     with Simulation(_config(base, n=2, camera=camera)) as sim:
         assert sim.video_uris == [
             f"http://127.0.0.1:{base}/video.mjpg",

@@ -3,13 +3,15 @@
 import numpy as np
 import pytest
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 
 @pytest.mark.slow
 def test_ten_vehicles_hold_position_for_five_minutes(tmp_path):
     """Estimator drift, integrator wind-up or slow instabilities would show up as position error."""
-    ports = PortPlan(sdk_base=24640, listen_base=24680, gcs_port=0)
+    base = free_port_block(20)  # 10 sdk ports, then 10 listen ports
+    ports = PortPlan(sdk_base=base, listen_base=base + 10, gcs_port=0)
     cfg = SimulationConfig(n_vehicles=10, ports=ports, out_dir=tmp_path, record_hz=2.0, seed=11)
     with Simulation(cfg) as sim:
         start = sim.world.truth.position_enu_m.copy()

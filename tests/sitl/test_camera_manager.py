@@ -18,7 +18,7 @@ from sitl.sensors.camera import CameraFrame, CameraSpec
 
 ORIGIN = frames.GeodeticOrigin(47.397742, 8.545594, 488.0)
 EPOCH_S = 1_700_000_000.0
-URI = "http://127.0.0.1:5600/video.mjpg"
+URI = "http://127.0.0.1:5600/video.mjpg"  # port-literal: PX4's video port, only reported
 EARTH_M_PER_DEG = 111_132.0  # metres per degree of latitude near 47 deg (WGS-84 meridian arc)
 ACCEPTED = mavlink2.MAV_RESULT_ACCEPTED
 DENIED = mavlink2.MAV_RESULT_DENIED

@@ -40,6 +40,7 @@ from hypothesis import strategies as st
 from mavlink_fakes import INT_RANGES
 from pymavlink.dialects.v20 import common as mavlink2
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
 DEFAULT_EXAMPLES = 80
@@ -247,9 +248,8 @@ def _datagram(draw: st.DrawFn, encoder: FrameEncoder) -> bytes:
 
 
 def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
+    """A port nobody holds, from the suite's allocator (this xdist worker's own slice)."""
+    return free_port_block()
 
 
 def _simulation(listen_port: int, gcs_port: int) -> Simulation:

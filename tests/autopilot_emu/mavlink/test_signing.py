@@ -131,14 +131,15 @@ def test_outgoing_timestamps_are_monotonic_and_never_behind_the_latest_accepted(
 def test_rejections_are_logged_at_most_once_per_interval_with_a_count(caplog):
     clock = [0.0]
     signer = LinkSigner(SigningStreams(KEY), monotonic_s=lambda: clock[0])
+    peer = ("10.0.0.9", 14550)  # port-literal: a ground station's address, only logged
     with caplog.at_level(logging.WARNING, logger="autopilot_emu.mavlink.signing"):
         for _ in range(5):
-            signer.log_rejection(Verdict.UNSIGNED, "COMMAND_LONG", ("10.0.0.9", 14550))
+            signer.log_rejection(Verdict.UNSIGNED, "COMMAND_LONG", peer)
         clock[0] = REJECT_LOG_INTERVAL_S
-        signer.log_rejection(Verdict.BAD_SIGNATURE, "HEARTBEAT", ("10.0.0.9", 14550))
+        signer.log_rejection(Verdict.BAD_SIGNATURE, "HEARTBEAT", peer)
     lines = [r.getMessage() for r in caplog.records]
     assert len(lines) == 2
-    assert "COMMAND_LONG from 10.0.0.9:14550: unsigned" in lines[0]
+    assert f"COMMAND_LONG from {peer[0]}:{peer[1]}: unsigned" in lines[0]
     assert "bad signature (and 4 more rejected frames)" in lines[1]
 
 

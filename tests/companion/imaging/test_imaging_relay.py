@@ -30,17 +30,21 @@ from companion.imaging.relay import (
     write_csv,
 )
 from companion.net import NetConfig, Node, PortTransport
+from harness.run_ports import free_port_block
 from sitl.links.config import LinksConfig
 from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork
 
+BASE = free_port_block(4)
+"""Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""
+
 NET = NetConfig.from_dict(
     {
         "nodes": {
-            "cloud": {"role": "cloud", "address": "127.0.0.1:47100"},
-            "fog1": {"role": "fog", "address": "127.0.0.1:47101", "groups": ["c1"]},
-            "edge1": {"role": "edge", "address": "127.0.0.1:47102", "groups": ["c1"]},
-            "edge2": {"role": "edge", "address": "127.0.0.1:47103", "groups": ["c1"]},
+            "cloud": {"role": "cloud", "address": f"127.0.0.1:{BASE}"},
+            "fog1": {"role": "fog", "address": f"127.0.0.1:{BASE + 1}", "groups": ["c1"]},
+            "edge1": {"role": "edge", "address": f"127.0.0.1:{BASE + 2}", "groups": ["c1"]},
+            "edge2": {"role": "edge", "address": f"127.0.0.1:{BASE + 3}", "groups": ["c1"]},
         }
     }
 )

@@ -6,14 +6,18 @@ from collections import defaultdict
 from collections.abc import Callable
 
 from companion.net import NetConfig, Node, PortTransport
+from harness.run_ports import free_port_block
+
+BASE = free_port_block(4)
+"""Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""
 
 CONFIG = NetConfig.from_dict(
     {
         "nodes": {
-            "cloud": {"role": "cloud", "address": "127.0.0.1:46000"},
-            "fog1": {"role": "fog", "address": "127.0.0.1:46001", "groups": ["cluster1"]},
-            "edge1": {"role": "edge", "address": "127.0.0.1:46002", "groups": ["cluster1"]},
-            "edge2": {"role": "edge", "address": "127.0.0.1:46003", "groups": ["cluster1"]},
+            "cloud": {"role": "cloud", "address": f"127.0.0.1:{BASE}"},
+            "fog1": {"role": "fog", "address": f"127.0.0.1:{BASE + 1}", "groups": ["cluster1"]},
+            "edge1": {"role": "edge", "address": f"127.0.0.1:{BASE + 2}", "groups": ["cluster1"]},
+            "edge2": {"role": "edge", "address": f"127.0.0.1:{BASE + 3}", "groups": ["cluster1"]},
         }
     }
 )

@@ -15,13 +15,17 @@ from netfakes import CONFIG, FakePort
 
 from companion import clock
 from companion.net import AsyncNode, NetConfig, Node, PortTransport, RequestTimeout, UdpTransport
+from harness.run_ports import free_port_block
+
+BASE = free_port_block(3)
+"""Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""
 
 SRC = Path(__file__).resolve().parents[3] / "src"
 NET = {
     "nodes": {
-        "cloud": {"role": "cloud", "address": "127.0.0.1:46040"},
-        "fog1": {"role": "fog", "address": "127.0.0.1:46041", "groups": ["cluster1"]},
-        "edge1": {"role": "edge", "address": "127.0.0.1:46042", "groups": ["cluster1"]},
+        "cloud": {"role": "cloud", "address": f"127.0.0.1:{BASE}"},
+        "fog1": {"role": "fog", "address": f"127.0.0.1:{BASE + 1}", "groups": ["cluster1"]},
+        "edge1": {"role": "edge", "address": f"127.0.0.1:{BASE + 2}", "groups": ["cluster1"]},
     }
 }
 UDP_CONFIG = NetConfig.from_dict(NET)

@@ -7,14 +7,18 @@ import copy
 import pytest
 
 from companion.net.config import NetConfig, NetConfigError, link_class
+from harness.run_ports import free_port_block
+
+BASE = free_port_block(5)
+"""Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""
 
 GOOD = {
     "nodes": {
-        "cloud": {"role": "cloud", "address": "127.0.0.1:46010"},
-        "fog1": {"role": "fog", "address": "127.0.0.1:46011", "groups": ["cluster1"]},
-        "edge1": {"role": "edge", "address": "localhost:46012", "groups": ["cluster1"]},
+        "cloud": {"role": "cloud", "address": f"127.0.0.1:{BASE}"},
+        "fog1": {"role": "fog", "address": f"127.0.0.1:{BASE + 1}", "groups": ["cluster1"]},
+        "edge1": {"role": "edge", "address": f"localhost:{BASE + 2}", "groups": ["cluster1"]},
     },
-    "routes": {"fog1": "127.0.0.1:46111"},
+    "routes": {"fog1": f"127.0.0.1:{BASE + 3}"},
 }
 
 
@@ -22,22 +26,22 @@ def test_load_yaml_and_routes(tmp_path):
     path = tmp_path / "net.yaml"
     path.write_text(
         "nodes:\n"
-        "  cloud: {role: cloud, address: '127.0.0.1:46010'}\n"
-        "  fog1:  {role: fog, address: '127.0.0.1:46011', groups: [cluster1]}\n"
-        "  edge1: {role: edge, address: '127.0.0.1:46012', groups: [cluster1]}\n"
+        f"  cloud: {{role: cloud, address: '127.0.0.1:{BASE}'}}\n"
+        f"  fog1:  {{role: fog, address: '127.0.0.1:{BASE + 1}', groups: [cluster1]}}\n"
+        f"  edge1: {{role: edge, address: '127.0.0.1:{BASE + 2}', groups: [cluster1]}}\n"
         "routes:\n"
-        "  fog1: '127.0.0.1:46111'\n"
+        f"  fog1: '127.0.0.1:{BASE + 3}'\n"
     )
     config = NetConfig.load(path)
     assert config.nodes["edge1"].role == "edge"
-    assert config.send_address("fog1") == ("127.0.0.1", 46111)
-    assert config.send_address("edge1") == ("127.0.0.1", 46012)
+    assert config.send_address("fog1") == ("127.0.0.1", BASE + 3)
+    assert config.send_address("edge1") == ("127.0.0.1", BASE + 2)
     assert config.members("cluster1") == ["fog1", "edge1"]
 
 
 def test_from_env(tmp_path, monkeypatch):
     path = tmp_path / "net.yaml"
-    path.write_text("nodes:\n  cloud: {role: cloud, address: '127.0.0.1:46010'}\n")
+    path.write_text(f"nodes:\n  cloud: {{role: cloud, address: '127.0.0.1:{BASE}'}}\n")
     monkeypatch.setenv("SWARMSITL_NET", str(path))
     monkeypatch.setenv("SWARMSITL_NODE", "cloud")
     config, node_id = NetConfig.from_env()
@@ -71,12 +75,14 @@ def edit(path: str, value):
         ("nodes.edge1.address", "127.0.0.1:70000", "nodes.edge1.address"),
         ("nodes.edge1.address", "bad host:1", "nodes.edge1.address"),
         ("nodes.edge1.address", "999.1.1.1:5", "nodes.edge1.address"),
-        ("nodes.edge1.address", "127.0.0.1:46010", "nodes.edge1.address"),  # duplicate
+        pytest.param(  # the node ids must not hold the allocated port: xdist's workers differ
+            "nodes.edge1.address", f"127.0.0.1:{BASE}", "nodes.edge1.address", id="duplicate"
+        ),
         ("nodes.edge1.address", KeyError, "nodes.edge1.address"),
         ("nodes.edge1.role", KeyError, "nodes.edge1.role"),
         ("nodes.edge1.groups", "cluster1", "nodes.edge1.groups"),
         ("nodes.edge1.speed", 3, "nodes.edge1.speed"),
-        ("routes.edge7", "127.0.0.1:46112", "routes.edge7"),
+        pytest.param("routes.edge7", f"127.0.0.1:{BASE + 4}", "routes.edge7", id="unknown-route"),
         ("routes.fog1", "nowhere", "routes.fog1"),
         ("nodes", {}, "nodes"),
         ("links", {}, "links"),

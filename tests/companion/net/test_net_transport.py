@@ -9,13 +9,17 @@ import pytest
 from netfakes import FakePort
 
 from companion.net import NetConfig, Node, PortTransport, Transport, UdpTransport
+from harness.run_ports import free_port_block
+
+BASE = free_port_block(8)
+"""Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""
 
 UDP_CONFIG = NetConfig.from_dict(
     {
         "nodes": {
-            "cloud": {"role": "cloud", "address": "127.0.0.1:46020"},
-            "fog1": {"role": "fog", "address": "127.0.0.1:46021", "groups": ["cluster1"]},
-            "edge1": {"role": "edge", "address": "127.0.0.1:46022", "groups": ["cluster1"]},
+            "cloud": {"role": "cloud", "address": f"127.0.0.1:{BASE}"},
+            "fog1": {"role": "fog", "address": f"127.0.0.1:{BASE + 1}", "groups": ["cluster1"]},
+            "edge1": {"role": "edge", "address": f"127.0.0.1:{BASE + 2}", "groups": ["cluster1"]},
         }
     }
 )
@@ -86,10 +90,10 @@ def test_send_errors_are_counted_not_raised():
     config = NetConfig.from_dict(
         {
             "nodes": {
-                "edge1": {"role": "edge", "address": "127.0.0.1:46023"},
-                "fog1": {"role": "fog", "address": "127.0.0.1:46024"},
+                "edge1": {"role": "edge", "address": f"127.0.0.1:{BASE + 3}"},
+                "fog1": {"role": "fog", "address": f"127.0.0.1:{BASE + 4}"},
             },
-            "routes": {"fog1": "255.255.255.255:46025"},
+            "routes": {"fog1": f"255.255.255.255:{BASE + 7}"},
         }
     )
     transport = UdpTransport(config, "edge1")
@@ -135,10 +139,10 @@ def test_host_names_are_resolved():
     config = NetConfig.from_dict(
         {
             "nodes": {
-                "edge1": {"role": "edge", "address": "localhost:46026"},
-                "fog1": {"role": "fog", "address": "127.0.0.1:46027"},
+                "edge1": {"role": "edge", "address": f"localhost:{BASE + 5}"},
+                "fog1": {"role": "fog", "address": f"127.0.0.1:{BASE + 6}"},
             },
-            "routes": {"fog1": "localhost:46027"},
+            "routes": {"fog1": f"localhost:{BASE + 6}"},
         }
     )
     edge = UdpTransport(config, "edge1")

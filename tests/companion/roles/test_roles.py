@@ -16,15 +16,18 @@ from companion.imaging.image_source import SyntheticImages
 from companion.imaging.relay import project_codec
 from companion.net import NetConfig, NetConfigError
 from companion.roles.cluster import clusters, coordinator_of, nodes_with_role
-from harness.run_ports import free_ports
+from harness.run_ports import free_port_block, free_ports
+
+BASE = free_port_block(16)
+"""Node ports of the configurations below (from the suite's allocator; only parsed)."""
 
 NET = {
     "nodes": {
-        "cloud": {"role": "cloud", "address": "127.0.0.1:47110"},
-        "fog1": {"role": "fog", "address": "127.0.0.1:47111", "groups": ["c1"]},
-        "edge1": {"role": "edge", "address": "127.0.0.1:47112", "groups": ["c1"]},
-        "edge2": {"role": "edge", "address": "127.0.0.1:47113", "groups": ["c1"]},
-        "edge3": {"role": "edge", "address": "127.0.0.1:47114"},
+        "cloud": {"role": "cloud", "address": f"127.0.0.1:{BASE + 2}"},
+        "fog1": {"role": "fog", "address": f"127.0.0.1:{BASE + 3}", "groups": ["c1"]},
+        "edge1": {"role": "edge", "address": f"127.0.0.1:{BASE + 4}", "groups": ["c1"]},
+        "edge2": {"role": "edge", "address": f"127.0.0.1:{BASE + 5}", "groups": ["c1"]},
+        "edge3": {"role": "edge", "address": f"127.0.0.1:{BASE + 6}"},
     }
 }
 
@@ -40,9 +43,9 @@ def test_clusters_follow_shared_groups():
 
 def test_a_fog_with_too_many_edges_is_refused():
     """Seed 000 caps a cluster at 9 edge agents; a tenth is a configuration error."""
-    nodes = {"fog1": {"role": "fog", "address": "127.0.0.1:46620", "groups": ["c"]}}
+    nodes = {"fog1": {"role": "fog", "address": f"127.0.0.1:{BASE}", "groups": ["c"]}}
     for k in range(10):
-        nodes[f"e{k}"] = {"role": "edge", "address": f"127.0.0.1:{46621 + k}", "groups": ["c"]}
+        nodes[f"e{k}"] = {"role": "edge", "address": f"127.0.0.1:{BASE + 6 + k}", "groups": ["c"]}
     with pytest.raises(ValueError, match=r"nodes\.fog1\.groups"):
         clusters(NetConfig.from_dict({"nodes": nodes}))
     with pytest.raises(NetConfigError):

@@ -19,7 +19,11 @@ from companion.planning.coverage_role import (
 )
 from companion.scenario_env import ScenarioEnv, ScenarioEnvError
 from companion.scripts.coverage import PARAMS, Track, _metrics, scenario_env
+from harness.run_ports import free_port_block
 from worlds.examples import example_path
+
+BASE = free_port_block(3)
+"""Ports of the URLs below (nothing binds them), from the suite's allocator."""
 
 
 @pytest.fixture(scope="module")
@@ -29,8 +33,8 @@ def offshore() -> worlds.World:
 
 def _env(index: int, count: int, duration_s: float | None = 120.0) -> ScenarioEnv:
     return ScenarioEnv(
-        mavlink_url="udpin://0.0.0.0:43000",
-        grpc_port=43100,
+        mavlink_url=f"udpin://0.0.0.0:{BASE}",
+        grpc_port=BASE + 2,
         vehicle=index + 1,
         vehicles=count,
         role="coverage",
@@ -62,11 +66,11 @@ def test_options_override_the_environment():
     names = ("url", "grpc_port", "vehicle", "role_index", "role_count", "out", "world", "origin")
     args = argparse.Namespace(**dict.fromkeys(names), video_uri=None, duration=60.0, params=None)
     args.role_index, args.role_count = 1, 3
-    environ = {"SWARMSITL_MAVLINK_URL": "udpin://0.0.0.0:43001", "SWARMSITL_VEHICLE": "2",
+    environ = {"SWARMSITL_MAVLINK_URL": f"udpin://0.0.0.0:{BASE + 1}", "SWARMSITL_VEHICLE": "2",
                "SWARMSITL_DURATION_S": "120", "SWARMSITL_PARAMS": '{"altitude_m": 12}'}  # fmt: skip
     env = scenario_env(args, environ)
     assert (env.mavlink_url, env.vehicle, env.role_index, env.role_count) == (
-        "udpin://0.0.0.0:43001", 2, 1, 3,
+        f"udpin://0.0.0.0:{BASE + 1}", 2, 1, 3,
     )  # fmt: skip
     assert env.duration_s == 60.0 and env.params == {"altitude_m": 12}
     with pytest.raises(ScenarioEnvError, match="SWARMSITL_ORIGIN"):

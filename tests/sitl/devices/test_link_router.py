@@ -14,6 +14,7 @@ import time
 
 import pytest
 
+from harness.run_ports import free_port_block
 from sitl.devices.link_router import (
     OVERSIZE,
     REFUSED,
@@ -225,15 +226,16 @@ def test_what_the_network_refuses_or_a_node_sends_itself_is_counted_not_raised()
 def test_duplicate_nodes_and_taken_ports_are_refused():
     """Two nodes with one id, or a proxy port in use, fail at construction naming it."""
     network = StandInNetwork()
-    node = RouterNode("a", "edge", ("127.0.0.1", 46250), 0)
+    base = free_port_block(2)
+    node = RouterNode("a", "edge", ("127.0.0.1", base), 0)
     with pytest.raises(ValueError, match="node_id"):
-        LinkRouter(network.submit, [node, RouterNode("a", "fog", ("127.0.0.1", 46251), 0)])
+        LinkRouter(network.submit, [node, RouterNode("a", "fog", ("127.0.0.1", base + 1), 0)])
     holder = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     holder.bind(("127.0.0.1", 0))
     try:
         taken = holder.getsockname()[1]
         with pytest.raises(OSError, match="proxy of node a"):
-            LinkRouter(network.submit, [RouterNode("a", "edge", ("127.0.0.1", 46250), taken)])
+            LinkRouter(network.submit, [RouterNode("a", "edge", ("127.0.0.1", base), taken)])
     finally:
         holder.close()
 
