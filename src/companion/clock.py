@@ -12,14 +12,24 @@ has no speed factor; the harness then exports ``SWARMSITL_CLOCK_FILE``, a file h
 simulation time as one little-endian float64 (seconds) that it rewrites as the simulation
 advances. ``now_s`` and ``sleep`` read that file instead, so the companion's waits are simulated
 seconds whatever the pace. Without any variable (a real vehicle) both are the monotonic clock.
+
+In lockstep the process is also a participant: when the clock file has an acknowledgement
+folder beside it (``<clock file>.acks/``, made by the harness), importing this module starts a
+daemon thread that copies the simulation time it reads into ``<folder>/<pid>`` every
+ACK_PERIOD_WALL_S. The simulation never runs more than its documented lead ahead of the
+slowest acknowledgement of a live process (``harness.lockstep``), so a process that is stopped
+(SIGSTOP, a debugger) or starved of CPU pauses the simulation instead of missing its time.
 """
 
 from __future__ import annotations
 
 import asyncio
+import atexit
+import contextlib
 import mmap
 import os
 import struct
+import threading
 import time
 from pathlib import Path
 
@@ -27,6 +37,8 @@ CLOCK_FORMAT = "<d"
 """Layout of the clock file: simulation time, s, little-endian float64."""
 POLL_WALL_S = 0.002
 """How often ``sleep`` reads the clock file, wall seconds."""
+ACK_PERIOD_WALL_S = 0.002
+"""How often a lockstep participant's acknowledgement is refreshed, wall seconds."""
 
 _clock_map: tuple[str, mmap.mmap] | None = None
 
@@ -81,3 +93,56 @@ async def sleep(duration_s: float) -> None:
     end = _read_clock_file(path) + duration_s
     while _read_clock_file(path) < end:
         await asyncio.sleep(POLL_WALL_S)
+
+
+def ack_dir(clock: Path) -> Path:
+    """The folder where the processes reading ``clock`` acknowledge the time they have seen."""
+    return clock.with_name(clock.name + ".acks")
+
+
+def _acknowledge(clock: Path, ack: Path) -> None:
+    """Copy the simulation time from ``clock`` into ``ack`` for as long as the process runs."""
+    with clock.open("rb") as f:
+        source = mmap.mmap(f.fileno(), 8, access=mmap.ACCESS_READ)
+    with ack.open("r+b") as f:
+        target = mmap.mmap(f.fileno(), 8)
+    while True:
+        target[:8] = source[:8]
+        time.sleep(ACK_PERIOD_WALL_S)
+
+
+_acknowledging: threading.Thread | None = None
+
+
+def start_acknowledging() -> bool:
+    """Take part in the lockstep of the simulation behind ``SWARMSITL_CLOCK_FILE``, if it asks.
+
+    Runs on import; idempotent. Returns whether this process acknowledges (False without a
+    clock file, or when the harness keeps no acknowledgement folder: paced runs, a real vehicle).
+    """
+    global _acknowledging
+    if _acknowledging is not None and _acknowledging.is_alive():
+        return True
+    clock = clock_file()
+    if clock is None or not ack_dir(clock).is_dir():
+        return False
+    ack = ack_dir(clock) / str(os.getpid())
+    try:
+        ack.write_bytes(struct.pack(CLOCK_FORMAT, _read_clock_file(clock)))
+    except (OSError, ValueError):  # the run is over, or its clock is not readable
+        return False
+    atexit.register(_forget, ack)
+    _acknowledging = threading.Thread(
+        target=_acknowledge, args=(clock, ack), name="swarmsitl-clock-ack", daemon=True
+    )
+    _acknowledging.start()
+    return True
+
+
+def _forget(ack: Path) -> None:
+    """At exit: this process is no longer a participant."""
+    with contextlib.suppress(OSError):
+        ack.unlink()
+
+
+start_acknowledging()

@@ -32,8 +32,10 @@ from harness.autopilot_cli import (
 )
 from harness.client_links import parse_udp_out
 from harness.endpoint_table import VehicleEndpoints, endpoint_table
+from harness.kernels import forbid_compiles_if_requested
 from harness.launch import StopFlag, console, open_simulation, run_dir_of
 from harness.link_options import NO_LINK, check_link_model, describe, links_config
+from harness.lockstep import LOCKSTEP, ClockAcks, LockstepGate, gated_links, run_gated
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun, parse_roles
@@ -104,6 +106,7 @@ def _top_level(
     ] = False,
 ) -> None:
     """swarmsitl: PyBullet UAV swarm SITL with PX4-flavoured MAVLink autopilots."""
+    forbid_compiles_if_requested()  # SWARMSITL_FORBID_JIT_COMPILE=1: a kernel compile raises
 
 
 def camera_override(
@@ -652,6 +655,7 @@ def up(
         hil_serial=tuple(hil_serial or ()),
         serial=serial,
         udp_outs=udp_outs,
+        ping_period_s=LOCKSTEP.ping_period_s if lockstep else 0.0,
     )
     sim = open_simulation(cfg)
     if sim.hil is not None:
@@ -796,9 +800,16 @@ def up(
     try:
         with console.status("starting ...") as status:
             if lockstep:
-                sim.run_lockstep(
-                    duration if duration > 0 else float("inf"), lambda _: should_stop()
+                gate = LockstepGate(
+                    LOCKSTEP,
+                    ClockAcks(clock.path),
+                    lambda: (
+                        gated_links(sim, range(vehicles), onboard_only=False)
+                        if sim.fleet is not None
+                        else ()
+                    ),
                 )
+                run_gated(sim, gate, duration if duration > 0 else float("inf"), should_stop)
             else:
                 sim.run_paced(
                     speed,

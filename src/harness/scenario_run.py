@@ -9,11 +9,11 @@ after Ctrl-C (marked incomplete) or a crashed companion (its traceback is in the
 vehicle's autopilot runs PX4's data-link-loss failsafe).
 
 Time: the simulation's clock is published to the companions in ``SWARMSITL_CLOCK_FILE``
-(``companion.clock``), paced or not. A lockstep run goes as fast as the CPU allows once every
-companion has reached its vehicle, up to COM_DL_LOSS_T / 2 s per wall second (5x with PX4's
-default) so that the companions' wall-clock heartbeats never look lost; until then it runs at
-real time, so that a program starting up (MAVSDK's server takes a wall second or two) does not
-miss the first simulated minute.
+(``companion.clock``), paced or not. A lockstep run goes as fast as its slowest live
+participant allows once every companion has reached its vehicle (:mod:`harness.lockstep`: the
+companions' clock acknowledgements, their ``mavsdk_server``'s PING echoes and heartbeats, their
+processes' stops); until then it runs at real time, so that a program starting up (MAVSDK's
+server takes a wall second or two) does not miss the first simulated minute.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ from harness.flight_checks import (
     stayed_inside,
 )
 from harness.flight_log import FlightLog
+from harness.lockstep import LOCKSTEP, ClockAcks, GatedLink, LockstepGate, gated_links
 from harness.net_cli import attach, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun
@@ -64,8 +65,6 @@ TRACEBACK_CHARS = 6000
 """Longest traceback kept in the report per companion."""
 STOP_GRACE_S = 5.0
 """Wall seconds a companion gets to exit after SIGTERM before it is killed."""
-COMPANION_HEARTBEAT_PERIOD_S = 1.0
-"""Wall seconds between a companion's HEARTBEATs (MAVSDK's, as PX4's GCS link expects)."""
 
 
 @dataclass(frozen=True)
@@ -157,6 +156,7 @@ class ScenarioRun:
         self.started_utc = dt.datetime.now(dt.UTC).isoformat(timespec="seconds")
         self._samples: dict[int, list[float]] = {}
         self._clock: ClockFile | None = None
+        self._gate: LockstepGate | None = None
         self.sim: Simulation | None = None
         self.manifest: RunManifest | None = None
         self._grpc_ports: list[int] = []
@@ -213,6 +213,7 @@ class ScenarioRun:
             gcs_link=spec.links.gcs,
             links_file=scenario.links_file,
             router=self.net_run.router if self.net_run is not None else None,
+            ping_period_s=LOCKSTEP.ping_period_s if self.options.speed is None else 0.0,
         )
 
     def _cameras(self, frames: tuple[str, ...]) -> tuple | None:
@@ -379,16 +380,24 @@ class ScenarioRun:
             disarmed_since[0] = sim.time_s
         return sim.time_s - disarmed_since[0] >= DONE_HOLD_S
 
-    def _lockstep_cap(self) -> float:
-        """Fastest lockstep speed, simulated s per wall s: COM_DL_LOSS_T / 2 heartbeat periods.
-
-        Companions send HEARTBEAT on a wall clock (MAVSDK once a wall second); a simulation
-        faster than this would see more than half of COM_DL_LOSS_T (simulated) pass between two
-        of them and could declare a live companion lost (data-link-loss failsafe).
-        """
+    def _gated_links(self) -> list[GatedLink]:
+        """The onboard links of the vehicles whose companion still runs."""
         assert self.sim is not None
-        timeout_s = min(store.floats()["COM_DL_LOSS_T"] for store in self.sim.fleet.params)
-        return max(1.0, timeout_s / (2.0 * COMPANION_HEARTBEAT_PERIOD_S))
+        return gated_links(self.sim, [c.vehicle for c in self.companions if c.exit_code is None])
+
+    def _live_groups(self) -> list[int]:
+        """Process groups of the companions that still run (each started its own session)."""
+        return [c.process.pid for c in self.companions if c.exit_code is None]
+
+    def _give_up(self) -> bool:
+        """While the lockstep waits: notice ended companions, a stop request, the wall timeout."""
+        now = self.sim.time_s if self.sim is not None else 0.0
+        for c in self.companions:
+            c.poll(now)
+        timeout = self.options.timeout_wall_s
+        if timeout is not None and time.monotonic() - self.wall_start > timeout:
+            self.request_stop("timeout")
+        return self.stop_requested
 
     def _loop(self, on_progress: Callable[[ScenarioRun], None] | None) -> None:
         sim = self.sim
@@ -401,6 +410,10 @@ class ScenarioRun:
         disarmed_since: list[float | None] = [None]
         timeout = self.options.timeout_wall_s
         while sim.time_s < end - 1e-9 and not self.stop_requested:
+            if self._gate is not None and warmed:
+                self._gate.hold(sim, min(sim.time_s + CHECK_EVERY_S, end), self._give_up)
+                if self.stop_requested:
+                    break
             for _ in range(steps):
                 sim.step()
                 self._clock.publish(sim.time_s)
@@ -419,7 +432,7 @@ class ScenarioRun:
             if not warmed and self._heard_all():
                 warmed = True
                 t0_sim, t0_wall = sim.time_s, time.monotonic()  # the cap counts from here
-            pace = speed if speed is not None else (self._lockstep_cap() if warmed else 1.0)
+            pace = speed if speed is not None else (None if warmed else 1.0)
             if pace is not None:
                 ahead = (sim.time_s - t0_sim) / pace - (time.monotonic() - t0_wall)
                 if ahead > 0.0005:
@@ -452,6 +465,10 @@ class ScenarioRun:
             if self.net_run is not None:
                 attach(self.net_run, self.sim)
             self._clock = ClockFile(self.run_dir / "clock")
+            if self.options.speed is None:
+                self._gate = LockstepGate(
+                    LOCKSTEP, ClockAcks(self._clock.path), self._gated_links, self._live_groups
+                )
             self.wall_start = time.monotonic()
             if self.net_run is not None and spec.cloud:
                 self.net_procs["cloud"] = role_process(
@@ -467,6 +484,8 @@ class ScenarioRun:
                 self.sim.close()  # tlogs, truth.csv
             if self._clock is not None:
                 self._clock.close()
+            if self._gate is not None:
+                self._gate.close()
         return self._finish()
 
     def _stop_processes(self) -> None:
@@ -543,6 +562,8 @@ class ScenarioRun:
             "versions": versions(),
             "companions": {f"vehicle{c.vehicle + 1}": c.summary() for c in self.companions},
         }
+        if self._gate is not None:
+            extra["lockstep"] = self._gate.summary()
         if self.net_run is not None and sim is not None:
             extra["net"] = write_net_report(
                 self.net_run, sim_s, self.run_dir / "net_report.json", {"seed": self.seed}

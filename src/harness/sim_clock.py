@@ -15,6 +15,14 @@ CLOCK_FORMAT = "<d"
 """Layout of the file, as ``companion.clock.CLOCK_FORMAT`` reads it."""
 
 
+def ack_dir(clock: Path) -> Path:
+    """Where the processes reading ``clock`` acknowledge the time they have seen.
+
+    The name ``companion.clock.ack_dir`` gives it; ``harness.lockstep`` reads them.
+    """
+    return clock.with_name(clock.name + ".acks")
+
+
 class ClockFile:
     """Publishes the simulation time at ``path`` (created or truncated)."""
 

@@ -229,6 +229,10 @@ class SimulationConfig:
     """MAVLink 2 signing key (32 bytes) of every vehicle link: each signs what it sends and
     handles only correctly signed frames (``autopilot_emu.mavlink.signing``; the MAVLink
     cameras sign too); None: no signing."""
+    ping_period_s: float = 0.0
+    """Simulated seconds between the PING requests every onboard and ground-station link sends
+    (their echoes tell a lockstep run how far each companion has read: ``harness.lockstep``);
+    0: none."""
 
     def __post_init__(self) -> None:
         for name in ("out_dir", "links_file"):  # absolute: printed to users, handed to processes
@@ -362,6 +366,8 @@ class Simulation:
             self._internal_init()
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
+        self.vehicle_links: list[list[MavlinkEndpoint]] = [[] for _ in range(n)]
+        """Vehicle i's onboard link, then its ground-station link (if any)."""
         self.shapers: dict[tuple[int, str], MavlinkLinkShaper] = {}
         """The modelled MAVLink links by (vehicle index, ``onboard``, ``gcs`` or ``serial``)."""
         self.serial_ports: list[str | None] = [None] * n
@@ -533,8 +539,11 @@ class Simulation:
                     if model != NO_LINK
                     else 0.0,
                     signing_key=self.config.signing_key,
+                    ping_period_s=0.0 if payload else self.config.ping_period_s,
                 )
                 links.append(MavlinkEndpoint(vehicle, config, hub=hub))
+                if not payload:
+                    self.vehicle_links[i].append(links[-1])
                 if payload:
                     self._payload_links[i] = links[-1]
             if self.config.serial or self.config.udp_outs:
@@ -710,6 +719,15 @@ class Simulation:
     ) -> bool:
         """With an external autopilot: block until every vehicle's has connected (else True)."""
         return True if self.hil is None else self.hil.wait_for_autopilots(should_stop, timeout_s)
+
+    def poll_links(self) -> None:
+        """Read and answer every link at the current time without stepping.
+
+        A paused lockstep calls it: commands are still acknowledged, PING echoes and heartbeats
+        still noted.
+        """
+        if self.endpoints or self.router:
+            self._poll_links(self.world.time_s)
 
     def _poll_links(self, now_s: float) -> None:
         """Poll every MAVLink link; only those whose socket has data read it."""

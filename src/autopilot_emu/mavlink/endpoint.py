@@ -56,6 +56,7 @@ from autopilot_emu.mavlink.ftp import FtpServer
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.mission_protocol import MissionProtocol
 from autopilot_emu.mavlink.param_protocol import ParamProtocol
+from autopilot_emu.mavlink.presence import PeerPresence
 from autopilot_emu.mavlink.setpoints import (
     SetpointError,
     decode_attitude,
@@ -181,6 +182,11 @@ class EndpointConfig:
     signing_key: bytes | None = None
     """MAVLink 2 signing key (32 bytes): sign every frame sent, handle only correctly signed
     frames (:mod:`autopilot_emu.mavlink.signing`); None: no signing, every frame handled."""
+    ping_period_s: float = 0.0
+    """Send a PING request (target 0/0, ``time_usec`` = simulation time) this often, simulated
+    s, and note the peers' echoes in :attr:`MavlinkEndpoint.presence`; 0: none. PX4 has a PING
+    stream of its own; a lockstep run asks for a fast one to learn how far each companion has
+    read (``harness.lockstep``)."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255 or not 1 <= self.compid <= 255:
@@ -191,6 +197,8 @@ class EndpointConfig:
             raise ValueError(f"gps_rate_hz must be positive, got {self.gps_rate_hz}")
         if not self.datarate_bytes_s >= 0:
             raise ValueError(f"datarate_bytes_s must be >= 0, got {self.datarate_bytes_s}")
+        if not self.ping_period_s >= 0:
+            raise ValueError(f"ping_period_s must be >= 0, got {self.ping_period_s}")
         if self.signing_key is not None and len(self.signing_key) != KEY_BYTES:
             raise ValueError(
                 f"signing_key must have {KEY_BYTES} bytes, got {len(self.signing_key)}"
@@ -286,7 +294,13 @@ class MavlinkEndpoint:
             raise ValueError("the link hub serves another vehicle")
         self._vehicle = vehicle
         self._config = config
+        self._wall_clock_s = wall_clock_s
         self.stats = EndpointStats()
+        self.presence = PeerPresence()
+        """The peers' latest PING echoes and ground-station HEARTBEATs."""
+        self._ping_period_us = round(config.ping_period_s * 1e6)
+        self._next_ping_us = 0 if self._ping_period_us > 0 else 2**62
+        self._ping_seq = 0
         self._hub = hub if hub is not None else LinkHub(vehicle)
         self._cursor = self._hub.subscribe()
         self._streams = StreamScheduler(
@@ -540,6 +554,9 @@ class MavlinkEndpoint:
             logger.info("simulation time went back to %.6f s: restarting streams", now_s)
             self._streams.restart(now_us)
             self._next_statustext_us = now_us
+            if self._ping_period_us > 0:
+                self._next_ping_us = now_us
+            self.presence = PeerPresence()
             self._next_flush_us = now_us
         if self._config.datarate_bytes_s > 0 and now_us >= self._next_rate_update_us:
             self._next_rate_update_us = now_us + RATE_MULT_UPDATE_US
@@ -547,6 +564,10 @@ class MavlinkEndpoint:
         due = self._streams.pop_due(now_us)
         if due:
             self._emit_streams(due)
+        if now_us >= self._next_ping_us:
+            self._next_ping_us = now_us + self._ping_period_us
+            self._ping_seq = (self._ping_seq + 1) & 0xFFFFFFFF
+            self._send(mavlink2.MAVLink_ping_message(now_us, self._ping_seq, 0, 0))
         if now_us >= self._next_statustext_us:
             self._next_statustext_us = now_us + STATUSTEXT_POLL_INTERVAL_US
             texts, reached = self._hub.announcements(self._cursor)
@@ -572,7 +593,7 @@ class MavlinkEndpoint:
             self._next_work_s = -_NEVER
             self.quiet_until_s = -_NEVER
             return
-        next_us = min(self._streams.next_due_us, self._next_statustext_us)
+        next_us = min(self._streams.next_due_us, self._next_statustext_us, self._next_ping_us)
         if self._tlog is not None:
             next_us = min(next_us, self._next_flush_us)
         # Half a microsecond early so that float rounding never delays a due message a poll.
@@ -936,6 +957,7 @@ class MavlinkEndpoint:
         # PX4 counts only ground stations (type GCS) for the data-link-loss failsafe.
         if msg.type == mavlink2.MAV_TYPE_GCS:
             self._vehicle.gcs_heartbeat()
+            self.presence.heartbeat(self._now_s, self._wall_clock_s())
 
     def _on_mission(
         self, handler: Callable[[mavlink2.MAVLink_message, tuple[int, int]], None]
@@ -1020,7 +1042,13 @@ class MavlinkEndpoint:
 
     def _on_ping(self, msg: mavlink2.MAVLink_message) -> None:
         # As PX4: target 0/0 is a request to answer; a PING addressed to us is a reply to a
-        # ping of ours (we send none), answering it could start a ping-pong between vehicles.
+        # ping of ours (answering it could start a ping-pong between vehicles): its time_usec
+        # is the simulation time we sent, which the peer has now read.
+        config = self._config
+        if msg.target_system == config.sysid and msg.target_component == config.compid:
+            if self._ping_period_us > 0:
+                self.presence.echoed(msg.time_usec / 1e6, self._now_s, self._wall_clock_s())
+            return
         if msg.target_system == 0 and msg.target_component == 0:
             self._send(
                 mavlink2.MAVLink_ping_message(

@@ -237,6 +237,55 @@ def test_ping_request_is_answered_to_the_sender(client, vehicle):
     )
 
 
+def test_ping_stream_carries_simulation_time_and_notes_the_peers_echo(client, vehicle):
+    """With ping_period_s, PING requests (target 0/0) go out at that period in simulated time
+    with time_usec = the simulation time; an echo addressed to us is noted in ``presence``
+    (simulation and wall time), never answered; an echo of a time not yet sent is ignored."""
+    wall = [100.0]
+    with make_endpoint(
+        vehicle, peers=(client.address,), wall_clock_s=lambda: wall[0], ping_period_s=0.05
+    ) as endpoint:
+        endpoint.poll(0.0)
+        client.drain()
+        pings = [m for m in _drive(endpoint, client, 0, 1000) if m.get_type() == "PING"]
+        assert [p.time_usec for p in pings] == [50_000 * k for k in range(1, 21)]
+        assert {(p.target_system, p.target_component) for p in pings} == {(0, 0)}
+        assert endpoint.presence.echo_s == -math.inf
+        echo = pings[9]  # t = 0.5 s
+        wall[0] = 101.5
+        reply = mavlink2.MAVLink_ping_message(echo.time_usec, echo.seq, 1, 1)
+        client.send(endpoint, reply)
+        inbox = client.exchange(endpoint, 1.0, lambda _: endpoint.presence.echo_s > 0)
+        assert endpoint.presence.echo_s == 0.5 and endpoint.presence.echo_wall_s == 101.5
+        assert not [m for m in inbox if m.get_type() == "PING" and m.target_system == 245]
+        received = endpoint.stats.frames_received
+        client.send(endpoint, mavlink2.MAVLink_ping_message(5_000_000, 1, 1, 1))  # not sent yet
+        client.exchange(endpoint, 1.0, lambda _: endpoint.stats.frames_received > received)
+        assert endpoint.presence.echo_s == 0.5
+
+
+def test_without_a_ping_period_no_ping_goes_out(client, vehicle):
+    with make_endpoint(vehicle, peers=(client.address,)) as endpoint:
+        assert not [m for m in _drive(endpoint, client, 0, 1000) if m.get_type() == "PING"]
+
+
+def test_a_ground_stations_heartbeat_is_noted_with_its_times(client, vehicle):
+    """GCS HEARTBEATs (the kind PX4's data-link check counts) are noted; others are not."""
+    with make_endpoint(vehicle, wall_clock_s=lambda: 7.0) as endpoint:
+        onboard = mavlink2.MAVLink_heartbeat_message(
+            mavlink2.MAV_TYPE_ONBOARD_CONTROLLER, mavlink2.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3
+        )
+        client.send(endpoint, onboard)
+        client.exchange(endpoint, 2.0, lambda _: endpoint.stats.frames_received >= 1)
+        assert endpoint.presence.heartbeat_s == -math.inf
+        gcs = mavlink2.MAVLink_heartbeat_message(
+            mavlink2.MAV_TYPE_GCS, mavlink2.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3
+        )
+        client.send(endpoint, gcs)
+        client.exchange(endpoint, 3.0, lambda _: endpoint.stats.frames_received >= 2)
+        assert (endpoint.presence.heartbeat_s, endpoint.presence.heartbeat_wall_s) == (3.0, 7.0)
+
+
 def test_learned_peer_receives_streams_and_configured_peers_are_kept(client, vehicle):
     """The sender of valid MAVLink becomes a peer; configured peers stay first."""
     other = MavClient()
