@@ -149,6 +149,17 @@ def wait_heartbeat(lk: RawLink, mp: MavProxy, predicate, what: str, timeout_s: f
     return hb
 
 
+def switch_until_disarmed(lk: RawLink, mp: MavProxy, mode: str, what: str, timeout_s: float):
+    """Switch to ``mode`` the documented way, see it in HEARTBEAT, then wait for the disarm
+    that ends it (still in ``mode``); the disarmed HEARTBEAT."""
+    assert set_mode(mp, mode) == "ACCEPTED", mp.tail()
+    custom = px4_custom_mode(mode)
+    wait_heartbeat(lk, mp, lambda m: m.custom_mode == custom, mode)
+    disarmed = wait_heartbeat(lk, mp, lambda m: not m.base_mode & ARMED_FLAG, what, timeout_s)
+    assert disarmed.custom_mode == custom
+    return disarmed
+
+
 def wait_relative_alt(lk: RawLink, mp: MavProxy, above_m: float, timeout_s: float):
     """First GLOBAL_POSITION_INT more than ``above_m`` above home."""
     lk.drain()
@@ -377,17 +388,9 @@ def test_documented_takeoff_then_return_flies_home(mavproxy, link):
                 60 / SPEED + 10,
             )
 
-            assert set_mode(mavproxy, "RTL") == "ACCEPTED", mavproxy.tail()
-            rtl = px4_custom_mode("RTL")
-            wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == rtl, "RTL")
-            disarmed = wait_heartbeat(
-                link,
-                mavproxy,
-                lambda m: not m.base_mode & ARMED_FLAG,
-                "disarmed after the return",
-                150 / SPEED + 15,
+            switch_until_disarmed(
+                link, mavproxy, "RTL", "disarmed after the return", 150 / SPEED + 15
             )
-            assert disarmed.custom_mode == rtl
             landed = wait_position(link, mavproxy, lambda *_: True, "sent GLOBAL_POSITION_INT", 10)
             off_m = distance_m(*home, landed.lat * 1e-7, landed.lon * 1e-7)
             assert off_m < 2.0, f"landed {off_m:.1f} m from the take-off point"
@@ -408,17 +411,7 @@ def test_documented_land_lands_and_disarms(mavproxy, link):
         loiter = px4_custom_mode("LOITER")
         wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == loiter, "LOITER", 20)
 
-        assert set_mode(mavproxy, "LAND") == "ACCEPTED", mavproxy.tail()
-        land = px4_custom_mode("LAND")
-        wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == land, "LAND")
-        disarmed = wait_heartbeat(
-            link,
-            mavproxy,
-            lambda m: not m.base_mode & ARMED_FLAG,
-            "disarmed after landing",
-            60 / SPEED + 15,
-        )
-        assert disarmed.custom_mode == land
+        switch_until_disarmed(link, mavproxy, "LAND", "disarmed after landing", 60 / SPEED + 15)
         ext = link.wait_for(lambda m: m.get_type() == "EXTENDED_SYS_STATE", 10)
         assert ext is not None and ext.landed_state == mavlink2.MAV_LANDED_STATE_ON_GROUND
     finally:
