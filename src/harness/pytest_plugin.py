@@ -11,7 +11,12 @@ Installed with swarmsitl (entry point ``pytest11``), so any test suite gets the 
 * ``swarmsitl_ports``: free port bases for this test (two tests may run at once: under
   pytest-xdist each worker draws from its own slice of ports).
 
-Waits and windows are in simulation time; nothing here asserts wall-clock timings. The module
+Waits and windows are in simulation time; nothing here asserts wall-clock timings.
+:func:`sim_time_s` reads a run's simulation clock (``RUN/clock``, which ``swarmsitl up`` and
+``swarmsitl run`` publish paced and lockstep alike) and :func:`wait_until` waits on it:
+``fleet.wait_until(predicate, timeout_sim_s=30)``. The only wall-clock limit of such a wait is
+its watchdog (:func:`watchdog_wall_s`), far beyond the simulated limit, for a simulation that
+stopped advancing. The module
 imports nothing heavy at start-up (pytest loads it in every session): the simulator's packages
 are imported when a fixture is used.
 ``docs/testing_your_companion.md`` has the example test a user writes.
@@ -23,6 +28,7 @@ import contextlib
 import json
 import os
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -43,6 +49,82 @@ RUN_TIMEOUT_WALL_S = 900.0
 FLEET_READY_TIMEOUT_S = 60.0
 """Wall seconds ``swarmsitl up`` gets to print its endpoint table."""
 READY_MARKER = "Press Ctrl-C to stop."
+CLOCK_FILE = "clock"
+"""The run directory's simulation clock: one little-endian float64, simulated seconds."""
+WATCHDOG_MIN_WALL_S = 120.0
+"""The shortest watchdog of a wait in simulated time, wall seconds."""
+WATCHDOG_FACTOR = 10.0
+"""A wait's watchdog is this many times its simulated limit at the nominal speed."""
+POLL_WALL_S = 0.05
+"""How often :func:`wait_until` asks its predicate, wall seconds."""
+
+
+def sim_time_s(clock: Path) -> float:
+    """The simulation time published in ``clock`` (a run directory or its clock file), s.
+
+    ``swarmsitl up`` and ``swarmsitl run`` rewrite ``RUN/clock`` as the simulation advances,
+    paced or lockstep; before the simulation starts it holds 0.
+    """
+    path = clock / CLOCK_FILE if clock.is_dir() else clock
+    with path.open("rb") as f:
+        return struct.unpack("<d", f.read(8))[0]
+
+
+def watchdog_wall_s(timeout_sim_s: float, speed: float | None = None) -> float:
+    """The wall-clock watchdog of a wait of ``timeout_sim_s`` simulated seconds.
+
+    ``WATCHDOG_FACTOR`` times the limit at the nominal ``speed`` (None, lockstep: 1), at least
+    ``WATCHDOG_MIN_WALL_S``: it fires only when the simulation stopped or all but stopped, never
+    because a loaded machine ran it slower than its nominal speed.
+    """
+    nominal = speed if speed and speed > 0 else 1.0
+    return max(WATCHDOG_MIN_WALL_S, WATCHDOG_FACTOR * timeout_sim_s / nominal)
+
+
+class WaitTimeout(AssertionError):
+    """A wait's simulated time limit passed: the assertion failed."""
+
+
+class WatchdogExpired(AssertionError):
+    """A wait's wall-clock watchdog fired: the simulation stopped advancing (or all but)."""
+
+
+def wait_until(
+    predicate: Callable[[], Any],
+    timeout_sim_s: float,
+    clock: Path,
+    what: str = "the condition",
+    *,
+    speed: float | None = None,
+    poll_wall_s: float = POLL_WALL_S,
+) -> Any:
+    """Call ``predicate()`` until it returns something truthy, and return that.
+
+    Raises :class:`WaitTimeout` when ``timeout_sim_s`` seconds of the simulation behind
+    ``clock`` (see :func:`sim_time_s`) passed first. The wall clock only decides through the
+    watchdog (:func:`watchdog_wall_s` of ``speed``, the simulation's nominal speed), which raises
+    :class:`WatchdogExpired`, saying that it is one. ``poll_wall_s`` is the pause between calls
+    (0 for a predicate that blocks briefly itself, e.g. on a socket with a timeout).
+    """
+    start_sim = sim_time_s(clock)
+    start_wall = time.monotonic()
+    watchdog = watchdog_wall_s(timeout_sim_s, speed)
+    while True:
+        found = predicate()
+        if found:
+            return found
+        elapsed = sim_time_s(clock) - start_sim
+        if elapsed >= timeout_sim_s:
+            raise WaitTimeout(f"no {what} within {timeout_sim_s:g} simulated s")
+        waited = time.monotonic() - start_wall
+        if waited > watchdog:
+            raise WatchdogExpired(
+                f"watchdog, not a timing assertion: no {what} after {waited:.0f} wall s, in "
+                f"which the simulation advanced only {elapsed:.1f} of the {timeout_sim_s:g} "
+                f"simulated s allowed (stopped, or starved of CPU?)"
+            )
+        if poll_wall_s > 0:
+            time.sleep(poll_wall_s)
 
 
 def _cli(*args: object) -> list[str]:
@@ -168,6 +250,8 @@ class Fleet(_Checks):
     run_dir: Path
     output_path: Path
     lockstep: bool
+    speed: float | None = None
+    """Simulated seconds per wall second asked for (None: lockstep)."""
     _log: FlightLog | None = field(default=None, repr=False)
 
     def url(self, i: int = 0) -> str:
@@ -188,10 +272,40 @@ class Fleet(_Checks):
         return self.ports.grpc + i
 
     @property
+    def clock(self) -> Path:
+        """The simulation clock file (``SWARMSITL_CLOCK_FILE``, paced and lockstep)."""
+        return self.run_dir / CLOCK_FILE
+
+    @property
     def env(self) -> dict[str, str]:
-        """Environment for companion processes (the simulation clock of a lockstep fleet)."""
-        env = {"SWARMSITL_CLOCK_FILE": str(self.run_dir / "clock")} if self.lockstep else {}
-        return os.environ | env
+        """Environment for companion processes: ``SWARMSITL_CLOCK_FILE`` added.
+
+        ``companion.clock`` then reads and waits in the simulation's time, paced or lockstep.
+        """
+        return os.environ | {"SWARMSITL_CLOCK_FILE": str(self.clock)}
+
+    def sim_time_s(self) -> float:
+        """The fleet's simulation time now, s."""
+        return sim_time_s(self.clock)
+
+    def wait_until(
+        self, predicate: Callable[[], Any], timeout_sim_s: float, what: str = "the condition"
+    ) -> Any:
+        """``predicate()``'s first truthy value within ``timeout_sim_s`` simulated seconds.
+
+        :func:`wait_until` on the fleet's clock (the wall clock only as its watchdog); fails at
+        once, with its output, if ``swarmsitl up`` exited.
+        """
+
+        def poll() -> Any:
+            if self.process.poll() is not None:
+                raise AssertionError(
+                    f"swarmsitl up exited {self.process.returncode} while waiting for {what}:\n"
+                    f"{self.output}"
+                )
+            return predicate()
+
+        return wait_until(poll, timeout_sim_s, self.clock, what, speed=self.speed)
 
     @property
     def output(self) -> str:
@@ -338,7 +452,9 @@ def swarmsitl_fleet(
                 env=os.environ | {"COLUMNS": "200", "PYTHONUNBUFFERED": "1"},
                 start_new_session=True,
             )
-        fleet = Fleet(proc, vehicles, ports, run_dir, output_path, lockstep)
+        fleet = Fleet(
+            proc, vehicles, ports, run_dir, output_path, lockstep, None if lockstep else speed
+        )
         fleets.append(fleet)
         deadline = time.monotonic() + FLEET_READY_TIMEOUT_S
         while READY_MARKER not in fleet.output:

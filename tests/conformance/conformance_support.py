@@ -42,16 +42,28 @@ class Run:
 
 
 def run_conformance_client(
-    script: str, api: str, ports: Ports, log_dir: Path, extra: list[str], timeout_s: float
+    script: str,
+    api: str,
+    ports: Ports,
+    log_dir: Path,
+    extra: list[str],
+    clock: Path,
+    timeout_sim_s: float,
 ) -> Run:
-    """Run ``clients/<script>`` with ``--api`` against vehicle 0 of ``ports``."""
+    """Run ``clients/<script>`` with ``--api`` against vehicle 0 of ``ports`` (whose simulation
+    clock file is ``clock``), within ``timeout_sim_s`` simulated seconds."""
     args = ["--api", api, "--url", ports.url(), *extra]
     grpc_port = None
     if api == "classic":
         args += ["--grpc-port", str(ports.grpc)]
         grpc_port = ports.grpc
     result = run_client(
-        str(CLIENTS_DIR / script), args, log_dir, timeout_s=timeout_s, grpc_port=grpc_port
+        str(CLIENTS_DIR / script),
+        args,
+        log_dir,
+        clock=clock,
+        timeout_sim_s=timeout_sim_s,
+        grpc_port=grpc_port,
     )
     if not result.data:
         pytest.fail(result.describe())

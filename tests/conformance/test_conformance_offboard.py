@@ -24,10 +24,11 @@ def run(request, tmp_path_factory) -> Run:
     api = request.param
     ports = module_ports()
     out = tmp_path_factory.mktemp(f"offboard-{api}")
-    with running_swarm(1, ports, out / "run"):
+    with running_swarm(1, ports, out / "run") as swarm:
         return run_conformance_client(
-            "offboard_conformance.py", api, ports, out / "clients", [], timeout_s=300
-        )
+            "offboard_conformance.py", api, ports, out / "clients", [], swarm.clock,
+            timeout_sim_s=1300,
+        )  # fmt: skip
 
 
 def yaw_error(yaw_deg: float, want_deg: float) -> float:

@@ -39,7 +39,7 @@ def swarm(tmp_path_factory):
 @pytest.fixture
 def link(swarm):
     """A MAVSDK-like client (245/190), drained; a second one (246/190) is ``other_link``."""
-    lk = RawLink(PORTS.listen)
+    lk = RawLink(PORTS.listen, swarm.clock)
     lk.send(mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))
     assert lk.heartbeats(1)
     lk.drain()
@@ -49,7 +49,7 @@ def link(swarm):
 
 @pytest.fixture
 def other_link(swarm):
-    lk = RawLink(PORTS.listen, sysid=246)
+    lk = RawLink(PORTS.listen, swarm.clock, sysid=246)
     yield lk
     lk.close()
 
@@ -114,8 +114,10 @@ def test_silent_uploader_is_re_asked_then_abandoned_without_ack(link):
     first = link.wait_for(is_request(0), 10)
     again = link.wait_for(is_request(0), 10)
     assert first is not None and again is not None, "REQUEST_INT 0 not repeated"
+    # The protocol's timeout is PX4's 5 wall seconds (20 simulated s at SPEED 4, fewer when the
+    # simulation runs slower): 60 simulated s cover it at any pace up to SPEED.
     timeout = link.wait_for(
-        lambda m: m.get_type() == "STATUSTEXT" and "Operation timeout" in m.text, 20
+        lambda m: m.get_type() == "STATUSTEXT" and "Operation timeout" in m.text, 60
     )
     assert timeout is not None
     assert not [m for m in link.inbox if m.get_type() == "MISSION_ACK"]

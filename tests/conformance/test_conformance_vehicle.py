@@ -36,10 +36,11 @@ def run(request, tmp_path_factory) -> Run:
     ports = module_ports()
     out = tmp_path_factory.mktemp(f"vehicle-{api}")
     extra = ["--plugins"] if api == "classic" else []
-    with running_swarm(1, ports, out / "run"):
+    with running_swarm(1, ports, out / "run") as swarm:
         return run_conformance_client(
-            "vehicle_conformance.py", api, ports, out / "clients", extra, timeout_s=420
-        )
+            "vehicle_conformance.py", api, ports, out / "clients", extra, swarm.clock,
+            timeout_sim_s=1700,
+        )  # fmt: skip
 
 
 def classic_only(run: Run) -> None:

@@ -9,6 +9,14 @@
   reads a mission, geofence or rally list back with it (mission protocol, as PX4 serves it).
 * :class:`MavProxy` runs MAVProxy as the ground station, driven line by line through its stdin.
 
+Every wait is in simulated seconds, read from the run's clock file (``RUN/clock``, which
+``swarmsitl up`` rewrites as the simulation advances, paced or lockstep):
+:func:`wait_sim` (``harness.pytest_plugin.wait_until``) in this process; clients get
+``SWARMSITL_CLOCK_FILE`` and wait with ``clients/_common.py``. A loaded machine runs the
+simulation slower than :data:`SPEED`, never a test late; the wall clock only backs a wait up as
+its watchdog (ten times the simulated limit at :data:`SPEED`, at least 120 s) besides
+pytest-timeout's limit per test.
+
 Each test module gets its own block of ports from :func:`module_ports`, drawn from the one port
 allocator of the suite (:func:`harness.run_ports.free_port_block`: this xdist worker's slice of
 20000-32767, never a block handed out before in this process), so modules never collide with
@@ -35,7 +43,9 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
+from harness.pytest_plugin import WaitTimeout, sim_time_s, wait_until
 from harness.run_ports import free_port_block
+from harness.sim_clock import ClockFile
 
 E2E_DIR = Path(__file__).resolve().parent
 CLIENTS_DIR = E2E_DIR / "clients"
@@ -51,7 +61,24 @@ MODULE_BLOCK = 20
 
 READY_MARKER = "Press Ctrl-C to stop."
 STARTUP_TIMEOUT_S = 90.0
+"""Wall seconds ``swarmsitl up`` gets to start (no simulation time passes before it is ready)."""
 SHUTDOWN_TIMEOUT_S = 30.0
+"""Wall seconds ``swarmsitl up`` gets to close its recordings after SIGINT."""
+CLIENT_TIMEOUT_SIM_S = 960.0
+"""Simulated seconds a client process may run by default."""
+
+
+# --- waits -----------------------------------------------------------------------------------
+
+
+def wait_sim(predicate, timeout_sim_s: float, clock: Path, what: str, poll_wall_s: float = 0.05):
+    """``predicate()``'s first truthy value within ``timeout_sim_s`` simulated seconds of the
+    run whose clock file is ``clock``; raises ``WaitTimeout`` (an AssertionError) after them.
+
+    ``harness.pytest_plugin.wait_until`` at the e2e :data:`SPEED`: its only wall-clock limit is
+    the watchdog (``WatchdogExpired``) for a simulation that stopped advancing.
+    """
+    return wait_until(predicate, timeout_sim_s, clock, what, speed=SPEED, poll_wall_s=poll_wall_s)
 
 
 # --- ports -----------------------------------------------------------------------------------
@@ -193,24 +220,32 @@ class ClientResult:
 
 
 class ClientProcess:
-    """A client script running in its own process group, with a hard wall-clock timeout."""
+    """A client script running in its own process group, given the simulation's clock file
+    (``SWARMSITL_CLOCK_FILE``) and ``timeout_sim_s`` simulated seconds to finish."""
 
     def __init__(
         self,
         script: str,
         args: list[str],
         log_dir: Path,
-        timeout_s: float,
+        clock: Path,
+        timeout_sim_s: float,
         grpc_port: int | None = None,
     ) -> None:
         self.name = f"{script} {' '.join(args)}"
         self.grpc_port = grpc_port
-        self.deadline = time.monotonic() + timeout_s
+        self.clock = clock
+        self.timeout_sim_s = timeout_sim_s
+        self.timeout_message = ""
         log_dir.mkdir(parents=True, exist_ok=True)
         stem = f"{Path(script).stem}-{grpc_port or os.getpid()}-{time.monotonic_ns()}"
         self._out_path = log_dir / f"{stem}.stdout"
         self._err_path = log_dir / f"{stem}.stderr"
-        env = os.environ | {"SWARMSITL_SPEED": str(SPEED), "PYTHONUNBUFFERED": "1"}
+        env = os.environ | {
+            "SWARMSITL_SPEED": str(SPEED),
+            "SWARMSITL_CLOCK_FILE": str(clock),
+            "PYTHONUNBUFFERED": "1",
+        }
         with self._out_path.open("w") as out, self._err_path.open("w") as err:
             self.proc = subprocess.Popen(
                 [sys.executable, str(CLIENTS_DIR / script), *args],
@@ -221,14 +256,25 @@ class ClientProcess:
                 env=env,
                 start_new_session=True,
             )
+        self.start_sim_s = sim_time_s(clock)
+
+    def finished(self) -> bool:
+        """The process has exited."""
+        return self.proc.poll() is not None
+
+    def sim_left_s(self) -> float:
+        """Simulated seconds left of the client's limit."""
+        return self.timeout_sim_s - (sim_time_s(self.clock) - self.start_sim_s)
 
     def result(self) -> ClientResult:
-        """Wait (until the deadline), kill the process group if needed, parse the JSON line."""
+        """Wait until it exits (within its simulated limit; else it is killed and the result
+        says ``timed_out``), kill the process group, parse the JSON line."""
         timed_out = False
         try:
-            self.proc.wait(timeout=max(0.1, self.deadline - time.monotonic()))
-        except subprocess.TimeoutExpired:
+            wait_sim(self.finished, max(0.0, self.sim_left_s()), self.clock, f"{self.name} exit")
+        except WaitTimeout as exc:
             timed_out = True
+            self.timeout_message = str(exc)
         finally:
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(self.proc.pid, signal.SIGKILL)
@@ -242,6 +288,8 @@ class ClientProcess:
                 with contextlib.suppress(json.JSONDecodeError):
                     data = json.loads(line)
                     break
+        if self.timeout_message:
+            stderr += f"\n[e2e_support] {self.timeout_message}\n"
         result = ClientResult(
             self.name, self.proc.returncode, timed_out, data, stdout, stderr, leftovers
         )
@@ -256,27 +304,48 @@ def start_client(
     script: str,
     args: list[str],
     log_dir: Path,
-    timeout_s: float = 180.0,
+    *,
+    clock: Path,
+    timeout_sim_s: float = CLIENT_TIMEOUT_SIM_S,
     grpc_port: int | None = None,
 ) -> ClientProcess:
-    """Start ``tests/e2e/clients/<script>`` with ``sys.executable``."""
+    """Start ``tests/e2e/clients/<script>`` with ``sys.executable`` against the simulation
+    whose clock file is ``clock`` (``Swarm.clock``)."""
     if grpc_port is not None:
         assert not mavsdk_servers(grpc_port), f"a mavsdk_server already serves {grpc_port}"
-    return ClientProcess(script, args, log_dir, timeout_s, grpc_port)
+    return ClientProcess(script, args, log_dir, clock, timeout_sim_s, grpc_port)
 
 
 def run_client(
     script: str,
     args: list[str],
     log_dir: Path,
-    timeout_s: float = 180.0,
+    *,
+    clock: Path,
+    timeout_sim_s: float = CLIENT_TIMEOUT_SIM_S,
     grpc_port: int | None = None,
 ) -> ClientResult:
-    """Run a client to completion (or to its timeout) and return its result."""
-    return start_client(script, args, log_dir, timeout_s, grpc_port).result()
+    """Run a client to completion (or to its simulated limit) and return its result."""
+    return start_client(
+        script, args, log_dir, clock=clock, timeout_sim_s=timeout_sim_s, grpc_port=grpc_port
+    ).result()
 
 
 # --- the vehicles ----------------------------------------------------------------------------
+
+
+def run_paced(sim, clock: ClockFile, done: Callable[[], bool], max_duration_sim_s: float) -> None:
+    """Run an in-process ``harness.simulation.Simulation`` paced at :data:`SPEED` until
+    ``done()`` or ``max_duration_sim_s``, publishing its time in ``clock`` as ``swarmsitl up``
+    does (create the ``ClockFile`` before starting clients: they read ``clock.path``)."""
+
+    def publish_and_check() -> bool:
+        clock.publish(sim.world.time_s)
+        return done()
+
+    clock.publish(sim.world.time_s)
+    sim.run_paced(SPEED, publish_and_check, max_duration_s=max_duration_sim_s)
+    clock.publish(sim.world.time_s)
 
 
 def cli_command(subcommand: str, *options: object) -> list[str]:
@@ -301,6 +370,11 @@ class Swarm:
 
     def output(self) -> str:
         return self.log_path.read_text(errors="replace")
+
+    @property
+    def clock(self) -> Path:
+        """The simulation's clock file (``SWARMSITL_CLOCK_FILE``)."""
+        return self.out / "clock"
 
     def tlog(self, i: int = 0) -> Path:
         return self.out / f"vehicle{i + 1}.tlog"
@@ -417,9 +491,11 @@ class RawLink:
     """A MAVLink 2 client on its own UDP socket, as MAVSDK would be (sysid 245, compid 190).
 
     ``inbox`` keeps every decoded message received; :meth:`wait_for` and :meth:`pump` add to it.
+    Their durations are simulated seconds of the run whose clock file is ``clock``.
     """
 
-    def __init__(self, vehicle_port: int, sysid: int = 245, compid: int = 190) -> None:
+    def __init__(self, vehicle_port: int, clock: Path, sysid: int = 245, compid: int = 190) -> None:
+        self.clock = clock
         self.addr = ("127.0.0.1", vehicle_port)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
@@ -459,21 +535,28 @@ class RawLink:
         return msgs
 
     def pump(self, seconds: float) -> list:
-        """Receive for ``seconds`` of wall time; return what arrived."""
-        got = []
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
+        """Receive for ``seconds`` of simulated time; return what arrived."""
+        got: list = []
+        end = sim_time_s(self.clock) + seconds
+
+        def received_until_end() -> bool:
             got.extend(self._receive_once())
+            return sim_time_s(self.clock) >= end
+
+        wait_sim(received_until_end, seconds + 1.0, self.clock, "the end", poll_wall_s=0)
         return got
 
     def wait_for(self, predicate: Callable, timeout_s: float = 10.0):
-        """First newly received message with ``predicate(msg)``; None after ``timeout_s``."""
-        end = time.monotonic() + timeout_s
-        while time.monotonic() < end:
-            for msg in self._receive_once():
-                if predicate(msg):
-                    return msg
-        return None
+        """First newly received message with ``predicate(msg)``; None after ``timeout_s``
+        simulated seconds."""
+
+        def matching():
+            return next((m for m in self._receive_once() if predicate(m)), None)
+
+        try:
+            return wait_sim(matching, timeout_s, self.clock, "matching message", poll_wall_s=0)
+        except WaitTimeout:
+            return None
 
     def drain(self) -> None:
         """Drop whatever is queued in the socket and the inbox."""
@@ -494,7 +577,7 @@ class RawLink:
             hb = self.wait_for(
                 lambda m: m.get_type() == "HEARTBEAT" and from_autopilot(m), timeout_s
             )
-            assert hb is not None, f"no HEARTBEAT within {timeout_s} s"
+            assert hb is not None, f"no HEARTBEAT within {timeout_s} simulated s"
             beats.append(hb)
         return beats
 
@@ -516,6 +599,7 @@ def command_long(
 
 
 def download_items(lk: RawLink, mission_type: int, timeout_s: float = 5.0) -> list:
+    # timeout_s: simulated seconds per request
     """Read the vehicle's mission, geofence or rally list (MISSION_ITEM_INTs) as a GCS would.
 
     MISSION_REQUEST_LIST -> MISSION_COUNT, then one MISSION_REQUEST_INT per item, each re-sent
@@ -529,7 +613,9 @@ def download_items(lk: RawLink, mission_type: int, timeout_s: float = 5.0) -> li
             reply = lk.wait_for(predicate, timeout_s)
             if reply is not None:
                 return reply
-        pytest.fail(f"mission download (type {mission_type}): no {what} within 3 x {timeout_s} s")
+        pytest.fail(
+            f"mission download (type {mission_type}): no {what} within 3 x {timeout_s} simulated s"
+        )
 
     def ours(m, name: str) -> bool:
         return (
@@ -568,18 +654,18 @@ class MavProxy:
 
     Commands are written to MAVProxy's prompt one line at a time (its interactive shell reads
     plain ``input()`` lines from a pipe); its output goes to ``<log_dir>/mavproxy.out``, which
-    :meth:`wait_for` polls for acknowledgements. ``HOME`` is ``log_dir``, so no personal
-    ``~/.mavinit.scr`` runs; logs and the tlog stay in ``log_dir``. Every wait is bounded by the
-    hard ``timeout_s`` of the whole session; :meth:`close` always kills the process group.
+    :meth:`wait_for` polls for acknowledgements, in simulated seconds of the run whose clock file
+    is ``clock``. ``HOME`` is ``log_dir``, so no personal ``~/.mavinit.scr`` runs; logs and the
+    tlog stay in ``log_dir``. :meth:`close` always kills the process group.
     """
 
-    def __init__(self, gcs_port: int, log_dir: Path, timeout_s: float = 180.0) -> None:
+    def __init__(self, gcs_port: int, log_dir: Path, clock: Path) -> None:
         script = Path(sys.executable).with_name("mavproxy.py")
         if not script.is_file():
             pytest.fail(f"{script} not found: install the test extras (MAVProxy)")
         log_dir.mkdir(parents=True, exist_ok=True)
         self.out_path = log_dir / "mavproxy.out"
-        self.deadline = time.monotonic() + timeout_s
+        self.clock = clock
         cmd = [
             sys.executable, str(script),
             f"--master=udpin:127.0.0.1:{gcs_port}",
@@ -625,17 +711,20 @@ class MavProxy:
         return mark
 
     def wait_for(self, pattern: str, since: int = 0, timeout_s: float = 20.0) -> re.Match:
-        """First match of regex ``pattern`` in the output after ``since``; fail after timeout."""
-        end = min(time.monotonic() + timeout_s, self.deadline)
-        while True:
-            found = re.search(pattern, self.output(since))
-            if found is not None:
-                return found
-            if self.proc.poll() is not None:
+        """First match of regex ``pattern`` in the output after ``since`` within ``timeout_s``
+        simulated seconds; fail after them."""
+
+        def found() -> re.Match | None:
+            match = re.search(pattern, self.output(since))
+            if match is None and self.proc.poll() is not None:
                 self.fail(f"exited with {self.proc.returncode} while waiting for {pattern!r}")
-            if time.monotonic() > end:
-                self.fail(f"no {pattern!r} within {timeout_s} s")
-            time.sleep(0.05)
+            return match
+
+        try:
+            return wait_sim(found, timeout_s, self.clock, repr(pattern))
+        except WaitTimeout:
+            self.fail(f"no {pattern!r} within {timeout_s} simulated s")
+            raise
 
     def close(self) -> None:
         """EOF on stdin (MAVProxy's way to quit), then SIGKILL the whole process group."""

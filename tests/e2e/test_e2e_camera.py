@@ -1,8 +1,9 @@
 """MAVSDK's camera plugin against the simulated camera (component 100, via the vehicle's links).
 
-The simulation runs in this process, paced at :data:`e2e_support.SPEED`; the client runs in its
-own process with its own mavsdk_server. Each test's UDP and gRPC ports are a block of the
-suite's allocator (:func:`harness.run_ports.free_port_block`).
+The simulation runs in this process, paced at :data:`e2e_support.SPEED` (its time published in a
+clock file, as ``swarmsitl up`` does); the client runs in its own process with its own
+mavsdk_server. Each test's UDP and gRPC ports are a block of the suite's allocator
+(:func:`harness.run_ports.free_port_block`).
 """
 
 from __future__ import annotations
@@ -13,9 +14,10 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 import pytest
-from e2e_support import SPEED, require_free_udp, start_client
+from e2e_support import CLIENT_TIMEOUT_SIM_S, require_free_udp, run_paced, start_client
 
 from harness.run_ports import free_port_block
+from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 
@@ -39,12 +41,17 @@ def _ports() -> PortPlan:
 
 
 def _run_with_client(sim: Simulation, script: str, args: list[str], logs: Path, grpc: int):
-    """Run the simulation paced until the client ends (bounded); return the client's result."""
-    client = start_client(script, args, logs, timeout_s=240, grpc_port=grpc)
+    """Run the simulation paced until the client ends (at most CLIENT_TIMEOUT_SIM_S simulated
+    seconds, its clock published for the client); return the client's result."""
+    clock = ClockFile(sim.config.out_dir / "clock")
     try:
-        sim.run_paced(SPEED, lambda: client.proc.poll() is not None, max_duration_s=240 * SPEED)
+        client = start_client(script, args, logs, clock=clock.path, grpc_port=grpc)
+        try:
+            run_paced(sim, clock, client.finished, CLIENT_TIMEOUT_SIM_S)
+        finally:
+            result = client.result()
     finally:
-        result = client.result()
+        clock.close()
     return result
 
 

@@ -29,7 +29,7 @@ def flight(swarm, tmp_path_factory):
         "classic_flight.py",
         ["--url", PORTS.url(), "--grpc-port", str(PORTS.grpc)],
         tmp_path_factory.mktemp("classic-client"),
-        timeout_s=240,
+        clock=swarm.clock,
         grpc_port=PORTS.grpc,
     )
     assert result.ok, result.describe()

@@ -39,13 +39,13 @@ def test_second_up_on_the_same_ports_fails_naming_the_port(tmp_path):
     The first instance keeps running and answering (checked with a raw HEARTBEAT read), and its
     own teardown still exits 0 with a readable tlog.
     """
-    with running_swarm(1, PORTS, tmp_path / "first"):
+    with running_swarm(1, PORTS, tmp_path / "first") as swarm:
         second = run_up(tmp_path / "second", 1, PORTS.sdk, PORTS.listen)
         output = second.stdout + second.stderr
         assert second.returncode != 0, output
         assert str(PORTS.listen) in output, output
         assert "Traceback" not in output, output
-        link = RawLink(PORTS.listen)
+        link = RawLink(PORTS.listen, swarm.clock)
         try:
             # Any valid MAVLink frame makes the vehicle stream to us too.
             link.send(mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))

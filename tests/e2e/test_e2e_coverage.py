@@ -21,16 +21,20 @@ import pytest
 from e2e_support import (
     REPO_ROOT,
     SPEED,
+    WaitTimeout,
     kill_mavsdk_servers,
     mavsdk_servers,
     module_ports,
     require_free_udp,
+    run_paced,
     start_swarm,
     stop_swarm,
+    wait_sim,
 )
 from pymavlink import mavutil
 
 from harness.run_ports import free_port_block
+from harness.sim_clock import ClockFile
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.e2e
@@ -41,7 +45,8 @@ EXTRA = free_port_block(3)
 VIDEO_PORT = EXTRA
 AREA_ENU_M = (-10.0, -10.0, 30.0, 15.0)
 ALTITUDE_M = 8.0
-TIMEOUT_WALL_S = 240.0
+TIMEOUT_SIM_S = 960.0
+"""Simulated seconds the companion may run."""
 
 
 TLOG_TYPES = ["HEARTBEAT", "EXTENDED_SYS_STATE", "GLOBAL_POSITION_INT"]
@@ -73,13 +78,14 @@ def _flight_in_tlog(path) -> dict:
     return out
 
 
-def _companion_env(out_dir, duration_s: float, params: dict, video: bool) -> dict[str, str]:
+def _companion_env(out_dir, clock, duration_s: float, params: dict, video: bool) -> dict[str, str]:
     """The SWARMSITL_* variables swarmsitl run would give vehicle 1's companion."""
     cfg = WorldConfig()
     origin = (cfg.origin_lat_deg, cfg.origin_lon_deg, cfg.origin_alt_amsl_m)
     env = os.environ | {
         "PYTHONUNBUFFERED": "1",
         "SWARMSITL_SPEED": str(SPEED),
+        "SWARMSITL_CLOCK_FILE": str(clock),
         "SWARMSITL_MAVLINK_URL": PORTS.url(0),
         "SWARMSITL_GRPC_PORT": str(PORTS.grpc),
         "SWARMSITL_VEHICLE": "1",
@@ -98,32 +104,33 @@ def _companion_env(out_dir, duration_s: float, params: dict, video: bool) -> dic
 
 
 def _run_companion(swarm, env: dict[str, str]) -> tuple[int, str, str]:
-    """Run the companion to its end (bounded), then stop the swarm; (rc, stdout, stderr)."""
+    """Run the companion to its end (within TIMEOUT_SIM_S), then stop the swarm;
+    (rc, stdout, stderr)."""
+    out_path, err_path = swarm.out.parent / "companion.out", swarm.out.parent / "companion.err"
     try:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "companion.scripts.coverage"],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            stdin=subprocess.DEVNULL,
-            cwd=REPO_ROOT,
-            env=env,
-            text=True,
-            start_new_session=True,
-        )
+        with out_path.open("w") as out, err_path.open("w") as err:
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "companion.scripts.coverage"],
+                stdout=out, stderr=err, stdin=subprocess.DEVNULL, cwd=REPO_ROOT, env=env,
+                text=True, start_new_session=True,
+            )  # fmt: skip
         try:
-            stdout, stderr = proc.communicate(timeout=TIMEOUT_WALL_S)
-        except subprocess.TimeoutExpired:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(proc.pid, signal.SIGKILL)
-            stdout, stderr = proc.communicate()
-            pytest.fail(f"coverage companion timed out\n{stdout}\n{stderr[-3000:]}")
+            wait_sim(
+                lambda: proc.poll() is not None, TIMEOUT_SIM_S, swarm.clock, "the companion's end"
+            )
+        except WaitTimeout:
+            pytest.fail(
+                f"coverage companion timed out\n{out_path.read_text()}\n"
+                f"{err_path.read_text()[-3000:]}"
+            )
         finally:
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
             kill_mavsdk_servers(PORTS.grpc)
     finally:
         stop_swarm(swarm)
-    return proc.returncode, stdout, stderr
+    return proc.returncode, out_path.read_text(), err_path.read_text()
 
 
 def _events(stdout: str) -> dict[str, dict]:
@@ -150,7 +157,9 @@ def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
     swarm = start_swarm(1, PORTS, tmp_path / "run", extra=extra)
     out_dir = tmp_path / "vehicle1"
     params = {"area_enu_m": AREA_ENU_M, "altitude_m": ALTITUDE_M, "speed_m_s": 5.0}
-    rc, stdout, stderr = _run_companion(swarm, _companion_env(out_dir, 400.0, params, True))
+    rc, stdout, stderr = _run_companion(
+        swarm, _companion_env(out_dir, swarm.clock, 400.0, params, True)
+    )
     assert rc == 0, f"rc={rc}\n{stdout}\n{stderr[-3000:]}"
     for event in ("planned", "took_off", "mission_done", "landed", "disarmed"):
         assert f"[coverage] {event}" in stdout, stdout
@@ -200,9 +209,11 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
     grpc = b + 5
     with Simulation(config) as sim:
         origin = sim.world.origin
+        clock = ClockFile(tmp_path / "run" / "clock")
         env = os.environ | {
             "PYTHONUNBUFFERED": "1",
             "SWARMSITL_SPEED": str(SPEED),
+            "SWARMSITL_CLOCK_FILE": str(clock.path),
             "SWARMSITL_MAVLINK_URL": f"udpin://0.0.0.0:{ports.sdk_port(0)}",
             "SWARMSITL_GRPC_PORT": str(grpc),
             "SWARMSITL_VEHICLE": "1",
@@ -224,10 +235,9 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
                 text=True, start_new_session=True,
             )  # fmt: skip
         try:
-            sim.run_paced(
-                SPEED, lambda: proc.poll() is not None, max_duration_s=TIMEOUT_WALL_S * SPEED
-            )
+            run_paced(sim, clock, lambda: proc.poll() is not None, TIMEOUT_SIM_S)
         finally:
+            clock.close()
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
@@ -257,7 +267,7 @@ def test_the_coverage_companion_goes_home_in_time_when_it_is_late(tmp_path):
         "speed_m_s": 8.0,
         "mean_speed_fraction": 1.0,
     }
-    env = _companion_env(tmp_path / "vehicle1", duration_s, params, False)
+    env = _companion_env(tmp_path / "vehicle1", swarm.clock, duration_s, params, False)
     rc, stdout, stderr = _run_companion(swarm, env)
     assert rc == 0, f"rc={rc}\n{stdout}\n{stderr[-3000:]}"
     events = _events(stdout)

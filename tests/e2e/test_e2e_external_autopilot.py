@@ -92,7 +92,7 @@ def test_classic_mavsdk_takes_off_with_an_external_autopilot(tmp_path, mode):
             "classic_takeoff.py",
             ["--url", PORTS.url(), "--grpc-port", str(PORTS.grpc), "--alt", "5"],
             tmp_path / "client",
-            timeout_s=240,
+            clock=tmp_path / "run" / "clock",
             grpc_port=PORTS.grpc,
         )
         assert result.ok, result.describe() + up_log.read_text() + ap_log.read_text()

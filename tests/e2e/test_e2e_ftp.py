@@ -46,7 +46,7 @@ def report(tmp_path_factory):
                 str(base / "client"),
             ],
             base / "client-logs",
-            timeout_s=240,
+            clock=swarm.clock,
             grpc_port=PORTS.grpc,
         )
     assert result.ok, result.describe()

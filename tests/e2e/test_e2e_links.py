@@ -18,6 +18,7 @@ from e2e_support import (
     run_client,
     start_swarm,
     stop_swarm,
+    wait_sim,
 )
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
@@ -50,7 +51,7 @@ def test_the_endpoint_table_names_the_link_models(swarm):
 
 def test_raw_pymavlink_gets_telemetry_and_a_command_ack_over_the_uart(swarm):
     """A raw client on the onboard link: HEARTBEATs, then AUTOPILOT_VERSION on request."""
-    link = RawLink(PORTS.listen)
+    link = RawLink(PORTS.listen, swarm.clock)
     try:
         link.send(mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))
         link.heartbeats(2)
@@ -79,8 +80,14 @@ def test_a_ground_station_hears_the_vehicle_over_the_sik_radio(swarm):
     """mavutil (as MAVProxy) on the GCS port gets HEARTBEAT and SYS_STATUS through the radio."""
     gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{PORTS.gcs}", source_system=255)
     try:
-        heartbeat = gcs.wait_heartbeat(timeout=30)
-        status = gcs.recv_match(type="SYS_STATUS", blocking=True, timeout=30)
+        heartbeat = wait_sim(
+            lambda: gcs.recv_match(type="HEARTBEAT", blocking=True, timeout=0.05),
+            30, swarm.clock, "HEARTBEAT", poll_wall_s=0,
+        )  # fmt: skip
+        status = wait_sim(
+            lambda: gcs.recv_match(type="SYS_STATUS", blocking=True, timeout=0.05),
+            30, swarm.clock, "SYS_STATUS", poll_wall_s=0,
+        )  # fmt: skip
     finally:
         gcs.close()
     assert heartbeat is not None and heartbeat.get_srcSystem() == 1
@@ -93,7 +100,7 @@ def test_classic_mavsdk_arms_and_takes_off_through_the_uart(swarm, client_logs):
         "classic_takeoff.py",
         ["--url", PORTS.url(), "--grpc-port", str(PORTS.grpc), "--alt", "3"],
         client_logs,
-        timeout_s=240,
+        clock=swarm.clock,
         grpc_port=PORTS.grpc,
     )
     assert result.ok, result.describe()

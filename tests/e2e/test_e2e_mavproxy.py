@@ -28,7 +28,6 @@ from functools import cache
 import pytest
 from e2e_support import (
     REPO_ROOT,
-    SPEED,
     MavProxy,
     RawLink,
     download_items,
@@ -43,8 +42,10 @@ pytestmark = pytest.mark.e2e
 
 PORTS = module_ports()
 ARMED_FLAG = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED
-ACK_WAIT_S = 10.0
-"""Wall seconds for an acknowledgement (40 simulated seconds at SPEED 4)."""
+ACK_WAIT_S = 40.0
+"""Simulated seconds for an acknowledgement (every wait of this module is simulated time)."""
+STARTUP_WAIT_S = 120.0
+"""Simulated seconds for MAVProxy to start, detect the vehicle and load its parameters."""
 HOME_LAT, HOME_LON = 47.397742, 8.545594
 """Vehicle 1's home (PX4 SITL's, as ``swarmsitl up`` spawns it)."""
 DOCS = REPO_ROOT / "docs" / "cli.md"
@@ -99,7 +100,7 @@ def swarm(tmp_path_factory):
 @pytest.fixture(scope="module")
 def link(swarm):
     """A raw observer on the vehicle's onboard link (sysid 245, as MAVSDK)."""
-    lk = RawLink(PORTS.listen)
+    lk = RawLink(PORTS.listen, swarm.clock)
     lk.send(mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))  # makes the vehicle stream to us
     yield lk
     lk.close()
@@ -108,10 +109,10 @@ def link(swarm):
 @pytest.fixture(scope="module")
 def mavproxy(swarm, link, tmp_path_factory):
     """MAVProxy connected to vehicle 1, parameters downloaded, vehicle ready to arm."""
-    mp = MavProxy(PORTS.gcs, tmp_path_factory.mktemp("mavproxy-logs"))
+    mp = MavProxy(PORTS.gcs, tmp_path_factory.mktemp("mavproxy-logs"), swarm.clock)
     try:
-        mp.wait_for(r"Detected vehicle 1:1", timeout_s=30)
-        mp.wait_for(r"Received \d+ parameters", timeout_s=30)
+        mp.wait_for(r"Detected vehicle 1:1", timeout_s=STARTUP_WAIT_S)
+        mp.wait_for(r"Received \d+ parameters", timeout_s=STARTUP_WAIT_S)
         wait_ready(link)
         yield mp
     finally:
@@ -145,7 +146,7 @@ def wait_heartbeat(lk: RawLink, mp: MavProxy, predicate, what: str, timeout_s: f
         timeout_s,
     )
     if hb is None:
-        mp.fail(f"vehicle HEARTBEAT never showed {what} within {timeout_s} s")
+        mp.fail(f"vehicle HEARTBEAT never showed {what} within {timeout_s} simulated s")
     return hb
 
 
@@ -174,7 +175,10 @@ def wait_relative_alt(lk: RawLink, mp: MavProxy, above_m: float, timeout_s: floa
 
     msg = lk.wait_for(climbed, timeout_s)
     if msg is None:
-        mp.fail(f"vehicle did not climb above {above_m} m in {timeout_s} s (highest {best:.2f} m)")
+        mp.fail(
+            f"vehicle did not climb above {above_m} m in {timeout_s} simulated s "
+            f"(highest {best:.2f} m)"
+        )
     return msg
 
 
@@ -215,7 +219,7 @@ def wait_position(lk: RawLink, mp: MavProxy, predicate, what: str, timeout_s: fl
         timeout_s,
     )
     if msg is None:
-        mp.fail(f"vehicle never {what} within {timeout_s} s")
+        mp.fail(f"vehicle never {what} within {timeout_s} simulated s")
     return msg
 
 
@@ -247,7 +251,7 @@ def land_and_disarm(mp: MavProxy, lk: RawLink) -> None:
         lambda m: (
             m.get_type() == "HEARTBEAT" and from_autopilot(m) and not m.base_mode & ARMED_FLAG
         ),
-        60 / SPEED + 15,
+        60,
     )
     if disarmed is None:
         mp.send("disarm force")
@@ -333,7 +337,7 @@ def test_arm_takeoff_to_amsl_altitude_and_land(mavproxy, link):
     try:
         mark = mavproxy.send(f"takeoff {target:.1f}")
         assert command_ack(mavproxy, "NAV_TAKEOFF", mark) == "ACCEPTED", mavproxy.tail()
-        wait_relative_alt(link, mavproxy, 8.0, timeout_s=60 / SPEED + 10)
+        wait_relative_alt(link, mavproxy, 8.0, timeout_s=60)
         ext = link.wait_for(lambda m: m.get_type() == "EXTENDED_SYS_STATE", 10)
         assert ext is not None and ext.landed_state == mavlink2.MAV_LANDED_STATE_IN_AIR
         # Takeoff complete: PX4 switches to Hold (AUTO.LOITER) by itself.
@@ -355,7 +359,7 @@ def test_takeoff_below_home_climbs_to_the_minimum_takeoff_altitude(mavproxy, lin
     try:
         mark = mavproxy.send("takeoff 10")
         assert command_ack(mavproxy, "NAV_TAKEOFF", mark) == "ACCEPTED", mavproxy.tail()
-        wait_relative_alt(link, mavproxy, 1.5, timeout_s=40 / SPEED + 5)
+        wait_relative_alt(link, mavproxy, 1.5, timeout_s=40)
     finally:
         land_and_disarm(mavproxy, link)
 
@@ -374,7 +378,7 @@ def test_documented_takeoff_then_return_flies_home(mavproxy, link):
             assert set_mode(mavproxy, "TAKEOFF") == "ACCEPTED", mavproxy.tail()
             takeoff = px4_custom_mode("TAKEOFF")
             wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == takeoff, "TAKEOFF")
-            wait_relative_alt(link, mavproxy, 8.0, timeout_s=60 / SPEED + 10)
+            wait_relative_alt(link, mavproxy, 8.0, timeout_s=60)
             loiter = px4_custom_mode("LOITER")
             wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == loiter, "LOITER", 20)
 
@@ -385,12 +389,10 @@ def test_documented_takeoff_then_return_flies_home(mavproxy, link):
                 mavproxy,
                 lambda lat, lon, _: distance_m(*home, lat, lon) > 25.0,
                 "flew 25 m from home",
-                60 / SPEED + 10,
+                60,
             )
 
-            switch_until_disarmed(
-                link, mavproxy, "RTL", "disarmed after the return", 150 / SPEED + 15
-            )
+            switch_until_disarmed(link, mavproxy, "RTL", "disarmed after the return", 150)
             landed = wait_position(link, mavproxy, lambda *_: True, "sent GLOBAL_POSITION_INT", 10)
             off_m = distance_m(*home, landed.lat * 1e-7, landed.lon * 1e-7)
             assert off_m < 2.0, f"landed {off_m:.1f} m from the take-off point"
@@ -407,11 +409,11 @@ def test_documented_land_lands_and_disarms(mavproxy, link):
     arm(mavproxy, link)
     try:
         assert set_mode(mavproxy, "TAKEOFF") == "ACCEPTED", mavproxy.tail()
-        wait_relative_alt(link, mavproxy, 2.0, timeout_s=40 / SPEED + 5)
+        wait_relative_alt(link, mavproxy, 2.0, timeout_s=40)
         loiter = px4_custom_mode("LOITER")
         wait_heartbeat(link, mavproxy, lambda m: m.custom_mode == loiter, "LOITER", 20)
 
-        switch_until_disarmed(link, mavproxy, "LAND", "disarmed after landing", 60 / SPEED + 15)
+        switch_until_disarmed(link, mavproxy, "LAND", "disarmed after landing", 60)
         ext = link.wait_for(lambda m: m.get_type() == "EXTENDED_SYS_STATE", 10)
         assert ext is not None and ext.landed_state == mavlink2.MAV_LANDED_STATE_ON_GROUND
     finally:

@@ -22,24 +22,27 @@ def swarm(tmp_path):
         yield s
 
 
-def run_classic(script: str, client_logs, timeout_s: float):
+def run_classic(script: str, swarm, client_logs, timeout_sim_s: float):
     args = ["--url", PORTS.url(), "--grpc-port", str(PORTS.grpc)]
-    return run_client(script, args, client_logs, timeout_s=timeout_s, grpc_port=PORTS.grpc)
+    return run_client(
+        script, args, client_logs, clock=swarm.clock, timeout_sim_s=timeout_sim_s,
+        grpc_port=PORTS.grpc,
+    )  # fmt: skip
 
 
 def test_mission_upload_fly_pause_resume_rtl_and_clear(swarm, client_logs):
     """3 waypoints + RTL: download as uploaded, progress to 3/3 across a pause, lands home."""
-    data = require_ok(run_classic("classic_mission.py", client_logs, 150), swarm)
+    data = require_ok(run_classic("classic_mission.py", swarm, client_logs, 600), swarm)
     check_mission_flight(data)
 
 
 def test_mission_raw_mission_geofence_rally_round_trip_and_rejections(swarm, client_logs):
     """Raw mission/fence/rally download field by field as uploaded; infeasible missions refused."""
-    data = require_ok(run_classic("classic_mission_raw.py", client_logs, 90), swarm)
+    data = require_ok(run_classic("classic_mission_raw.py", swarm, client_logs, 360), swarm)
     check_raw_plans(data)
 
 
 def test_geofence_plugin_upload_download_clear(swarm, client_logs):
     """GeofenceData (inclusion polygon, exclusion circle) reads back raw and via the plugin."""
-    data = require_ok(run_classic("classic_geofence.py", client_logs, 90), swarm)
+    data = require_ok(run_classic("classic_geofence.py", swarm, client_logs, 360), swarm)
     check_geofence(data)

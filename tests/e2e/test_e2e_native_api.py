@@ -22,7 +22,10 @@ def swarm(tmp_path_factory):
 
 def test_native_api_takeoff_and_land(swarm, client_logs):
     """first_autopilot finds system 1 (PX4); arm, take off (>= 90 %), land, in_air False, disarm."""
-    result = run_client("native_flight.py", ["--url", PORTS.url()], client_logs, timeout_s=180)
+    result = run_client(
+        "native_flight.py", ["--url", PORTS.url()], client_logs, clock=swarm.clock,
+        timeout_sim_s=720,
+    )  # fmt: skip
     assert result.ok, result.describe()
     data = result.data
     assert data["mavsdk_version"].lstrip("v").startswith("4.")

@@ -17,7 +17,15 @@ import sys
 import time
 
 import pytest
-from e2e_support import REPO_ROOT, SPEED, cli_command, cli_env, module_ports, require_free_udp
+from e2e_support import (
+    REPO_ROOT,
+    SPEED,
+    cli_command,
+    cli_env,
+    module_ports,
+    require_free_udp,
+    wait_sim,
+)
 
 from harness.run_ports import free_port_block
 
@@ -93,6 +101,7 @@ def test_up_with_net_lets_any_companion_program_reach_the_others(tmp_path):
         env = os.environ | {
             "SWARMSITL_NET": str(out / "net.yaml"),
             "SWARMSITL_SPEED": str(SPEED),
+            "SWARMSITL_CLOCK_FILE": str(out / "clock"),  # the pings wait in simulated time
         }
         pings = {
             node: subprocess.Popen(
@@ -111,13 +120,17 @@ def test_up_with_net_lets_any_companion_program_reach_the_others(tmp_path):
             )
             for node in ("edge1", "fog1")
         }
-        outputs = {node: p.communicate(timeout=120)[0] for node, p in pings.items()}
+        wait_sim(
+            lambda: all(p.poll() is not None for p in pings.values()), 20, out / "clock",
+            "the pings' end",
+        )  # fmt: skip
+        outputs = {node: p.communicate()[0] for node, p in pings.items()}
         for node, proc in pings.items():
             assert proc.returncode == 0, outputs[node]
             assert (
                 "SUMMARY" in outputs[node] and "timeout" not in outputs[node].split("SUMMARY")[-1]
             )
-        up.wait(timeout=120)
+        wait_sim(lambda: up.poll() is not None, 30, out / "clock", "the end of the 20 s run")
     finally:
         if up.poll() is None:
             up.kill()

@@ -28,7 +28,7 @@ def test_every_new_client_address_gets_its_ack(swarm):
     """Client after client, each on a fresh socket, gets the ACK of its command."""
     answered = []
     for _ in range(CLIENTS):
-        link = RawLink(PORTS.listen)
+        link = RawLink(PORTS.listen, swarm.clock)
         try:
             link.send(command_long(COMMAND, (1,)))
             ack = link.wait_for(lambda m: m.get_type() == "COMMAND_ACK" and m.command == COMMAND, 3)

@@ -35,7 +35,7 @@ def swarm(tmp_path_factory):
 @pytest.fixture(scope="module")
 def raw(swarm):
     """One raw client socket for the module (the vehicle learns its address once)."""
-    lk = RawLink(PORTS.listen)
+    lk = RawLink(PORTS.listen, swarm.clock)
     lk.send(mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))  # a GCS heartbeat, as MAVSDK
     yield lk
     lk.close()

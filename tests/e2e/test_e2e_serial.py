@@ -7,16 +7,19 @@ module's and of the other xdist worker's.
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import pytest
 from e2e_support import (
+    WaitTimeout,
     check_tlog,
     module_ports,
     require_free_udp,
     start_client,
     start_swarm,
     stop_swarm,
+    wait_sim,
 )
 from pymavlink import mavutil
 
@@ -57,24 +60,31 @@ def test_mavsdk_flies_over_the_serial_port_while_a_udp_out_client_watches(tmp_pa
                 "--land",
             ],
             client_logs,
-            timeout_s=240,
+            clock=swarm.clock,
             grpc_port=PORTS.grpc,
         )
         armed_states: list[bool] = []
         seen_systems: set[int] = set()
-        next_beat = 0.0
-        while client.proc.poll() is None and time.monotonic() < client.deadline:
+        next_beat = [0.0]
+
+        def watch_until_the_client_ends() -> bool:
             msg = watcher.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
-            if msg is None:
-                continue
-            seen_systems.add(msg.get_srcSystem())
-            if time.monotonic() >= next_beat:  # heard from: PX4 forwards broadcasts to us
-                next_beat = time.monotonic() + 1.0
-                watcher.mav.heartbeat_send(ONBOARD_CONTROLLER, INVALID_AUTOPILOT, 0, 0, 0)
-            if msg.get_srcSystem() == 1:
-                armed = bool(msg.base_mode & ARMED)
-                if not armed_states or armed_states[-1] != armed:
-                    armed_states.append(armed)
+            if msg is not None:
+                seen_systems.add(msg.get_srcSystem())
+                if time.monotonic() >= next_beat[0]:  # heard from: PX4 forwards broadcasts to us
+                    next_beat[0] = time.monotonic() + 1.0  # a send interval, not a limit
+                    watcher.mav.heartbeat_send(ONBOARD_CONTROLLER, INVALID_AUTOPILOT, 0, 0, 0)
+                if msg.get_srcSystem() == 1:
+                    armed = bool(msg.base_mode & ARMED)
+                    if not armed_states or armed_states[-1] != armed:
+                        armed_states.append(armed)
+            return client.finished()
+
+        with contextlib.suppress(WaitTimeout):  # the client's result says it timed out
+            wait_sim(
+                watch_until_the_client_ends, client.sim_left_s(), swarm.clock, "the client's end",
+                poll_wall_s=0,
+            )  # fmt: skip
         result = client.result()
         assert result.ok, result.describe()
         assert result.data["rel_alt_reached_m"] >= 2.7

@@ -32,7 +32,7 @@ def test_three_clients_fly_their_own_vehicles(swarm, client_logs):
             "classic_takeoff.py",
             ["--url", PORTS.url(i), "--grpc-port", str(PORTS.grpc + i), "--alt", str(ALT_M)],
             client_logs,
-            timeout_s=240,
+            clock=swarm.clock,
             grpc_port=PORTS.grpc + i,
         )
         for i in range(N)

@@ -166,12 +166,20 @@ def test_a_user_test_written_with_the_plugin_passes_and_fails_when_the_companion
 def test_a_lockstep_fleet_for_your_own_client(swarmsitl_fleet):
     fleet = swarmsitl_fleet(vehicles=1, world="example:city", lockstep=True)
     client = Path(__file__).parents[1] / "e2e" / "clients" / "classic_takeoff.py"
-    proc = subprocess.run(
-        [sys.executable, str(client), "--url", fleet.url(0), "--grpc-port",
-         str(fleet.grpc_port(0)), "--alt", "5"],
-        capture_output=True, text=True, timeout=300, env=fleet.env, check=False,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
+    client_log = fleet.run_dir.parent / "client.log"
+    with client_log.open("w") as out:
+        proc = subprocess.Popen(
+            [sys.executable, str(client), "--url", fleet.url(0), "--grpc-port",
+             str(fleet.grpc_port(0)), "--alt", "5"],
+            stdout=out, stderr=subprocess.STDOUT, env=fleet.env,
+        )  # fmt: skip
+    try:  # a limit in simulated seconds: a slow machine makes the fleet slower, not the test fail
+        fleet.wait_until(lambda: proc.poll() is not None, 600, "the client's end")
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+    assert proc.returncode == 0, client_log.read_text()
     log = fleet.stop()
     from harness.flight_checks import assert_reached_altitude
 

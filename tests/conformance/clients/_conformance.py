@@ -19,7 +19,6 @@ them from here, which puts that folder on ``sys.path`` first.
 from __future__ import annotations
 
 import argparse
-import asyncio
 import contextlib
 import importlib
 import sys
@@ -31,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "e2e" / "clients"))
 from _common import (
     ClientError,
     Report,
+    SimTimeout,
     collect,
     connect_healthy,
     first,
@@ -39,7 +39,9 @@ from _common import (
     ned_of,
     run,
     sim_sleep,
+    until,
     wait_for,
+    within,
 )
 from _plans import mission_items, result_name
 
@@ -48,6 +50,7 @@ __all__ = [
     "Checks",
     "ClientError",
     "Report",
+    "SimTimeout",
     "client_main",
     "collect",
     "first",
@@ -57,11 +60,13 @@ __all__ = [
     "outcome",
     "result_name",
     "run",
+    "until",
     "wait_for",
+    "within",
 ]
 
-CONNECT_TIMEOUT_S = 60.0
-"""Wall seconds to connect and see global position and home OK."""
+CONNECT_TIMEOUT_S = 120.0
+"""Simulated seconds to connect and see global position and home OK."""
 
 
 RECONNECT_GRPC_OFFSET = 5
@@ -154,16 +159,17 @@ class Api:
         return self.stream("telemetry", name)
 
     async def now(self, name: str):
-        """The next item of telemetry stream ``name``."""
-        return await asyncio.wait_for(first(self.telemetry(name)), 30)
+        """The next item of telemetry stream ``name`` (within 30 simulated seconds)."""
+        return await within(first(self.telemetry(name)), 30, f"telemetry {name}")
 
     async def sim_sleep(self, seconds: float) -> None:
-        """Sleep ``seconds`` of simulated time (the vehicle's SYSTEM_TIME)."""
-        await sim_sleep(lambda: self.telemetry("unix_epoch_time"), seconds)
+        """Sleep ``seconds`` of simulated time (the simulation's clock)."""
+        await sim_sleep(seconds)
 
     async def until(self, name: str, predicate: Callable, sim_s: float, what: str):
-        """First item of telemetry stream ``name`` with ``predicate``; wall limit from ``sim_s``."""
-        return await wait_for(self.telemetry(name), predicate, 20 + sim_s, what)
+        """First item of telemetry stream ``name`` with ``predicate``, within ``sim_s``
+        simulated seconds."""
+        return await wait_for(self.telemetry(name), predicate, sim_s, what)
 
 
 class Checks:
@@ -198,11 +204,12 @@ class Checks:
             self.r.setdefault("aborted_groups", {})[name] = f"{type(exc).__name__}: {exc}"
 
 
-async def outcome(call: Awaitable, timeout_s: float = 10.0) -> str:
-    """``SUCCESS``, the MAVSDK result name of the error raised, or ``NO_ANSWER`` (wall limit)."""
+async def outcome(call: Awaitable, timeout_sim_s: float = 10.0) -> str:
+    """``SUCCESS``, the MAVSDK result name of the error raised, or ``NO_ANSWER`` (nothing
+    within ``timeout_sim_s`` simulated seconds)."""
     try:
-        await asyncio.wait_for(call, timeout_s)
-    except TimeoutError:
+        await within(call, timeout_sim_s, "an answer")
+    except SimTimeout:
         return "NO_ANSWER"
     except Exception as exc:
         return result_name(exc)
@@ -212,7 +219,7 @@ async def outcome(call: Awaitable, timeout_s: float = 10.0) -> str:
 def client_main(
     flow: Callable[[Api, argparse.Namespace, Report], Awaitable[None]],
     options: Callable[[argparse.ArgumentParser], None] = lambda ap: None,
-    timeout_s: float = 400.0,
+    timeout_sim_s: float = 1600.0,
 ) -> None:
     """Command line (``--api``, ``--url``, ``--grpc-port``, ``options``), connect, run ``flow``.
 
@@ -234,4 +241,4 @@ def client_main(
         finally:
             await api.close()
 
-    run(lambda report: asyncio.wait_for(main_flow(report), timeout_s), Report())
+    run(lambda report: within(main_flow(report), timeout_sim_s, "the whole flow"), Report())

@@ -124,4 +124,4 @@ async def flow(api: Api, args: argparse.Namespace, r: Report) -> None:
 
 
 if __name__ == "__main__":
-    client_main(flow, timeout_s=300.0)
+    client_main(flow, timeout_sim_s=1200.0)

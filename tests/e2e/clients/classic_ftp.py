@@ -12,14 +12,14 @@ downloads and the FtpResult names of the errors.
 
 from __future__ import annotations
 
-import asyncio
 import os
 from pathlib import Path
 
-from _common import Report, classic_main, wait_for
+from _common import Report, classic_main, wait_for, within
 
 UPLOAD_BYTES = 3000
 STEP_TIMEOUT_S = 60.0
+"""Simulated seconds one FTP call may take."""
 
 
 def entries(data) -> list[list]:
@@ -33,7 +33,7 @@ async def download(drone, remote: str, local_dir: Path, use_burst: bool) -> byte
             pass
 
     local_dir.mkdir(parents=True, exist_ok=True)
-    await asyncio.wait_for(transfer(), STEP_TIMEOUT_S)
+    await within(transfer(), STEP_TIMEOUT_S, f"download of {remote}")
     return (local_dir / Path(remote).name).read_bytes()
 
 
@@ -42,7 +42,7 @@ async def error_of(call) -> str:
     from mavsdk_grpc.ftp import FtpError
 
     try:
-        await asyncio.wait_for(call, STEP_TIMEOUT_S)
+        await within(call, STEP_TIMEOUT_S, "the ftp call")
     except FtpError as exc:
         return str(exc._result.result)
     return "no error"
@@ -56,12 +56,14 @@ async def session(args, r: Report) -> None:
     try:
         r.stage("connect")
         await drone.connect(system_address=args.url)
-        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 60, "connection")
+        await wait_for(drone.core.connection_state(), lambda s: s.is_connected, 120, "connection")
         ftp = drone.ftp
 
         r.stage("list")
-        r["list_root"] = entries(await asyncio.wait_for(ftp.list_directory("/"), STEP_TIMEOUT_S))
-        r["list_log"] = entries(await asyncio.wait_for(ftp.list_directory("/log"), STEP_TIMEOUT_S))
+        r["list_root"] = entries(await within(ftp.list_directory("/"), STEP_TIMEOUT_S, "list /"))
+        r["list_log"] = entries(
+            await within(ftp.list_directory("/log"), STEP_TIMEOUT_S, "list /log")
+        )
 
         r.stage("download")
         seed = Path(args.seed_local).read_bytes()
@@ -76,26 +78,26 @@ async def session(args, r: Report) -> None:
         local.write_bytes(os.urandom(UPLOAD_BYTES))
         async for _ in ftp.upload(str(local), "/log"):
             pass
-        r["identical_after_upload"] = await asyncio.wait_for(
-            ftp.are_files_identical(str(local), "/log/upload.bin"), STEP_TIMEOUT_S
+        r["identical_after_upload"] = await within(
+            ftp.are_files_identical(str(local), "/log/upload.bin"), STEP_TIMEOUT_S, "a CRC"
         )
         changed = work / "changed.bin"
         # Flip the first byte's bits: replacing it with a fixed byte left the copy unchanged
         # whenever the random file began with that byte (1 run in 256, seen in CI).
         original = local.read_bytes()
         changed.write_bytes(bytes([original[0] ^ 0xFF]) + original[1:])
-        r["identical_to_changed_copy"] = await asyncio.wait_for(
-            ftp.are_files_identical(str(changed), "/log/upload.bin"), STEP_TIMEOUT_S
+        r["identical_to_changed_copy"] = await within(
+            ftp.are_files_identical(str(changed), "/log/upload.bin"), STEP_TIMEOUT_S, "a CRC"
         )
 
         r.stage("directories")
-        await asyncio.wait_for(ftp.create_directory("/log/flight1"), STEP_TIMEOUT_S)
+        await within(ftp.create_directory("/log/flight1"), STEP_TIMEOUT_S, "mkdir")
         r["list_log_after_upload"] = entries(
-            await asyncio.wait_for(ftp.list_directory("/log"), STEP_TIMEOUT_S)
+            await within(ftp.list_directory("/log"), STEP_TIMEOUT_S, "list /log")
         )
-        await asyncio.wait_for(ftp.remove_file("/log/upload.bin"), STEP_TIMEOUT_S)
+        await within(ftp.remove_file("/log/upload.bin"), STEP_TIMEOUT_S, "rm")
         r["list_log_after_remove"] = entries(
-            await asyncio.wait_for(ftp.list_directory("/log"), STEP_TIMEOUT_S)
+            await within(ftp.list_directory("/log"), STEP_TIMEOUT_S, "list /log")
         )
 
         r.stage("errors")

@@ -40,7 +40,7 @@ async def fly(args, r: Report) -> None:
     drone = System(port=args.grpc_port)
     tasks: list[asyncio.Task] = []
     try:
-        await connect_healthy(drone, args.url, r, 60)
+        await connect_healthy(drone, args.url, r, 120)
         modes: list[str] = []
         r["modes"] = modes
         progress: list[list[int]] = []
@@ -90,7 +90,7 @@ async def fly(args, r: Report) -> None:
         at_pause = list(progress[-1])
         await drone.mission.pause_mission()
         await wait_for(drone.telemetry.flight_mode(), lambda m: m.name == "HOLD", 30, "HOLD")
-        await sim_sleep(drone.telemetry.unix_epoch_time, PAUSE_S)
+        await sim_sleep(PAUSE_S)
         r["pause"] = {
             "progress_at_pause": at_pause,
             "progress_after_hold": list(progress[-1]),

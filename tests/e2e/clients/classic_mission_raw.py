@@ -21,7 +21,7 @@ async def main_flow(args, r: Report) -> None:
 
     drone = System(port=args.grpc_port)
     try:
-        await connect_healthy(drone, args.url, r, 60)
+        await connect_healthy(drone, args.url, r, 120)
         ref = await home_reference(drone.telemetry.home(), r)
         await raw_plans_flow(r, drone.mission_raw, MissionItem, MissionRawError, ref)
         r.stage("done")

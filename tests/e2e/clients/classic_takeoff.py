@@ -10,9 +10,7 @@ itself. Any connection URL MAVSDK takes works (UDP, serial).
 
 from __future__ import annotations
 
-import asyncio
-
-from _common import Report, classic_main, connect_healthy, first, wait_for
+from _common import Report, classic_main, connect_healthy, first, wait_for, within
 
 
 async def heartbeat_sysids(drone, count: int) -> list[int]:
@@ -30,9 +28,9 @@ async def fly(args, r: Report) -> None:
 
     drone = System(port=args.grpc_port)
     try:
-        await connect_healthy(drone, args.url, r, 90)
+        await connect_healthy(drone, args.url, r, 120)
         r.stage("identity")
-        r["heartbeat_sysids"] = await asyncio.wait_for(heartbeat_sysids(drone, 3), 60)
+        r["heartbeat_sysids"] = await within(heartbeat_sysids(drone, 3), 60, "three HEARTBEATs")
         r["mav_sys_id"] = await drone.param.get_param_int("MAV_SYS_ID")
         home = await first(drone.telemetry.home())
         r["home"] = [home.latitude_deg, home.longitude_deg, home.absolute_altitude_m]

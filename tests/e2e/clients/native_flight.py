@@ -7,7 +7,7 @@ The native API runs MAVSDK's C++ core in this process (no mavsdk_server, no gRPC
 
 from __future__ import annotations
 
-from _common import ClientError, Report, first, native_main, wait_for
+from _common import ClientError, Report, first, native_main, wait_for, within
 
 TAKEOFF_ALT_M = 4.0
 
@@ -23,9 +23,9 @@ async def fly(args, r: Report) -> None:
         r["mavsdk_version"] = await sdk.version()
         r.stage("connect")
         await sdk.add_any_connection(args.url)
-        system = await sdk.first_autopilot(timeout_s=60.0)
+        system = await within(sdk.first_autopilot(timeout_s=-1), 120, "an autopilot")
         if system is None:
-            raise ClientError("no autopilot appeared within 60 s")
+            raise ClientError("MAVSDK was destroyed while waiting for an autopilot")
         r["sysid"] = await system.get_system_id()
         r["autopilot_type"] = (await system.autopilot_type()).name
         telemetry = TelemetryAsync(system)
@@ -36,7 +36,7 @@ async def fly(args, r: Report) -> None:
         await wait_for(
             telemetry.subscribe_health(),
             lambda h: h.is_global_position_ok and h.is_home_position_ok,
-            60,
+            120,
             "global position and home",
         )
         r.stage("params")
@@ -71,7 +71,7 @@ async def fly(args, r: Report) -> None:
 
 
 def main() -> None:
-    native_main(fly, 300)
+    native_main(fly, 1200)
 
 
 if __name__ == "__main__":

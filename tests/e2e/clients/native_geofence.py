@@ -33,14 +33,14 @@ async def main_flow(args, r: Report) -> None:
     config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
     async with Mavsdk(config) as sdk:
         r["mavsdk_version"] = await sdk.version()
-        system = await native_autopilot(sdk, args.url, r, 60)
+        system = await native_autopilot(sdk, args.url, r, 120)
         ref = await home_reference(TelemetryAsync(system).subscribe_home(), r)
         await geofence_flow(r, GeofenceAsync(system), MissionRawAsync(system), types, ref)
         r.stage("done")
 
 
 def main() -> None:
-    native_main(main_flow, 120)
+    native_main(main_flow, 480)
 
 
 if __name__ == "__main__":

@@ -42,7 +42,7 @@ async def fly(args, r: Report) -> None:
     tasks: list[asyncio.Task] = []
     async with Mavsdk(config) as sdk:
         r["mavsdk_version"] = await sdk.version()
-        system = await native_autopilot(sdk, args.url, r, 60)
+        system = await native_autopilot(sdk, args.url, r, 120)
         telemetry = TelemetryAsync(system)
         action = ActionAsync(system)
         mission = MissionAsync(system)
@@ -106,7 +106,7 @@ async def fly(args, r: Report) -> None:
             await wait_for(
                 telemetry.subscribe_flight_mode(), lambda m: m.name == "HOLD", 30, "HOLD"
             )
-            await sim_sleep(telemetry.subscribe_unix_epoch_time, PAUSE_S)
+            await sim_sleep(PAUSE_S)
             r["pause"] = {
                 "progress_at_pause": at_pause,
                 "progress_after_hold": list(progress[-1]),
@@ -146,7 +146,7 @@ async def fly(args, r: Report) -> None:
 
 
 def main() -> None:
-    native_main(fly, 240)
+    native_main(fly, 960)
 
 
 if __name__ == "__main__":
