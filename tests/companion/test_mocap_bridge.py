@@ -17,6 +17,8 @@ from harness.mocap_publisher import MocapPublisher
 from harness.run_ports import free_port_block
 from sitl.sensors.mocap import MocapSample
 
+pytestmark = pytest.mark.sockets
+
 YAW = 0.7
 Q_YAW = (math.cos(YAW / 2), 0.0, 0.0, math.sin(YAW / 2))
 

@@ -12,6 +12,8 @@ import torch
 from compression import Codec
 from compression.train import TrainConfig, train
 
+pytestmark = pytest.mark.heavy
+
 
 def _images(n=3):
     rng = np.random.default_rng(5)

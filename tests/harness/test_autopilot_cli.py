@@ -10,6 +10,8 @@ from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfi
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan
 
+pytestmark = pytest.mark.sockets
+
 UDP_CONNECT = "udp:127.0.0.1:4560"  # port-literal: PX4's simulator port, refused before binding
 
 

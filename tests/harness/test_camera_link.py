@@ -23,6 +23,8 @@ from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 
+pytestmark = pytest.mark.process
+
 CAMERA = (1, 100)
 
 

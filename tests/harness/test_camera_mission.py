@@ -16,6 +16,8 @@ from autopilot_emu.modes import AutoSubMode
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
+pytestmark = pytest.mark.sockets
+
 AUTO = 4
 M_PER_DEG = 111_195.0
 

@@ -11,6 +11,8 @@ from typer.testing import CliRunner
 
 from harness.cli import app
 
+pytestmark = pytest.mark.process
+
 REPO = Path(__file__).resolve().parents[2]
 FILE_SUFFIXES = (".yaml", ".yml", ".csv", ".params", ".json", ".hex", ".tlog", ".npz", ".txt")
 """Tokens ending so name a file."""

@@ -8,6 +8,8 @@ from harness.cli import app, camera_override
 from harness.run_ports import free_port_block
 from sitl.vehicles.multirotor import load_airframe
 
+pytestmark = pytest.mark.sockets
+
 
 def test_no_camera_option_keeps_the_airframes_cameras():
     assert camera_override(("typhoon_h480",), None, None, None, None, 500.0) is None

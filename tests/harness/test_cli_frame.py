@@ -7,6 +7,8 @@ from typer.testing import CliRunner
 from harness.cli import app
 from harness.sim_options import parse_frames
 
+pytestmark = pytest.mark.sockets
+
 
 def test_frame_is_one_for_all_or_one_per_vehicle():
     """A single name is every vehicle's; a list must have one name per vehicle."""

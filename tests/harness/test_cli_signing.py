@@ -8,6 +8,8 @@ from typer.testing import CliRunner
 from harness.cli import app
 from harness.signing_options import is_loopback, signing_key, unauthenticated_warning
 
+pytestmark = pytest.mark.sockets
+
 QUICK = ["up", "--speed", "50", "--duration", "0.2", "--gcs-port", "0", "--no-camera"]
 QUICK += ["--sdk-port", "0", "--listen-port", "0"]
 

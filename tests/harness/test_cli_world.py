@@ -9,6 +9,8 @@ from harness.cli import app
 from harness.run_ports import RunPorts, free_ports
 from worlds.examples import example_path
 
+pytestmark = pytest.mark.sockets
+
 
 def _up(tmp_path, *args: str, ports: RunPorts | None = None):
     """``swarmsitl up`` briefly, on ``ports`` (fresh ones from the suite's allocator if None)."""

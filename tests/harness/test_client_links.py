@@ -22,6 +22,8 @@ from autopilot_emu.params import encode_param_value
 from harness.client_links import UdpOut, parse_udp_out, serial_link_path
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
+pytestmark = pytest.mark.sockets
+
 BAUD = 921600
 LINE_BYTES_S = BAUD / 10  # 8N1
 MAX_FRAME_BYTES = 280

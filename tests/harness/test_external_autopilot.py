@@ -21,6 +21,8 @@ from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfi
 from harness.run_ports import free_port_block
 from harness.simulation import EXTERNAL, PortPlan, Simulation, SimulationConfig
 
+pytestmark = pytest.mark.sockets
+
 SDK_BASE = free_port_block(4)
 """Where the external autopilots' onboard links send (+instance; nobody listens): ports of this
 module's, from the suite's allocator."""

@@ -18,6 +18,8 @@ from synthetic_run import (
 
 from harness.flight_log import FlightLog
 
+pytestmark = pytest.mark.sockets
+
 TEXTS = [
     (0, 4.0, 6, "Armed by external command"),
     (0, 30.25, 2, "Failsafe activated: switching to Land"),

@@ -13,6 +13,8 @@ import pytest
 
 from harness.imagery import SCENES, ImageInfo, render_images, world_seed
 
+pytestmark = pytest.mark.process
+
 SMALL = {"width": 80, "height": 60}
 """Small frames: the scenes are the same, the tests fast."""
 

@@ -27,6 +27,8 @@ from harness.kernels import (
     compiles_forbidden,
 )
 
+pytestmark = pytest.mark.process
+
 SRC = Path(__file__).resolve().parents[2] / "src"
 
 EVERY_DISPATCHER = textwrap.dedent(

@@ -18,6 +18,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
+pytestmark = pytest.mark.sockets
+
 PX4_RATES_HZ = {
     "normal": {
         "ALTITUDE": 1.0, "ATTITUDE": 15.0, "ATTITUDE_QUATERNION": 10.0, "ATTITUDE_TARGET": 2.0,

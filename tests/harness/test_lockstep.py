@@ -23,6 +23,8 @@ from harness.lockstep import (
 )
 from harness.sim_clock import ClockFile
 
+pytestmark = pytest.mark.process
+
 BOUNDS = LockstepBounds()
 WATCHDOG_WALL_S = 30.0
 

@@ -27,6 +27,8 @@ from harness.link_options import (
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.devices.link_router import LinkRouter, RouterNode
 
+pytestmark = pytest.mark.sockets
+
 UART_BYTES_PER_S = 921_600 / 10
 
 

@@ -17,6 +17,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu.mission.items import MissionState
 from autopilot_emu.modes import AutoSubMode, LandedState
 
+pytestmark = pytest.mark.sockets
+
 AUTO = 4
 FENCE_VERTEX = mavlink2.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
 

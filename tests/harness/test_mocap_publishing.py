@@ -11,6 +11,8 @@ from companion import mocap_wire
 from harness.simulation import Simulation, SimulationConfig
 from sitl import frames
 
+pytestmark = pytest.mark.sockets
+
 
 def _free_port_pair() -> tuple[socket.socket, socket.socket]:
     """Sockets bound to two consecutive free loopback ports b and b + 1."""

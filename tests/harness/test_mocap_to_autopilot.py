@@ -8,10 +8,13 @@ import threading
 import time
 
 import numpy as np
+import pytest
 
 from companion.scripts import mocap_bridge
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
+
+pytestmark = pytest.mark.sockets
 
 
 def _bound_socket() -> socket.socket:

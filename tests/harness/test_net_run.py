@@ -15,6 +15,8 @@ from harness.simulation import Simulation, SimulationConfig
 from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork
 
+pytestmark = pytest.mark.sockets
+
 
 def _sim(net: NetRun, n: int, spacing_m: float = 5.0) -> Simulation:
     return Simulation(

@@ -21,6 +21,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu import quaternion as quat
 from autopilot_emu.modes import AutoSubMode, LandedState, MainMode
 
+pytestmark = pytest.mark.sockets
+
 OFFBOARD, AUTO = int(MainMode.OFFBOARD), int(MainMode.AUTO)
 ACCEPTED, DENIED = 0, 2
 POSITION_NED, VELOCITY_NED, VELOCITY_BODY = 0x09F8, 0x09C7, 0x05C7

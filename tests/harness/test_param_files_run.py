@@ -9,6 +9,7 @@ import socket
 import threading
 import time
 
+import pytest
 from mission_link import SimLink
 from pymavlink.dialects.v20 import common as mavlink2
 from typer.testing import CliRunner
@@ -19,6 +20,8 @@ from harness.cli import app
 from harness.param_options import CLIENT_PARAMS_FILE, load_params_options
 from harness.run_ports import free_port_block
 from harness.simulation import Simulation, SimulationConfig
+
+pytestmark = pytest.mark.sockets
 
 
 def _read(link: SimLink, name: str) -> float:

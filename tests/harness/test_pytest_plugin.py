@@ -12,6 +12,8 @@ from harness import run_ports
 from harness.pytest_plugin import RunResult, free_ports
 from harness.run_ports import PORTS_HIGH, PORTS_LOW, free_port_block, worker_slice
 
+pytestmark = pytest.mark.sockets
+
 
 def test_the_plugin_is_registered_for_every_pytest_session():
     entry = [e for e in metadata.entry_points(group="pytest11") if e.name == "swarmsitl"]

@@ -10,6 +10,8 @@ from typer.testing import CliRunner
 
 from harness.cli import app
 
+pytestmark = pytest.mark.sockets
+
 
 def _distance_sensors_sent(tmp_path, *flags: str) -> set[int]:
     """Run ``up`` for 1 simulated second; ids of the DISTANCE_SENSOR its onboard link sent."""

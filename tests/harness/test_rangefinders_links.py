@@ -13,6 +13,8 @@ from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 
+pytestmark = pytest.mark.sockets
+
 _CLIENTS = free_port_block(2)
 PORTS = PortPlan(sdk_base=_CLIENTS, listen_base=0, gcs_port=_CLIENTS + 1, gcs_listen_base=0)
 """The clients' ports from the suite's allocator; the vehicle's own listen ports OS-chosen."""

@@ -8,6 +8,8 @@ import pytest
 
 from harness.scenario import DEFAULT_PARAMS, ScenarioError, load_scenario, parse_scenario
 
+pytestmark = pytest.mark.sockets
+
 GOOD = """\
 name: survey
 seed: 3

@@ -9,6 +9,8 @@ from harness.cli import app
 from harness.run_totals import fleet_totals, lookup, metric_checks
 from harness.scenario_run import traceback_in
 
+pytestmark = pytest.mark.sockets
+
 REPORT = {
     "vehicles": {
         "vehicle1": {

@@ -8,6 +8,8 @@ import pytest
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig, check_params
 
+pytestmark = pytest.mark.sockets
+
 
 def _fly_takeoff(seed, seconds=6.0):
     with Simulation(SimulationConfig(n_vehicles=2, mavlink=False, record_hz=0, seed=seed)) as sim:

@@ -5,11 +5,14 @@ from __future__ import annotations
 import socket
 import time
 
+import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.ftp_codec import FtpPayload, Opcode, decode
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
+
+pytestmark = pytest.mark.sockets
 
 
 def _sim(n_vehicles: int, out_dir=None) -> Simulation:

@@ -15,6 +15,8 @@ from udp_client import UdpClient
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
+pytestmark = pytest.mark.sockets
+
 KEY = bytes.fromhex("5a" * 16 + "c3" * 16)
 OTHER_KEY = bytes.fromhex("11" * 32)
 AUTOPILOT = (1, 1)

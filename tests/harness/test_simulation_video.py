@@ -14,6 +14,8 @@ from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 from sitl.sensors.camera import CameraSpec, with_mount
 
+pytestmark = pytest.mark.process
+
 WALL = BoxObstacle((0.0, 4.0, 1.5), (6.0, 0.2, 3.0), rgba=(0.8, 0.3, 0.1, 1.0))
 
 

@@ -6,6 +6,8 @@ import pytest
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
+pytestmark = pytest.mark.sockets
+
 
 @pytest.mark.slow
 def test_ten_vehicles_hold_position_for_five_minutes(tmp_path):

@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import pyarrow.parquet as pq
+import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
@@ -15,6 +16,8 @@ from harness.sweep_cli import (
     EXIT_OK,
     exit_status,
 )
+
+pytestmark = pytest.mark.heavy
 
 CHECKED_SCENARIO = """\
 # Two survey vehicles at most, 30 simulated s; the check allows one vehicle only.

@@ -16,6 +16,8 @@ from sitl import frames
 from sitl.devices.camera_manager import CameraManager, CameraProtocol, JpegStore
 from sitl.sensors.camera import CameraFrame, CameraSpec
 
+pytestmark = pytest.mark.sockets
+
 ORIGIN = frames.GeodeticOrigin(47.397742, 8.545594, 488.0)
 EPOCH_S = 1_700_000_000.0
 URI = "http://127.0.0.1:5600/video.mjpg"  # port-literal: PX4's video port, only reported

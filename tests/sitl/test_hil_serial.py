@@ -21,6 +21,8 @@ from sitl.hil_serial import SerialPort, parse_serial
 from sitl.hil_server import HilServer, HilServerConfig
 from sitl.world import World, WorldConfig
 
+pytestmark = pytest.mark.sockets
+
 
 class _Board:
     """The Pixhawk: the pty's master end."""

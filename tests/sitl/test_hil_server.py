@@ -17,6 +17,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 from sitl.hil_server import HilPortInUseError, HilServer, HilServerConfig
 from sitl.world import World, WorldConfig
 
+pytestmark = pytest.mark.sockets
+
 
 class _Clock:
     def __init__(self) -> None:

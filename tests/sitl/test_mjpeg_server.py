@@ -19,6 +19,8 @@ from sitl.devices import mjpeg_server
 from sitl.devices.mjpeg_server import MjpegServer
 from sitl.sensors.camera import CameraFrame, CameraSpec
 
+pytestmark = pytest.mark.process
+
 READER = """
 import json, sys, cv2
 cap = cv2.VideoCapture(sys.argv[1])

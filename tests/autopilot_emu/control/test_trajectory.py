@@ -13,6 +13,8 @@ from autopilot_emu.control.trajectory import (
     hold_point,
 )
 
+pytestmark = pytest.mark.process
+
 DT = 0.02
 
 

@@ -17,6 +17,8 @@ from autopilot_emu.mavlink.commands import (
 from autopilot_emu.mavlink.messages import CAPABILITIES
 from autopilot_emu.mavlink.streams import PROFILES, StreamProfile
 
+pytestmark = pytest.mark.sockets
+
 ACCEPTED = mavlink2.MAV_RESULT_ACCEPTED
 DENIED = mavlink2.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink2.MAV_RESULT_UNSUPPORTED

@@ -29,6 +29,8 @@ from autopilot_emu.mavlink.streams import (
     rate_to_interval_us,
 )
 
+pytestmark = pytest.mark.sockets
+
 ONBOARD = PROFILES[StreamProfile.ONBOARD]
 ATTITUDE_HZ = ONBOARD["ATTITUDE"]
 """Default ATTITUDE rate of the endpoints under test (the onboard profile)."""

@@ -13,6 +13,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu.mavlink.ftp import BURST_CHUNK_BYTES, BURST_PACKETS_PER_TICK
 from autopilot_emu.mavlink.ftp_codec import MAX_DATA_LENGTH, ErrorCode, FtpPayload, Opcode, decode
 
+pytestmark = pytest.mark.sockets
+
 FTP = "FILE_TRANSFER_PROTOCOL"
 
 

@@ -43,6 +43,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 
+pytestmark = pytest.mark.sockets
+
 DEFAULT_EXAMPLES = 80
 """About a minute of the default suite (0.7 s per example); the slow test runs SLOW_EXAMPLES."""
 DEFAULT_SEED = 1

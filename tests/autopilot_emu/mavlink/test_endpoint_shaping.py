@@ -10,12 +10,15 @@ from __future__ import annotations
 import math
 import select
 
+import pytest
 from mavlink_fakes import MavClient, command_long, make_endpoint
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.shaping import LinkShaper
 from autopilot_emu.mavlink.streams import STREAMABLE
+
+pytestmark = pytest.mark.sockets
 
 DELAY_S = 0.05
 

@@ -14,6 +14,8 @@ from pymavlink.generator import mavcrc
 from autopilot_emu.mavlink import framing, messages, streams
 from autopilot_emu.params import ParamStore
 
+pytestmark = pytest.mark.sockets
+
 CONTEXT = messages.MessageContext(sysid=7, params=ParamStore(), epoch_start_us=0)
 HOT = sorted(messages.FIELDS)
 

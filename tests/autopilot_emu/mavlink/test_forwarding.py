@@ -15,6 +15,8 @@ from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE
 from autopilot_emu.mission.camera_items import ComponentCommand
 
+pytestmark = pytest.mark.sockets
+
 QUIET = dict.fromkeys(STREAMABLE, 0.0)
 """No telemetry streams: only forwarded frames and replies reach the clients."""
 

@@ -13,6 +13,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu.mavlink.link_hub import MAX_PENDING_ANNOUNCEMENTS, LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 
+pytestmark = pytest.mark.sockets
+
 
 @pytest.fixture
 def gcs():

@@ -14,6 +14,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mission.items import MAX_ITEMS, MissionItem, MissionType
 
+pytestmark = pytest.mark.sockets
+
 LAT, LON = 473977420, 85455940
 REL = mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 

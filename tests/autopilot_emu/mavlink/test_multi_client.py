@@ -11,6 +11,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE
 
+pytestmark = pytest.mark.sockets
+
 QUIET = dict.fromkeys(STREAMABLE, 0.0)
 """No telemetry streams: only replies and announcements reach the clients."""
 GCS_HEARTBEAT = mavlink2.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3)

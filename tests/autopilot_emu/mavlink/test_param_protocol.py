@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from mavlink_fakes import has
 from pymavlink.dialects.v20 import common as mavlink2
 
@@ -14,6 +15,8 @@ from autopilot_emu.params import (
     decode_param_value,
     encode_param_value,
 )
+
+pytestmark = pytest.mark.sockets
 
 
 def _only(inbox, type_name):

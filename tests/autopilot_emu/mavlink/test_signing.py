@@ -29,6 +29,8 @@ from autopilot_emu.mavlink.signing import (
     parse_key,
 )
 
+pytestmark = pytest.mark.sockets
+
 KEY = bytes(range(1, 33))
 OTHER_KEY = bytes(range(101, 133))
 ARM = mavlink2.MAV_CMD_COMPONENT_ARM_DISARM

@@ -15,6 +15,8 @@ from autopilot_emu.mavlink.vision import (
     decode_vision_position_estimate,
 )
 
+pytestmark = pytest.mark.sockets
+
 NAN21 = [math.nan] * 21
 
 

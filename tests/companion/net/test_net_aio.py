@@ -17,6 +17,8 @@ from companion import clock
 from companion.net import AsyncNode, NetConfig, Node, PortTransport, RequestTimeout, UdpTransport
 from harness.run_ports import free_port_block
 
+pytestmark = pytest.mark.process
+
 BASE = free_port_block(3)
 """Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""
 

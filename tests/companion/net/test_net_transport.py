@@ -11,6 +11,8 @@ from netfakes import FakePort
 from companion.net import NetConfig, Node, PortTransport, Transport, UdpTransport
 from harness.run_ports import free_port_block
 
+pytestmark = pytest.mark.sockets
+
 BASE = free_port_block(8)
 """Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""
 

@@ -18,6 +18,8 @@ from companion.net import NetConfig, NetConfigError
 from companion.roles.cluster import clusters, coordinator_of, nodes_with_role
 from harness.run_ports import free_port_block, free_ports
 
+pytestmark = pytest.mark.heavy
+
 BASE = free_port_block(16)
 """Node ports of the configurations below (from the suite's allocator; only parsed)."""
 

@@ -12,6 +12,8 @@ import pytest
 
 from companion.scripts.program import run_flight
 
+pytestmark = pytest.mark.process
+
 
 def test_run_flight_returns_the_flights_result_and_cancels_what_it_left_running() -> None:
     ended: list[str] = []

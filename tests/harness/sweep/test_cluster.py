@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import pyarrow.parquet as pq
+import pytest
 import trial_bodies
 from dask_processes import dask_cluster
 from distributed import Client
@@ -13,6 +14,8 @@ from harness.sweep.runner import run_sweep
 from harness.sweep.spec import plan_sweep
 from harness.sweep.table import RESULTS_FILE
 from harness.sweep_cli import EXIT_CHECKS_FAILED
+
+pytestmark = pytest.mark.heavy
 
 DATA = Path(__file__).with_name("data")
 

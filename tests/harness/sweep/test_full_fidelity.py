@@ -10,6 +10,8 @@ from harness.sweep.runner import run_sweep
 from harness.sweep.spec import plan_sweep
 from harness.sweep.table import RESULTS_FILE
 
+pytestmark = pytest.mark.heavy
+
 HOP = Path(__file__).parents[1] / "scenarios" / "hop.yaml"
 
 

@@ -12,6 +12,8 @@ from harness.sweep.runner import SweepOutcome, run_sweep
 from harness.sweep.spec import plan_sweep
 from harness.sweep.table import RESULTS_FILE, TRIALS_DIR, unit_of
 
+pytestmark = pytest.mark.heavy
+
 DATA = Path(__file__).with_name("data")
 
 

@@ -7,7 +7,11 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from harness.sweep.runner import TRIAL_WORKER_CONFIG, worker_environment
+
+pytestmark = pytest.mark.process
 
 READ_BACK = (
     "import dask, json\n"

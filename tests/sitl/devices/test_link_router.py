@@ -25,6 +25,8 @@ from sitl.devices.link_router import (
 )
 from sitl.links.channel import DatagramTooLargeError, Drop
 
+pytestmark = pytest.mark.sockets
+
 DELAY_S = {
     ("a", "b"): 0.2,
     ("a", "c"): 0.3,

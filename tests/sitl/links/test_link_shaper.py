@@ -10,6 +10,8 @@ from sitl.links.channel import LinkChannel
 from sitl.links.params import LinkParams, LossParams
 from sitl.links.shaper import OVERSIZE, MavlinkLinkShaper
 
+pytestmark = pytest.mark.sockets
+
 BAUD = 921_600
 UART_BYTES_PER_S = BAUD / 10
 """8N1: a start bit, 8 data bits and a stop bit per byte."""

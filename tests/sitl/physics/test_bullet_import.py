@@ -9,6 +9,8 @@ import pytest
 
 from sitl.physics.bullet_import import BANNER
 
+pytestmark = pytest.mark.process
+
 SRC = Path(__file__).resolve().parents[3] / "src"
 
 
