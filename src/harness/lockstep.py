@@ -34,7 +34,7 @@ import mmap
 import os
 import struct
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -123,22 +123,28 @@ def process_state(pid: int) -> str | None:
     return stat[end + 2 : end + 3].decode() if end > 0 else None
 
 
-def group_members(pgids: set[int]) -> dict[int, list[int]]:
-    """The live processes of each process group in ``pgids``, from /proc."""
-    members: dict[int, list[int]] = {g: [] for g in pgids}
-    if not pgids:
-        return members
+def process_table() -> Iterator[tuple[int, int, int]]:
+    """(pid, parent pid, process group) of every process, from /proc."""
     for entry in os.scandir("/proc"):
         if not entry.name.isdigit():
             continue
         try:
             with open(f"/proc/{entry.name}/stat", "rb") as f:
                 stat = f.read()
-        except OSError:
+        except OSError:  # it ended meanwhile
             continue
-        fields = stat[stat.rfind(b")") + 2 :].split()
-        if len(fields) > 2 and int(fields[2]) in members:
-            members[int(fields[2])].append(int(entry.name))
+        fields = stat[stat.rfind(b")") + 2 :].split()  # after the name: state, ppid, pgrp
+        if len(fields) > 2:
+            yield int(entry.name), int(fields[1]), int(fields[2])
+
+
+def group_members(pgids: set[int]) -> dict[int, list[int]]:
+    """The live processes of each process group in ``pgids``, from /proc."""
+    members: dict[int, list[int]] = {g: [] for g in pgids}
+    if pgids:
+        for pid, _, pgrp in process_table():
+            if pgrp in members:
+                members[pgrp].append(pid)
     return members
 
 

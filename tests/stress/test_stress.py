@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.lockstep import process_state
+from harness.lockstep import process_state, process_table
 
 pytestmark = pytest.mark.stress
 
@@ -50,16 +50,8 @@ WATCHDOG_WALL_S = 3600.0
 def descendants(root: int) -> list[int]:
     """Every process below ``root`` (from /proc's parent links)."""
     children: dict[int, list[int]] = {}
-    for entry in os.scandir("/proc"):
-        if not entry.name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry.name}/stat", "rb") as f:
-                stat = f.read()
-        except OSError:
-            continue
-        ppid = int(stat[stat.rfind(b")") + 2 :].split()[1])
-        children.setdefault(ppid, []).append(int(entry.name))
+    for pid, ppid, _ in process_table():
+        children.setdefault(ppid, []).append(pid)
     out, todo = [], [root]
     while todo:
         for child in children.get(todo.pop(), []):
