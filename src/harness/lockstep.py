@@ -239,14 +239,14 @@ class LockstepGate:
     _resumed_at: float = -math.inf
     _cap_origin: tuple[float, float] | None = None
 
-    def limit_s(self, now_wall: float) -> float:
-        """Latest simulation time every live participant allows now."""
+    def limit_s(self, now_wall: float, links: Iterable[GatedLink] | None = None) -> float:
+        """Latest simulation time every live participant allows now (``links``: asked anew)."""
         bounds = self.bounds
         limit = math.inf
         if self.acks is not None:
             for seen_s in self.acks.times().values():
                 limit = min(limit, seen_s + bounds.lead_s)
-        for link in self.links():
+        for link in self.links() if links is None else links:
             p = link.presence
             if link.shaped:
                 continue  # its traffic waits for simulated time: capped in `_capped` instead
@@ -281,11 +281,13 @@ class LockstepGate:
         self._stopped = stopped
         return stopped
 
-    def _capped(self, target_s: float, now_s: float, now_wall: float) -> bool:
+    def _capped(
+        self, target_s: float, now_s: float, now_wall: float, links: Iterable[GatedLink]
+    ) -> bool:
         """A shaped link's live peer: the target is further than the speed cap allows yet."""
         caps = [
             self.bounds.heartbeat_share * link.dl_loss_s / HEARTBEAT_PERIOD_WALL_S
-            for link in self.links()
+            for link in links
             if link.shaped and self._heard(link.presence.heartbeat_wall_s, now_wall)
         ]
         if not caps:
@@ -299,10 +301,11 @@ class LockstepGate:
     def allows(self, target_s: float, now_s: float) -> bool:
         """Every live participant lets the simulation reach ``target_s`` now."""
         now_wall = self.wall_clock_s()
-        return (
-            not self.stopped(now_wall)
-            and self.limit_s(now_wall) >= target_s - 1e-9
-            and not self._capped(target_s, now_s, now_wall)
+        if self.stopped(now_wall):
+            return False
+        links = list(self.links())  # built once per look: the runner reads each vehicle's params
+        return self.limit_s(now_wall, links) >= target_s - 1e-9 and not self._capped(
+            target_s, now_s, now_wall, links
         )
 
     def hold(
