@@ -93,6 +93,8 @@ MAX_LEARNED_PEERS = 16
 """Remote addresses remembered from received traffic, beyond the configured peers; when more
 talk to the vehicle, the one heard from least recently is forgotten (it is re-learned as soon as
 it sends again, so every sender always gets its replies)."""
+MAX_HELD_HEARTBEATS = 8
+"""Other components' HEARTBEATs a link holds for its next own frame; older ones are dropped."""
 RATE_MULT_UPDATE_US = 1_000_000
 """How often a link with a data-rate limit re-fits its streams' rates, simulation us."""
 
@@ -410,6 +412,8 @@ class MavlinkEndpoint:
         """Address of the datagram being handled (COMMAND_ACKs go back to it alone)."""
         self._forwarded = False
         """The frame being handled was relayed to the vehicle's other links."""
+        self._held_heartbeats: list[bytes] = []
+        """Other components' HEARTBEATs waiting for this link's next own frame (``_relay``)."""
         self._forward_member = self._hub.forwarding.join(self._relay) if config.forwarding else None
 
     # --- lifecycle ---------------------------------------------------------------------------
@@ -622,6 +626,8 @@ class MavlinkEndpoint:
         self.stats.frames_sent += 1
         self._bytes_out += len(frame)
         self._transmit(frame, to)
+        if self._held_heartbeats:
+            self._release_heartbeats()
 
     def _send_fields(
         self,
@@ -650,17 +656,48 @@ class MavlinkEndpoint:
         sock = self._sock
         if config.shaper is not None or self._tlog is not None or sock is None:
             self._transmit(frame)
-            return
-        for peer in self._peers:  # _transmit's work on an unshaped link without a tlog
-            try:
-                sock.sendto(frame, peer)
-            except OSError:
-                self.stats.send_errors += 1
+        else:
+            for peer in self._peers:  # _transmit's work on an unshaped link without a tlog
+                try:
+                    sock.sendto(frame, peer)
+                except OSError:
+                    self.stats.send_errors += 1
+        if self._held_heartbeats:
+            self._release_heartbeats()
 
     def _relay(self, frame: bytes) -> None:
-        """Send a frame another link of the vehicle received, unchanged (forwarding)."""
+        """Send a frame another link of the vehicle received, unchanged (forwarding).
+
+        A HEARTBEAT of another component of our system (the camera's) waits for this link's
+        next own frame and goes right after it: the first frame a client that starts listening
+        receives from this system is then the autopilot's. mavsdk_server 4.0 decides whether a
+        system has an autopilot once, on the system's first HEARTBEAT; had it come from the
+        camera, it would wait for an autopilot forever (seen while a lockstep run held the
+        simulation, the autopilot silent, as the camera's heartbeat was relayed). The wait is
+        at most one period of our own HEARTBEAT; a link whose HEARTBEAT stream is off relays
+        at once.
+        """
+        ids = framing.source_and_msgid(frame)
+        if (
+            ids is not None
+            and ids[0] == self._config.sysid
+            and ids[1] != self._config.compid
+            and ids[2] == mavlink2.MAVLINK_MSG_ID_HEARTBEAT
+            and self._streams.interval_us(mavlink2.MAVLINK_MSG_ID_HEARTBEAT) > 0
+        ):
+            if len(self._held_heartbeats) >= MAX_HELD_HEARTBEATS:
+                del self._held_heartbeats[0]
+            self._held_heartbeats.append(frame)
+            return
         self.stats.frames_relayed += 1
         self._transmit(frame)
+
+    def _release_heartbeats(self) -> None:
+        """Relay the held HEARTBEATs (see :meth:`_relay`), right after one of our own frames."""
+        held, self._held_heartbeats = self._held_heartbeats, []
+        for frame in held:
+            self.stats.frames_relayed += 1
+            self._transmit(frame)
 
     def _transmit(self, frame: bytes, to: tuple[str, int] | None = None) -> None:
         """Send an encoded frame to every peer (through the shaper, if any) and log it.

@@ -29,6 +29,14 @@ Deviation from PX4: the vehicle's own components' traffic goes to every link wit
 and the camera's broadcasts only to links that heard from someone), so a listen-only client
 sees the camera at once.
 
+Second deviation, on ordering: a relayed HEARTBEAT of another component of the vehicle (the
+camera's) waits on each link for that link's next own frame and goes right after it (at most
+one HEARTBEAT period). mavsdk_server 4.0 (``ConnectionInitiator``) looks for an autopilot only
+when a system first becomes connected, i.e. on its first HEARTBEAT from any component; if a
+client starts listening just before a camera HEARTBEAT and after the autopilot's last frame, it
+waits for an autopilot forever. On PX4 the autopilot's streams make that window tiny; here, while
+a lockstep run holds the simulation, the autopilot is silent but relayed frames still flow.
+
 SETUP_SIGNING is never forwarded (the MAVLink signing spec; PX4's ``handle_message``).
 
 On signed links (:mod:`autopilot_emu.mavlink.signing`) a relayed frame keeps its sender's

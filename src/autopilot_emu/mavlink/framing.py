@@ -179,3 +179,18 @@ def encode_fields(
         + payload
     )
     return _MAGIC_V2_BYTE + body + _CRC.pack(_crc_from(fmt.crc_extra, _crc_from(body, 0xFFFF)))
+
+
+_MAGIC_V1 = 0xFE
+
+
+def source_and_msgid(frame: bytes) -> tuple[int, int, int] | None:
+    """(system id, component id, message id) from a MAVLink 1 or 2 frame's header.
+
+    None when ``frame`` is too short or does not start with a MAVLink magic byte.
+    """
+    if len(frame) >= 10 and frame[0] == _MAGIC_V2:
+        return frame[5], frame[6], frame[7] | frame[8] << 8 | frame[9] << 16
+    if len(frame) >= 6 and frame[0] == _MAGIC_V1:
+        return frame[3], frame[4], frame[5]
+    return None

@@ -194,6 +194,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
     tasks: list[asyncio.Task] = []
     flying = False
     try:
+        _log("connecting", url=env.mavlink_url, grpc_port=env.grpc_port)
         await connect(drone, env.mavlink_url, env.grpc_port)
         tasks.append(asyncio.create_task(attitudes()))
         await vehicle_clock.wait_started(60.0)

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import faulthandler
+import logging
 import os
 import signal
 import sys
@@ -94,6 +96,33 @@ def run_flight(flight: Coroutine[Any, Any, T], teardown_wall_s: float = TEARDOWN
         asyncio.set_event_loop(None)
 
 
+def _show_mavsdk_server_log() -> None:
+    """Print what mavsdk_server says (mavsdk_grpc hands it to the ``mavsdk_server`` logger).
+
+    Its info lines (system discovered, gRPC server started) date a slow or stuck connection
+    in the companion's log; without a handler only its warnings would show.
+    """
+    logger = logging.getLogger("mavsdk_server")
+    if not logger.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("[mavsdk_server] %(levelname)s %(message)s"))
+        logger.addHandler(handler)
+        logger.setLevel(logging.INFO)
+        logger.propagate = False
+
+
+def _report_and_die(signum: int, _frame: Any) -> None:
+    """SIGTERM: print where each asyncio task waits, then die of the signal as before."""
+    with contextlib.suppress(Exception):  # a report on the way out must not mask the signal
+        loop = asyncio.get_event_loop_policy().get_event_loop()
+        for task in asyncio.all_tasks(loop):
+            print(f"asyncio task {task.get_name()}:", file=sys.stderr)
+            task.print_stack(file=sys.stderr)
+    sys.stderr.flush()
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+
+
 def finish(
     fly: Callable[[ScenarioEnv], Mapping[str, tuple[Any, str]]],
     env_of: Callable[[], ScenarioEnv],
@@ -104,7 +133,10 @@ def finish(
     ``os._exit``: mavsdk_grpc leaves a non-daemon log thread behind, which would keep the
     process alive after the flight.
     """
-    # Stopped by the runner (SIGTERM: the run ended first), the log tells where it stood.
+    # Stopped by the runner (SIGTERM: the run ended first), the log tells where it stood:
+    # every thread's stack at once (faulthandler), then each waiting coroutine's.
+    signal.signal(signal.SIGTERM, _report_and_die)
+    _show_mavsdk_server_log()
     faulthandler.register(signal.SIGTERM, file=sys.stderr, all_threads=True, chain=True)
     rc = 0
     try:

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from mavlink_fakes import INT_RANGES, FakeVehicle, MavClient, make_endpoint, make_snapshot
+from pymavlink.dialects.v10 import common as mavlink1
 from pymavlink.dialects.v20 import common as mavlink2
 from pymavlink.generator import mavcrc
 
@@ -164,3 +165,18 @@ def test_crc_carried_on_equals_one_pass_fast_and_pure_python(head, tail):
     one_pass = mavcrc.x25crc(head + tail).crc  # pymavlink's own CRC, one pass
     assert framing._crc_from(tail, framing._crc_from(head, 0xFFFF)) == one_pass
     assert framing._crc_python(tail, framing._crc_python(head, 0xFFFF)) == one_pass
+
+
+@pytest.mark.parametrize("dialect", [mavlink1, mavlink2], ids=["v1", "v2"])
+def test_a_frames_source_and_message_id_are_read_from_its_header(dialect):
+    mav = dialect.MAVLink(None, srcSystem=7, srcComponent=100)
+    frame = dialect.MAVLink_heartbeat_message(dialect.MAV_TYPE_CAMERA, 8, 0, 0, 4, 3).pack(mav)
+    assert frame[0] == (0xFE if dialect is mavlink1 else 0xFD)
+    assert framing.source_and_msgid(frame) == (7, 100, dialect.MAVLINK_MSG_ID_HEARTBEAT)
+    ping = dialect.MAVLink_ping_message(1, 2, 0, 0).pack(mav)
+    assert framing.source_and_msgid(ping) == (7, 100, dialect.MAVLINK_MSG_ID_PING)
+
+
+@pytest.mark.parametrize("junk", [b"", b"\xfd\x00", b"\x00" * 20, b"\xfe\x01\x02"])
+def test_a_truncated_or_foreign_frame_has_no_source(junk):
+    assert framing.source_and_msgid(junk) is None

@@ -79,15 +79,21 @@ def test_a_link_gets_other_systems_frames_once_it_heard_from_their_target():
     assert got == [[b"own"], [b"hb", b"cmd"], [b"own"]]
 
 
-@pytest.fixture
-def links():
-    """(onboard, gcs, payload) endpoints of one vehicle and a client on each."""
+def _vehicle_links(rates):
+    """(vehicle, (onboard, gcs, payload) endpoints, a client on each) with ``rates``."""
     vehicle = FakeVehicle()
     hub = LinkHub(vehicle)
     clients = [MavClient(), MavClient(255, 190), MavClient(1, 100)]
     endpoints = [
-        make_endpoint(vehicle, peers=(c.address,), hub=hub, stream_rates_hz=QUIET) for c in clients
+        make_endpoint(vehicle, peers=(c.address,), hub=hub, stream_rates_hz=rates) for c in clients
     ]
+    return vehicle, endpoints, clients
+
+
+@pytest.fixture
+def links():
+    """(onboard, gcs, payload) endpoints of one vehicle and a client on each."""
+    vehicle, endpoints, clients = _vehicle_links(QUIET)
     yield vehicle, endpoints, clients
     for item in (*endpoints, *clients):
         item.close()
@@ -129,6 +135,29 @@ def test_the_cameras_broadcasts_and_replies_reach_the_onboard_and_gcs_links(link
         assert len(beats) == 1 and beats[0].type == mavlink2.MAV_TYPE_CAMERA
         assert [a.get_srcComponent() for a in client.take("COMMAND_ACK")] == [100]
     assert not [m for m in camera.inbox if m.get_srcComponent() == 100]  # not echoed back
+
+
+def test_a_cameras_heartbeat_follows_an_autopilot_frame_on_every_link():
+    """The first frame a client that starts listening gets from our system is the autopilot's:
+    mavsdk_server 4.0 takes a system whose first HEARTBEAT came from the camera for one without
+    an autopilot, for good. So a relayed camera HEARTBEAT waits for the link's next own frame
+    (here the 1 Hz HEARTBEAT at t = 1 s, the other streams being off) and goes right after it."""
+    _, (onboard, ground, payload), (sdk, gcs, camera) = _vehicle_links({**QUIET, "HEARTBEAT": 1.0})
+    try:
+        _poll_all((onboard, ground, payload), (sdk, gcs, camera))  # the t = 0 HEARTBEATs
+        for client in (sdk, gcs):
+            client.inbox.clear()
+        camera.send(payload, HEARTBEAT)
+        _poll_all((onboard, ground, payload), (sdk, gcs, camera), now_s=0.5)
+        assert not [m for c in (sdk, gcs) for m in c.inbox if m.get_srcComponent() == 100]
+        _poll_all((onboard, ground, payload), (sdk, gcs, camera), now_s=1.0)
+        for client in (sdk, gcs):
+            beats = [m.get_srcComponent() for m in client.inbox if m.get_type() == "HEARTBEAT"]
+            assert beats == [1, 100]
+        assert onboard.stats.frames_relayed == ground.stats.frames_relayed == 1
+    finally:
+        for item in (onboard, ground, payload, sdk, gcs, camera):
+            item.close()
 
 
 def test_other_systems_broadcasts_reach_the_links_that_heard_someone(links):

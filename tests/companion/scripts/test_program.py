@@ -88,3 +88,57 @@ def test_a_program_stopped_by_the_runner_prints_where_it_stood() -> None:
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == -signal.SIGTERM
     assert "in waiting_forever" in err
+
+
+def test_a_stopped_flight_reports_each_waiting_coroutine() -> None:
+    """Thread stacks end in the event loop (``select``); the task stacks say what it awaited."""
+    code = textwrap.dedent(
+        """
+        import asyncio
+        from companion.scripts.program import finish, run_flight
+
+        async def wait_for_the_vehicle():
+            print("ready", flush=True)
+            await asyncio.Event().wait()
+
+        async def flight():
+            await asyncio.gather(wait_for_the_vehicle())
+
+        finish(lambda env: run_flight(flight()), lambda: None, print)
+        """
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == "ready"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGTERM
+    assert "Current thread" in err  # faulthandler's thread stacks, then each task's
+    tasks = err[err.index("Current thread") :]
+    assert "Stack for <Task" in tasks
+    assert "in wait_for_the_vehicle" in tasks[tasks.index("Stack for <Task") :]
+
+
+def test_mavsdk_servers_messages_reach_the_companions_log() -> None:
+    """mavsdk_grpc hands mavsdk_server's output to the ``mavsdk_server`` logger."""
+    code = textwrap.dedent(
+        """
+        import logging
+        from companion.scripts.program import finish
+
+        def fly(env):
+            logging.getLogger("mavsdk_server").info("System discovered")
+            return {}
+
+        class Env:
+            def write_result(self, metrics):
+                return "result.json"
+
+        finish(fly, Env, lambda *a, **k: None)
+        """
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert "[mavsdk_server] INFO System discovered" in done.stderr
