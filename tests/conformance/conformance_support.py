@@ -27,18 +27,61 @@ class Run:
     """Where the client's stdout and stderr are, for failure messages."""
 
     def check(self, name: str) -> dict:
-        """The values check ``name`` recorded; fails the test if it failed or did not run."""
+        """The values check ``name`` recorded; fails the test if it failed.
+
+        A check that did not run is skipped when a failure that another test reports explains
+        it (its group stopped at a failed check, or the client stopped: one miss fails one test,
+        not every check after it), and fails the test otherwise (nothing explains it).
+        """
         checks = self.data.get("checks", {})
         found = checks.get(name)
         if found is None:
-            pytest.fail(
-                f"[{self.api}] check {name!r} did not run: stage={self.data.get('stage')} "
-                f"error={self.data.get('error')} aborted={self.data.get('aborted_groups')} "
-                f"(client logs in {self.log})"
+            reason = self.stop_reason()
+            where = (
+                f"stage={self.data.get('stage')} error={self.data.get('error')} "
+                f"aborted={self.data.get('aborted_groups')} (client logs in {self.log})"
             )
+            if reason is not None:
+                pytest.skip(f"[{self.api}] check {name!r} not reached: {reason}; {where}")
+            pytest.fail(f"[{self.api}] check {name!r} did not run: {where}")
         if not found["ok"]:
             pytest.fail(f"[{self.api}] check {name!r} failed: {json.dumps(found, default=str)}")
         return found
+
+    def stop_reason(self) -> str | None:
+        """Why the client skipped checks, as the failing test that reports it; None: it did not.
+
+        Checks are skipped when a group stopped (at a failed check: that check's test fails;
+        between checks: :meth:`incomplete` fails) or when the client did not finish.
+        """
+        reasons = []
+        for group, note in self.data.get("aborted_groups", {}).items():
+            at = note.get("at_check") if isinstance(note, dict) else None
+            reasons.append(
+                f"group {group!r} stopped at failed check {at!r}"
+                if at
+                else f"group {group!r} stopped between checks (test_client_run_completes)"
+            )
+        if self.data.get("stage") != "done" or self.data.get("error"):
+            reasons.append(
+                f"the client stopped at stage {self.data.get('stage')!r} "
+                "(test_client_run_completes)"
+            )
+        return "; ".join(reasons) or None
+
+    def incomplete(self) -> str | None:
+        """What no check's test reports: the client did not finish, or a group failed between
+        checks. None when every failure of the run is a failed check's."""
+        problems = []
+        if self.data.get("stage") != "done" or self.data.get("error"):
+            problems.append(
+                f"stopped at stage {self.data.get('stage')!r}: {self.data.get('error')}; "
+                f"{self.data.get('_describe', '')}"
+            )
+        for group, note in self.data.get("aborted_groups", {}).items():
+            if not (isinstance(note, dict) and note.get("at_check")):
+                problems.append(f"group {group!r} failed between checks: {note}")
+        return "\n".join(problems) or None
 
 
 def run_conformance_client(

@@ -197,11 +197,21 @@ class Checks:
         return values
 
     async def group(self, name: str, body: Callable[[], Awaitable[None]]) -> None:
-        """Run a group of checks; a failure ends the group and is noted, the client goes on."""
+        """Run a group of checks; a failure ends the group and is noted, the client goes on.
+
+        The note names the check that failed (``at_check``), or None when the group failed
+        between checks: then no check's test reports it, and the run's completeness test does.
+        """
+        self.r.stage(f"group {name}")
         try:
             await body()
         except Exception as exc:
-            self.r.setdefault("aborted_groups", {})[name] = f"{type(exc).__name__}: {exc}"
+            at = self.r.get("stage")
+            failed_check = at if self.log.get(at, {}).get("ok") is False else None
+            self.r.setdefault("aborted_groups", {})[name] = {
+                "error": f"{type(exc).__name__}: {exc}",
+                "at_check": failed_check,
+            }
 
 
 async def outcome(call: Awaitable, timeout_sim_s: float = 10.0) -> str:
