@@ -72,20 +72,25 @@ async def main_async(args: argparse.Namespace) -> int:
         print(f"images: {exc}", file=sys.stderr)
         node.close()
         return 2
+    if role == "cloud":
+        job = run_cloud(node, args.duration_s, stop, counts, codec, images)
+    elif role == "fog":
+        params = FogParams(imaging=imaging)
+        job = run_fog(node, args.duration_s, params, counts, codec, images)
+    elif role == "edge":
+        rng = np.random.default_rng([args.seed, zlib.crc32(node.node_id.encode())])
+        params = EdgeParams(imaging=imaging)
+        job = run_edge(node, args.duration_s, params, rng, counts, codec, source, images)
+    else:
+        print(f"role {role!r} has no program here (edge, fog, cloud)", file=sys.stderr)
+        node.close()
+        return 2
+    # The role registers its handlers in its first step, before the node reads anything: what
+    # peers that started earlier already sent (a fog's first relayed image) would otherwise
+    # arrive with no handler to take it.
+    task = asyncio.ensure_future(job)
+    await asyncio.sleep(0)
     async with node:
-        if role == "cloud":
-            job = run_cloud(node, args.duration_s, stop, counts, codec, images)
-        elif role == "fog":
-            params = FogParams(imaging=imaging)
-            job = run_fog(node, args.duration_s, params, counts, codec, images)
-        elif role == "edge":
-            rng = np.random.default_rng([args.seed, zlib.crc32(node.node_id.encode())])
-            params = EdgeParams(imaging=imaging)
-            job = run_edge(node, args.duration_s, params, rng, counts, codec, source, images)
-        else:
-            print(f"role {role!r} has no program here (edge, fog, cloud)", file=sys.stderr)
-            return 2
-        task = asyncio.ensure_future(job)
         flight = None
         if args.mavlink and role != "cloud":
             flight = asyncio.ensure_future(
