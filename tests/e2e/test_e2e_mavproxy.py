@@ -21,6 +21,7 @@ MAVProxy changes must show there too.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import re
 from functools import cache
@@ -117,6 +118,38 @@ def mavproxy(swarm, link, tmp_path_factory):
         yield mp
     finally:
         mp.close()
+
+
+_UNUSABLE_AFTER: dict[str, str] = {}
+"""Test that left the vehicle armed beyond recovery -> why; the module's later tests skip."""
+
+
+@pytest.fixture(autouse=True)
+def disarmed_on_the_ground(request):
+    """Each test that drives MAVProxy starts with the vehicle disarmed on the ground.
+
+    The tests share one vehicle; a test that fails in the air leaves it armed. After each such
+    test the vehicle is brought back (LAND, then ``disarm force``); a failure there is recorded
+    rather than raised (the test has already reported its own), and if the vehicle stays armed
+    the later tests skip, naming the test that left it so: one miss fails one test.
+    """
+    if "mavproxy" not in request.fixturenames:
+        yield
+        return
+    if _UNUSABLE_AFTER:
+        (name, why), *_ = _UNUSABLE_AFTER.items()
+        pytest.skip(f"the vehicle stayed armed after {name} ({why})")
+    mp = request.getfixturevalue("mavproxy")
+    lk = request.getfixturevalue("link")
+    yield
+    try:
+        land_and_disarm(mp, lk)
+    except (Exception, pytest.fail.Exception) as exc:
+        still_armed = True
+        with contextlib.suppress(Exception, pytest.fail.Exception):
+            still_armed = bool(heartbeat(lk).base_mode & ARMED_FLAG)
+        if still_armed:
+            _UNUSABLE_AFTER[request.node.name] = str(exc).splitlines()[0]
 
 
 # --- vehicle state through the raw observer --------------------------------------------------
