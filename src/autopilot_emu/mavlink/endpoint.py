@@ -626,7 +626,7 @@ class MavlinkEndpoint:
         self.stats.frames_sent += 1
         self._bytes_out += len(frame)
         self._transmit(frame, to)
-        if self._held_heartbeats:
+        if self._held_heartbeats and to is None:  # after a frame every peer got
             self._release_heartbeats()
 
     def _send_fields(
