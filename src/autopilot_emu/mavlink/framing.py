@@ -26,6 +26,7 @@ from pymavlink.generator import mavcrc
 _HEADER = struct.Struct("<BBBBBBBHB")
 """magic, payload length, incompat flags, compat flags, seq, sysid, compid, msgid (24 bit)."""
 _MAGIC_V2 = 0xFD
+_MAGIC_V1 = 0xFE
 _BODY_HEADER = struct.Struct("<BBBBBBHB")
 """The header after the magic byte: what the CRC covers, with the payload."""
 _MAGIC_V2_BYTE = bytes((_MAGIC_V2,))
@@ -181,10 +182,7 @@ def encode_fields(
     return _MAGIC_V2_BYTE + body + _CRC.pack(_crc_from(fmt.crc_extra, _crc_from(body, 0xFFFF)))
 
 
-_MAGIC_V1 = 0xFE
-
-
-def source_and_msgid(frame: bytes) -> tuple[int, int, int] | None:
+def source_and_msgid(frame: bytes | bytearray) -> tuple[int, int, int] | None:
     """(system id, component id, message id) from a MAVLink 1 or 2 frame's header.
 
     None when ``frame`` is too short or does not start with a MAVLink magic byte.

@@ -79,7 +79,6 @@ REJECT_LOG_INTERVAL_S = 10.0
 
 _sha256 = hashlib.sha256
 _MAGIC_V2 = 0xFD
-_MAGIC_V1 = 0xFE
 
 
 class SigningKeyError(ValueError):
@@ -229,13 +228,12 @@ class LinkSigner:
 
     def check(self, frame: bytes | bytearray) -> Verdict:
         """Judge one received frame (CRC already checked), updating its stream if accepted."""
-        if frame[0] == _MAGIC_V2:
-            signed = bool(frame[2] & IFLAG_SIGNED)
-            sysid, compid = frame[5], frame[6]
-            msg_id = frame[7] | frame[8] << 8 | frame[9] << 16
-        else:  # MAVLink 1 cannot be signed
-            signed = False
-            sysid, compid, msg_id = frame[3], frame[4], frame[5]
+        ids = framing.source_and_msgid(frame)
+        if ids is None:  # not a MAVLink frame: nothing to judge it by
+            return Verdict.UNSIGNED
+        sysid, compid, msg_id = ids
+        # MAVLink 1 cannot be signed
+        signed = frame[0] == _MAGIC_V2 and bool(frame[2] & IFLAG_SIGNED)
         if not signed or len(frame) < SIGNATURE_BYTES + 12:
             return Verdict.UNSIGNED_ALLOWED if msg_id in UNSIGNED_ACCEPTED else Verdict.UNSIGNED
         body = bytes(frame[:-6])
