@@ -65,6 +65,22 @@ def test_run_flight_passes_the_flights_failure_on() -> None:
         run_flight(flight())
 
 
+def _stopped_once_ready(code: str) -> str:
+    """Run ``code``; once it prints ``ready``, SIGTERM it as the runner does; its stderr.
+
+    The program must die of the signal (exit -15), as before the report was added.
+    """
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == "ready"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == -signal.SIGTERM
+    return err
+
+
 def test_a_program_stopped_by_the_runner_prints_where_it_stood() -> None:
     """SIGTERM (the run ended first): the stacks go to the log, then the program ends."""
     code = textwrap.dedent(
@@ -79,14 +95,7 @@ def test_a_program_stopped_by_the_runner_prints_where_it_stood() -> None:
         finish(waiting_forever, lambda: None, print)
         """
     )
-    proc = subprocess.Popen(
-        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
-    assert proc.stdout is not None
-    assert proc.stdout.readline().strip() == "ready"
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGTERM
+    err = _stopped_once_ready(code)
     assert "in waiting_forever" in err
 
 
@@ -107,14 +116,7 @@ def test_a_stopped_flight_reports_each_waiting_coroutine() -> None:
         finish(lambda env: run_flight(flight()), lambda: None, print)
         """
     )
-    proc = subprocess.Popen(
-        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
-    assert proc.stdout is not None
-    assert proc.stdout.readline().strip() == "ready"
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGTERM
+    err = _stopped_once_ready(code)
     assert "Current thread" in err  # faulthandler's thread stacks, then each task's
     tasks = err[err.index("Current thread") :]
     assert "Stack for <Task" in tasks
