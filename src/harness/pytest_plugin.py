@@ -28,7 +28,6 @@ import contextlib
 import json
 import os
 import signal
-import struct
 import subprocess
 import sys
 import time
@@ -40,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 from harness.run_ports import RunPorts, free_ports
+from harness.sim_clock import read_time_s
 
 if TYPE_CHECKING:
     from harness.flight_log import FlightLog
@@ -65,9 +65,7 @@ def sim_time_s(clock: Path) -> float:
     ``swarmsitl up`` and ``swarmsitl run`` rewrite ``RUN/clock`` as the simulation advances,
     paced or lockstep; before the simulation starts it holds 0.
     """
-    path = clock / CLOCK_FILE if clock.is_dir() else clock
-    with path.open("rb") as f:
-        return struct.unpack("<d", f.read(8))[0]
+    return read_time_s(clock / CLOCK_FILE if clock.is_dir() else clock)
 
 
 def watchdog_wall_s(timeout_sim_s: float, speed: float | None = None) -> float:

@@ -15,6 +15,12 @@ CLOCK_FORMAT = "<d"
 """Layout of the file, as ``companion.clock.CLOCK_FORMAT`` reads it."""
 
 
+def read_time_s(path: Path) -> float:
+    """The simulation time a clock file at ``path`` holds, s."""
+    with path.open("rb") as f:
+        return struct.unpack(CLOCK_FORMAT, f.read(struct.calcsize(CLOCK_FORMAT)))[0]
+
+
 def ack_dir(clock: Path) -> Path:
     """Where the processes reading ``clock`` acknowledge the time they have seen.
 
