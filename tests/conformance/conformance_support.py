@@ -54,15 +54,13 @@ class Run:
         Checks are skipped when a group stopped (at a failed check: that check's test fails;
         between checks: :meth:`incomplete` fails) or when the client did not finish.
         """
-        reasons = []
-        for group, note in self.data.get("aborted_groups", {}).items():
-            at = note.get("at_check") if isinstance(note, dict) else None
-            reasons.append(
-                f"group {group!r} stopped at failed check {at!r}"
-                if at
-                else f"group {group!r} stopped between checks (test_client_run_completes)"
-            )
-        if self.data.get("stage") != "done" or self.data.get("error"):
+        reasons = [
+            f"group {group!r} stopped at failed check {at!r}"
+            if at
+            else f"group {group!r} stopped between checks (test_client_run_completes)"
+            for group, at in self._stopped_groups().items()
+        ]
+        if not self._finished():
             reasons.append(
                 f"the client stopped at stage {self.data.get('stage')!r} "
                 "(test_client_run_completes)"
@@ -73,15 +71,25 @@ class Run:
         """What no check's test reports: the client did not finish, or a group failed between
         checks. None when every failure of the run is a failed check's."""
         problems = []
-        if self.data.get("stage") != "done" or self.data.get("error"):
+        if not self._finished():
             problems.append(
                 f"stopped at stage {self.data.get('stage')!r}: {self.data.get('error')}; "
                 f"{self.data.get('_describe', '')}"
             )
-        for group, note in self.data.get("aborted_groups", {}).items():
-            if not (isinstance(note, dict) and note.get("at_check")):
-                problems.append(f"group {group!r} failed between checks: {note}")
+        notes = self.data.get("aborted_groups", {})
+        for group, at in self._stopped_groups().items():
+            if not at:
+                problems.append(f"group {group!r} failed between checks: {notes[group]}")
         return "\n".join(problems) or None
+
+    def _finished(self) -> bool:
+        """The client reached its last stage without an error."""
+        return self.data.get("stage") == "done" and not self.data.get("error")
+
+    def _stopped_groups(self) -> dict[str, str | None]:
+        """Each group that stopped -> the failed check it stopped at (None: between checks)."""
+        notes = self.data.get("aborted_groups", {})
+        return {group: note.get("at_check") for group, note in notes.items()}
 
 
 def run_conformance_client(
