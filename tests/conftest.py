@@ -62,7 +62,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Generator
+from collections.abc import Callable, Collection, Generator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -461,3 +461,37 @@ def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> 
 def pytest_sessionfinish(session: pytest.Session) -> None:
     """Remove this process's compile log (its entries failed their tests already)."""
     COMPILE_LOG.unlink(missing_ok=True)
+
+
+# --- time per tier ---------------------------------------------------------------------------
+
+TIERS = ("unit", "sockets", "process", "heavy", "paced")
+"""The tiers as the terminal summary counts them (docs/testing.md, "Tiers")."""
+_tier_totals: dict[str, list[float]] = {tier: [0, 0.0] for tier in TIERS}
+"""Tier -> [tests, seconds of set-up, call and teardown], from the reports this process saw."""
+
+
+def tier_of(nodeid: str, keywords: Collection[str]) -> str:
+    """A test's tier: its work unit's kind (:func:`kind_of`), else its marker, else unit."""
+    kind = kind_of(scope_of(nodeid))
+    if kind != LIGHT:
+        return kind
+    return next((marker for marker in ("process", "sockets") if marker in keywords), "unit")
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Add the phase's duration to its test's tier (on the controller: every worker's)."""
+    totals = _tier_totals[tier_of(report.nodeid, report.keywords)]
+    totals[1] += report.duration
+    if report.when == "call" or (report.when == "setup" and report.skipped):
+        totals[0] += 1
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    """Print the suite's time per tier: the sum of its tests' durations over all workers."""
+    if not any(count for count, _ in _tier_totals.values()):
+        return
+    terminalreporter.section("time per tier (sum of test durations over all workers)")
+    for tier in TIERS:
+        count, seconds = _tier_totals[tier]
+        terminalreporter.write_line(f"{tier:8s} {int(count):5d} tests {seconds:8.1f} s")
