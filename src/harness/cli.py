@@ -269,6 +269,15 @@ def up(
             "simulation time from RUN/clock (SWARMSITL_CLOCK_FILE, companion.clock)",
         ),
     ] = False,
+    max_speed: Annotated[
+        float,
+        typer.Option(
+            "--max-speed",
+            min=0.0,
+            help="with --lockstep: never more simulated seconds per wall second than this "
+            "(0: no cap); e.g. to keep a ground station's wall-clock timeouts meaningful",
+        ),
+    ] = 0.0,
     bind: Annotated[
         str,
         typer.Option(
@@ -523,6 +532,9 @@ def up(
     Example:  swarmsitl up -n 2 --lockstep --out runs/ci   (as fast as possible; companions:
     SWARMSITL_CLOCK_FILE=runs/ci/clock python my_companion.py, waits via companion.clock)
 
+    Example:  swarmsitl up --lockstep --max-speed 4   (lockstep, never above 4x: MAVSDK's and
+    a ground station's wall-clock timeouts stay within a known number of simulated seconds)
+
     Example:  swarmsitl up -n 3 --params all=examples/params/tuning.params   (a QGroundControl
     file, every vehicle; what clients set goes to RUN/client_params.params, which --params
     takes back)
@@ -538,6 +550,10 @@ def up(
             f"{autopilot!r}: expected {INTERNAL} or {EXTERNAL}", param_hint="--autopilot"
         )
     check_hil_serial(hil_serial or [], vehicles, autopilot, speed, lockstep)
+    if max_speed and not lockstep:
+        raise typer.BadParameter(
+            "caps a --lockstep run; a paced run keeps --speed", param_hint="--max-speed"
+        )
     if autopilot == EXTERNAL:
         ignored = [
             name
@@ -658,10 +674,15 @@ def up(
         ping_period_s=LOCKSTEP.ping_period_s if lockstep else 0.0,
     )
     sim = open_simulation(cfg)
+    pace = (
+        ("lockstep" + (f" (at most {max_speed:g}x)" if max_speed else ""))
+        if lockstep
+        else f"speed {speed:g}x"
+    )
     if sim.hil is not None:
-        print_external_table(sim, run_dir, "lockstep" if lockstep else f"speed {speed:g}x")
+        print_external_table(sim, run_dir, pace)
     else:
-        title = f"swarmsitl: {vehicles} vehicle(s), speed {speed:g}x, run dir {run_dir}"
+        title = f"swarmsitl: {vehicles} vehicle(s), {pace}, run dir {run_dir}"
         modelled = link != NO_LINK or (gcs_link != NO_LINK and ports.gcs_port)
         rows = []
         for i in range(vehicles):
@@ -750,6 +771,8 @@ def up(
         raise typer.Exit(1)
     t_start = time.monotonic()
     clock = ClockFile(run_dir / "clock")
+    # Before any companion can start: companion.clock takes part only if the folder exists.
+    acks = ClockAcks(clock.path) if lockstep else None
     procs: dict[str, subprocess.Popen] = {}
     if net_run is not None:
         attach(net_run, sim)
@@ -759,6 +782,7 @@ def up(
             f"# source this, then set SWARMSITL_NODE (one of: "
             f"{', '.join(n.node_id for n in net_run.nodes)})\n"
             f"export SWARMSITL_SPEED={speed:g}\nexport SWARMSITL_CLOCK_ORIGIN={t_start!r}\n"
+            f"export SWARMSITL_CLOCK_FILE={clock.path}\n"
             f"export SWARMSITL_NET={net_run.net_path}\n"
             f"export SWARMSITL_NET_RECORDS={net_run.records_dir}\n"
         )
@@ -774,7 +798,12 @@ def up(
             console.print(f"cloud node: process {procs['cloud'].pid}, log {run_dir / 'cloud.log'}")
     console.print(
         f"simulation clock: SWARMSITL_CLOCK_FILE={clock.path} (companion.clock reads it)"
-        + ("; lockstep: as fast as the CPU allows" if lockstep else "")
+        + (
+            "; lockstep: as fast as the CPU and the participants allow"
+            + (f", at most {max_speed:g}x" if max_speed else "")
+            if lockstep
+            else ""
+        )
     )
     console.print("Press Ctrl-C to stop.")
     flag = StopFlag()
@@ -802,12 +831,13 @@ def up(
             if lockstep:
                 gate = LockstepGate(
                     LOCKSTEP,
-                    ClockAcks(clock.path),
+                    acks,
                     lambda: (
                         gated_links(sim, range(vehicles), onboard_only=False)
                         if sim.fleet is not None
                         else ()
                     ),
+                    max_speed=max_speed,
                 )
                 run_gated(sim, gate, duration if duration > 0 else float("inf"), should_stop)
             else:
@@ -823,6 +853,8 @@ def up(
         stop_processes(procs)
         sim.close()
         clock.close()
+        if acks is not None:
+            acks.close()
         for s, h in old.items():
             signal.signal(s, h)
     wall = max(time.monotonic() - t_start, 1e-9)

@@ -49,6 +49,8 @@ STOPPED_STATES = frozenset("Tt")
 """/proc/<pid>/stat states of a stopped process: by a signal (T) or a tracer (t)."""
 GONE_STATES = frozenset("ZXx")
 """States of a process that has ended (a zombie waits only for its parent to reap it)."""
+CAP_SLACK_WALL_S = 0.1
+"""How far a speed-capped simulation may fall behind its pace before the pace starts anew."""
 HEARTBEAT_PERIOD_WALL_S = 1.0
 """How often a MAVSDK or QGroundControl ground station sends HEARTBEAT, wall s."""
 
@@ -228,8 +230,11 @@ class LockstepGate:
     groups: Callable[[], Iterable[int]] = lambda: ()
     """Process groups of the companions that take part (a stopped member holds the simulation)."""
     wall_clock_s: Callable[[], float] = time.monotonic
+    max_speed: float = 0.0
+    """Never more simulated seconds per wall second than this (0: as fast as the participants
+    allow); ``swarmsitl up --lockstep --max-speed X``."""
     holds: int = 0
-    """Blocks that had to wait."""
+    """Blocks that had to wait for a participant (not for the speed cap)."""
     held_wall_s: float = 0.0
     """Wall seconds spent waiting."""
     _members: dict[int, list[int]] = field(default_factory=dict)
@@ -238,6 +243,8 @@ class LockstepGate:
     _stopped_at: float = -math.inf
     _resumed_at: float = -math.inf
     _cap_origin: tuple[float, float] | None = None
+    waited_for_participant: bool = False
+    """Whether the last :meth:`allows` that refused did so for a participant."""
 
     def limit_s(self, now_wall: float, links: Iterable[GatedLink] | None = None) -> float:
         """Latest simulation time every live participant allows now (``links``: asked anew)."""
@@ -284,29 +291,46 @@ class LockstepGate:
     def _capped(
         self, target_s: float, now_s: float, now_wall: float, links: Iterable[GatedLink]
     ) -> bool:
-        """A shaped link's live peer: the target is further than the speed cap allows yet."""
+        """The simulation is ahead of a speed cap's pace (:attr:`max_speed`, a shaped link).
+
+        A block may start once the simulation's time is due (so it ends at most one block
+        ahead of the pace). The pace runs from an origin that moves up to now whenever the
+        simulation fell more than ``CAP_SLACK_WALL_S`` behind it (a hold, slow steps): a capped
+        simulation never bursts to catch up.
+        """
         caps = [
-            self.bounds.heartbeat_share * link.dl_loss_s / HEARTBEAT_PERIOD_WALL_S
+            max(1.0, self.bounds.heartbeat_share * link.dl_loss_s / HEARTBEAT_PERIOD_WALL_S)
             for link in links
             if link.shaped and self._heard(link.presence.heartbeat_wall_s, now_wall)
         ]
+        if self.max_speed > 0:
+            caps.append(self.max_speed)
         if not caps:
             self._cap_origin = None
             return False
         if self._cap_origin is None:
             self._cap_origin = (now_s, now_wall)
         origin_s, origin_wall = self._cap_origin
-        return origin_wall + (target_s - origin_s) / max(1.0, min(caps)) > now_wall
+        due_wall = origin_wall + (now_s - origin_s) / min(caps)
+        if now_wall - due_wall > CAP_SLACK_WALL_S:
+            self._cap_origin = now_s, now_wall
+            return False
+        return due_wall > now_wall
 
     def allows(self, target_s: float, now_s: float) -> bool:
-        """Every live participant lets the simulation reach ``target_s`` now."""
+        """Every live participant and the speed cap let the simulation reach ``target_s`` now.
+
+        :attr:`waited_for_participant` says which of them refused.
+        """
         now_wall = self.wall_clock_s()
+        self.waited_for_participant = True
         if self.stopped(now_wall):
             return False
         links = list(self.links())  # built once per look: the runner reads each vehicle's params
-        return self.limit_s(now_wall, links) >= target_s - 1e-9 and not self._capped(
-            target_s, now_s, now_wall, links
-        )
+        if self.limit_s(now_wall, links) < target_s - 1e-9:
+            return False
+        self.waited_for_participant = False
+        return not self._capped(target_s, now_s, now_wall, links)
 
     def hold(
         self, sim: LinkPoller, target_s: float, give_up: Callable[[], bool] = lambda: False
@@ -315,13 +339,16 @@ class LockstepGate:
         if self.allows(target_s, sim.time_s):
             return
         start = self.wall_clock_s()
-        self.holds += 1
+        held = self.waited_for_participant
         while not give_up():
             sim.poll_links()
             time.sleep(self.bounds.wait_wall_s)
             if self.allows(target_s, sim.time_s):
                 break
-        self.held_wall_s += self.wall_clock_s() - start
+            held = held or self.waited_for_participant
+        if held:
+            self.holds += 1
+            self.held_wall_s += self.wall_clock_s() - start
 
     def summary(self) -> dict[str, float]:
         """What the report says of the lockstep: its bound and how often it waited."""

@@ -80,8 +80,37 @@ def test_a_shaped_link_caps_the_speed_instead_of_waiting_for_its_traffic():
     assert gate.limit_s(0.0) == math.inf
     assert gate.allows(0.0, 0.0)  # the cap starts counting here
     cap = BOUNDS.heartbeat_share * 10.0  # simulated s per wall s
-    wall[0] = 1.0
-    assert gate.allows(cap * 1.0, 0.0) and not gate.allows(cap * 1.0 + 0.5, 0.0)
+    wall[0] = 0.05
+    assert gate.allows(cap * 0.05, cap * 0.04)  # due at 0.04 wall s: it may go on
+    assert not gate.allows(cap * 0.05 + 0.5, cap * 0.05 + 0.48)  # ahead of the pace: it waits
+
+
+def test_max_speed_paces_the_simulation_without_counting_holds_or_bursting():
+    """``--max-speed``: never more simulated s per wall s than asked; a simulation that fell
+    behind its pace (a hold, a slow step) starts a new pace instead of catching up at once."""
+    wall = [0.0]
+    gate = LockstepGate(BOUNDS, wall_clock_s=lambda: wall[0], max_speed=2.0)
+    assert gate.allows(0.02, 0.0)  # the pace starts here: the first block goes at once
+    assert not gate.allows(0.04, 0.02) and not gate.waited_for_participant  # 0.02 s due at 0.01
+    wall[0] = 0.01
+    assert gate.allows(0.04, 0.02)
+    wall[0] = 5.0  # far behind the pace: a new pace from here, no burst of 10 simulated s
+    assert gate.allows(0.06, 0.04) and not gate.allows(0.08, 0.06)
+    wall[0] = 5.01
+    assert gate.allows(0.08, 0.06)
+
+    wall[0] = 0.0
+    gate = LockstepGate(BOUNDS, wall_clock_s=lambda: wall[0], max_speed=2.0)
+    sim = FakeSim(dt_s=0.01)
+
+    def wall_moves() -> None:
+        wall[0] += 0.001
+
+    sim.on_poll = wall_moves
+    run_gated(sim, gate, 1.0, lambda: False, block_s=0.02)
+    assert sim.time_s == pytest.approx(1.0)
+    assert wall[0] >= (1.0 - 0.02) / 2.0  # 2x at most (the first block goes at once)
+    assert gate.holds == 0 and gate.held_wall_s == 0.0  # waits for the cap are not holds
 
 
 def test_hold_answers_the_links_until_the_participant_catches_up():
