@@ -108,10 +108,12 @@ def wait_until(
     start_wall = time.monotonic()
     watchdog = watchdog_wall_s(timeout_sim_s, speed)
     while True:
+        # The clock is read before the predicate: a simulation that runs far ahead while this
+        # process is slow cannot turn an event it saw in time into a timeout.
+        elapsed = sim_time_s(clock) - start_sim
         found = predicate()
         if found:
             return found
-        elapsed = sim_time_s(clock) - start_sim
         if elapsed >= timeout_sim_s:
             raise WaitTimeout(f"no {what} within {timeout_sim_s:g} simulated s")
         waited = time.monotonic() - start_wall
@@ -413,7 +415,8 @@ def swarmsitl_fleet(
     ``fleet = swarmsitl_fleet(vehicles=2, world="example:offshore")``. Keyword arguments:
     ``vehicles``, ``world`` (a world file, ``example:KIND`` or None),
     ``launch_area``, ``speed`` (paced, simulated s per wall s) or ``lockstep=True`` (as fast as
-    possible; companions use ``fleet.env`` for the simulation clock), ``frame``, ``extra_args``.
+    possible; companions use ``fleet.env`` for the simulation clock; ``extra_args=["--max-speed",
+    4]`` caps it, as the project's own end-to-end tests do), ``frame``, ``extra_args``.
     Every fleet still running at the end of the test is stopped.
     """
     fleets: list[Fleet] = []
