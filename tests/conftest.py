@@ -4,8 +4,8 @@
 sockets, port 0 too, and may sleep), ``process`` (it starts processes; sockets and sleeps too),
 ``heavy`` (a process-tier test with several busy processes at once: a Dask cluster, a lockstep
 run with its companions), ``e2e`` (end to end: implies ``heavy``); every module of
-``tests/e2e`` and ``tests/conformance`` is the *paced* group (``swarmsitl up --speed X`` with
-real clients). While
+``tests/e2e`` and ``tests/conformance`` is the *e2e* group (``swarmsitl up --lockstep
+--max-speed 4`` with real clients). While
 an unmarked test runs (its call, and the setup of its function-scoped fixtures), starting a
 process (``subprocess.Popen``, ``os.fork``/``posix_spawn``/``system``, ``multiprocessing``),
 binding a socket (``socket.socket.bind``) or a ``time.sleep`` over 0.1 s raises
@@ -17,13 +17,13 @@ pass over the suite lists them all).
 
 **Scheduling.** With ``--dist loadgroup`` (``.ci/run``: ``-n 2``) :class:`TieredScheduling`
 sends each test module whole to one worker (its module-scoped fixtures are built once) and the
-whole paced group to one worker, one module after another: two paced runs never compete for the
-CPU. The paced group never runs beside a heavy module either (its processes would take the
-paced run's CPU: its waits are in simulated time, but a starved run is a slow one and its
+whole e2e group to one worker, one module after another: two e2e runs never compete for the
+CPU. The e2e group never runs beside a heavy module either (its processes would take the
+e2e run's CPU: its waits are in simulated time, but a starved run is a slow one and its
 start-up and a few limits are wall-clock): while it runs, the other worker takes the other
 modules (one busy process at a time, a core's worth), and the heavy ones (lockstep runs, Dask
 clusters: their outcome does not depend on the load) come after it, on both workers. The
-controller collects no tests, so a unit's kind is read from node ids and sources: the paced
+controller collects no tests, so a unit's kind is read from node ids and sources: the e2e
 directories, else a module whose source says ``mark.heavy``, ``mark.e2e`` or ``mark.stress``
 is heavy; :func:`pytest_collection_modifyitems` refuses a heavy test whose module's source
 does not say so. Without ``-n`` (or with another ``--dist``) nothing is reordered.
@@ -41,7 +41,7 @@ every kernel in ``src/``, with every signature the stack calls it with): the wor
 ``swarmsitl up`` or scenario subprocess a test starts, then load them instead of compiling them
 (tens of seconds on a cold machine, which would eat into an end-to-end test's wall-clock limits).
 
-The paced group then forbids compiling: around each of its tests
+The e2e group then forbids compiling: around each of its tests
 ``SWARMSITL_FORBID_JIT_COMPILE=1`` is set (every ``swarmsitl`` process started from then on
 raises on a kernel compile, and appends the kernel to ``SWARMSITL_JIT_COMPILE_LOG``) and the
 same guard runs in the test's own process. A compile during the test, in any of them, fails it
@@ -84,13 +84,13 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # --- tiers -----------------------------------------------------------------------------------
 
-PACED_DIRS = ("tests/e2e/", "tests/conformance/")
-"""Node-id prefixes (relative to the repository root) of the modules in the paced group."""
-PACED_GROUP = "paced"
-LIGHT, HEAVY, PACED = "light", "heavy", "paced"
+E2E_DIRS = ("tests/e2e/", "tests/conformance/")
+"""Node-id prefixes (relative to the repository root) of the modules in the e2e group."""
+E2E_GROUP = "e2e"
+LIGHT, HEAVY, E2E = "light", "heavy", "e2e"
 """Kinds of work unit, as the scheduler sees them: a module of the unit, sockets or process
 tier (one busy process at a time: a core's worth, like the worker itself), a module marked
-``heavy`` (several busy processes at once), the paced group."""
+``heavy`` (several busy processes at once), the e2e group."""
 PROCESS_MARKERS = ("process", "heavy", "e2e", "stress")
 """Markers of the process tier: each lets a test start processes (and bind, and sleep)."""
 HEAVY_MARKERS = ("heavy", "e2e", "stress")
@@ -111,17 +111,17 @@ MARKER_ALLOWS = {
 
 
 def scope_of(nodeid: str) -> str:
-    """The work unit of a test: the paced group, or its module."""
+    """The work unit of a test: the e2e group, or its module."""
     module = nodeid.split("::", 1)[0]
-    return PACED_GROUP if module.startswith(PACED_DIRS) else module
+    return E2E_GROUP if module.startswith(E2E_DIRS) else module
 
 
 @functools.cache
 def kind_of(scope: str) -> str:
-    """What a work unit (:func:`scope_of`) is to the scheduler: paced, heavy (its source says
+    """What a work unit (:func:`scope_of`) is to the scheduler: e2e, heavy (its source says
     ``mark.heavy``, ``mark.e2e`` or ``mark.stress``) or light."""
-    if scope == PACED_GROUP:
-        return PACED
+    if scope == E2E_GROUP:
+        return E2E
     try:
         source = (ROOT / scope).read_text(encoding="utf-8")
     except OSError:
@@ -134,9 +134,9 @@ def is_heavy(item: pytest.Item) -> bool:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Refuse a heavy test outside the paced group whose module's source does not say so (a
+    """Refuse a heavy test outside the e2e group whose module's source does not say so (a
     marker applied from elsewhere): the scheduler, which reads sources, would run it beside
-    the paced group."""
+    the e2e group."""
     wrong = sorted(
         {
             scope_of(item.nodeid)
@@ -158,12 +158,12 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | 
         return None
     from xdist.scheduler import LoadScopeScheduling
 
-    rank = {PACED: 0, LIGHT: 1, HEAVY: 2}
+    rank = {E2E: 0, LIGHT: 1, HEAVY: 2}
 
     class TieredScheduling(LoadScopeScheduling):
-        """Module (and paced group) work units; the paced group never beside a heavy unit.
+        """Module (and e2e group) work units; the e2e group never beside a heavy unit.
 
-        A worker asking for work gets the first unit, paced group first, then light modules,
+        A worker asking for work gets the first unit, e2e group first, then light modules,
         then heavy ones (each in xdist's order: most tests first), that may run beside what the
         other workers have not finished; if none may, it waits and is asked again whenever a
         test ends anywhere.
@@ -185,8 +185,8 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | 
             self.assigned_work.setdefault(node, {})
             elsewhere = self._tiers_elsewhere(node)
             blocked = {
-                PACED: {PACED, HEAVY} & elsewhere,
-                HEAVY: {PACED} & elsewhere,
+                E2E: {E2E, HEAVY} & elsewhere,
+                HEAVY: {E2E} & elsewhere,
                 LIGHT: set(),
             }
             order = sorted(self.workqueue, key=lambda scope: rank[kind_of(scope)])
@@ -227,8 +227,8 @@ _tier_guard: _TierGuard | None = None
 
 
 def allowed_rules(item: pytest.Item) -> frozenset[str]:
-    """The rules the test's markers lift (all of them in the paced group)."""
-    if scope_of(item.nodeid) == PACED_GROUP:
+    """The rules the test's markers lift (all of them in the e2e group)."""
+    if scope_of(item.nodeid) == E2E_GROUP:
         return frozenset(RULE_MARKERS)
     allowed: frozenset[str] = frozenset()
     for marker, rules in MARKER_ALLOWS.items():
@@ -399,32 +399,32 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     try:
         subprocess.run(WARM_KERNELS, capture_output=True, timeout=900, check=True, env=env)
     except (subprocess.CalledProcessError, subprocess.TimeoutExpired) as exc:
-        # Not fatal here: the paced tests will fail naming the kernels they compiled.
+        # Not fatal here: the e2e tests will fail naming the kernels they compiled.
         stderr = exc.stderr.decode(errors="replace") if isinstance(exc.stderr, bytes) else ""
         print(f"warming the kernel cache failed: {exc}\n{stderr}", file=sys.stderr)
 
 
-def is_paced(item: pytest.Item) -> bool:
-    """Whether a test is in the paced group (tests/e2e, tests/conformance)."""
-    return scope_of(item.nodeid) == PACED_GROUP
+def is_e2e(item: pytest.Item) -> bool:
+    """Whether a test is in the e2e group (tests/e2e, tests/conformance)."""
+    return scope_of(item.nodeid) == E2E_GROUP
 
 
 COMPILE_LOG = Path(tempfile.gettempdir()) / f"swarmsitl-jit-compiles-{os.getpid()}.log"
 """This test process's log of forbidden compiles (its own and its subprocesses')."""
 _LOG_START = pytest.StashKey[int]()
 _guard: CompileGuard | None = None
-"""The in-process compile guard of the running paced test."""
+"""The in-process compile guard of the running e2e test."""
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_runtest_setup(item: pytest.Item) -> None:
-    """Forbid kernel compiles for a paced test: in the processes it starts, and here.
+    """Forbid kernel compiles for a e2e test: in the processes it starts, and here.
 
     Set before the test's fixtures run (module-scoped ones start ``swarmsitl up`` processes,
     which keep the setting for their lifetime) and kept until its teardown ends.
     """
     global _guard
-    if not is_paced(item):
+    if not is_e2e(item):
         return
     COMPILE_LOG.touch()
     item.stash[_LOG_START] = COMPILE_LOG.stat().st_size
@@ -436,7 +436,7 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
 
 @pytest.hookimpl(wrapper=True)
 def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> Generator:
-    """Fail a paced test in whose processes a kernel compiled (names the kernels)."""
+    """Fail a e2e test in whose processes a kernel compiled (names the kernels)."""
     global _guard
     result = yield
     if _LOG_START not in item.stash:
@@ -465,7 +465,7 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
 
 # --- time per tier ---------------------------------------------------------------------------
 
-TIERS = ("unit", "sockets", "process", "heavy", "paced")
+TIERS = ("unit", "sockets", "process", "heavy", "e2e")
 """The tiers as the terminal summary counts them (docs/testing.md, "Tiers")."""
 _tier_totals: dict[str, list[float]] = {tier: [0, 0.0] for tier in TIERS}
 """Tier -> [tests, seconds of set-up, call and teardown], from the reports this process saw."""

@@ -43,6 +43,7 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
+from harness.lockstep import LOCKSTEP, ClockAcks, LockstepGate, gated_links, run_gated
 from harness.pytest_plugin import WaitTimeout, sim_time_s, wait_until
 from harness.run_ports import free_port_block
 from harness.sim_clock import ClockFile
@@ -52,7 +53,11 @@ CLIENTS_DIR = E2E_DIR / "clients"
 REPO_ROOT = E2E_DIR.parents[1]
 
 SPEED = 4.0
-"""Simulated seconds per wall second for every e2e run (paced, not lockstep)."""
+"""Most simulated seconds per wall second of every e2e run. The runs are in lockstep with their
+clients (``swarmsitl up --lockstep --max-speed SPEED``, :func:`run_lockstep`): a stopped or
+starved client holds the simulation. The cap keeps MAVSDK's and the emulator's wall-clock
+timeouts (command retries, the mission protocol's 5 s) within a known number of simulated
+seconds: at most SPEED x theirs."""
 
 PORT_BLOCK = 10
 """Onboard-link ports per module: sdk ports at +0..+4, listen ports at +5..+9 (up to 5 vehicles)."""
@@ -334,18 +339,39 @@ def run_client(
 # --- the vehicles ----------------------------------------------------------------------------
 
 
-def run_paced(sim, clock: ClockFile, done: Callable[[], bool], max_duration_sim_s: float) -> None:
-    """Run an in-process ``harness.simulation.Simulation`` paced at :data:`SPEED` until
-    ``done()`` or ``max_duration_sim_s``, publishing its time in ``clock`` as ``swarmsitl up``
-    does (create the ``ClockFile`` before starting clients: they read ``clock.path``)."""
+@contextlib.contextmanager
+def lockstep_clock(path: Path) -> Iterator[tuple[ClockFile, ClockAcks]]:
+    """The clock file of an in-process simulation and its acknowledgement folder, made before
+    any client starts (``companion.clock`` takes part only if the folder exists when it is
+    imported); closed on the way out."""
+    clock = ClockFile(path)
+    acks = ClockAcks(clock.path)
+    try:
+        yield clock, acks
+    finally:
+        acks.close()
+        clock.close()
+
+
+def run_lockstep(
+    sim, clock: ClockFile, acks: ClockAcks, done: Callable[[], bool], max_duration_sim_s: float
+) -> None:
+    """Run an in-process ``harness.simulation.Simulation`` (built with
+    ``ping_period_s=LOCKSTEP.ping_period_s``) in lockstep with its clients, at most
+    :data:`SPEED`, until ``done()`` or ``max_duration_sim_s``, publishing its time in ``clock``
+    as ``swarmsitl up --lockstep --max-speed SPEED`` does (:func:`lockstep_clock`)."""
 
     def publish_and_check() -> bool:
-        clock.publish(sim.world.time_s)
+        clock.publish(sim.time_s)
         return done()
 
-    clock.publish(sim.world.time_s)
-    sim.run_paced(SPEED, publish_and_check, max_duration_s=max_duration_sim_s)
-    clock.publish(sim.world.time_s)
+    vehicles = range(len(sim.vehicle_links))
+    gate = LockstepGate(
+        LOCKSTEP, acks, lambda: gated_links(sim, vehicles, onboard_only=False), max_speed=SPEED
+    )
+    clock.publish(sim.time_s)
+    run_gated(sim, gate, max_duration_sim_s, publish_and_check)
+    clock.publish(sim.time_s)
 
 
 def cli_command(subcommand: str, *options: object) -> list[str]:
@@ -412,7 +438,7 @@ def start_swarm(
     cmd = cli_command(
         "up",
         "--vehicles", vehicles,
-        "--speed", SPEED,
+        "--lockstep", "--max-speed", SPEED,
         "--sdk-port", ports.sdk,
         "--listen-port", ports.listen,
         "--gcs-port", gcs_port,

@@ -1,7 +1,8 @@
 """MAVSDK's camera plugin against the simulated camera (component 100, via the vehicle's links).
 
-The simulation runs in this process, paced at :data:`e2e_support.SPEED` (its time published in a
-clock file, as ``swarmsitl up`` does); the client runs in its own process with its own
+The simulation runs in this process in lockstep with the client, at most
+:data:`e2e_support.SPEED` (its time published in a clock file, as ``swarmsitl up --lockstep``
+does); the client runs in its own process with its own
 mavsdk_server. Each test's UDP and gRPC ports are a block of the suite's allocator
 (:func:`harness.run_ports.free_port_block`).
 """
@@ -14,10 +15,16 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 import pytest
-from e2e_support import CLIENT_TIMEOUT_SIM_S, require_free_udp, run_paced, start_client
+from e2e_support import (
+    CLIENT_TIMEOUT_SIM_S,
+    lockstep_clock,
+    require_free_udp,
+    run_lockstep,
+    start_client,
+)
 
+from harness.lockstep import LOCKSTEP
 from harness.run_ports import free_port_block
-from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 
@@ -41,17 +48,14 @@ def _ports() -> PortPlan:
 
 
 def _run_with_client(sim: Simulation, script: str, args: list[str], logs: Path, grpc: int):
-    """Run the simulation paced until the client ends (at most CLIENT_TIMEOUT_SIM_S simulated
-    seconds, its clock published for the client); return the client's result."""
-    clock = ClockFile(sim.config.out_dir / "clock")
-    try:
+    """Run the simulation in lockstep until the client ends (at most CLIENT_TIMEOUT_SIM_S
+    simulated seconds, its clock published for the client); return the client's result."""
+    with lockstep_clock(sim.config.out_dir / "clock") as (clock, acks):
         client = start_client(script, args, logs, clock=clock.path, grpc_port=grpc)
         try:
-            run_paced(sim, clock, client.finished, CLIENT_TIMEOUT_SIM_S)
+            run_lockstep(sim, clock, acks, client.finished, CLIENT_TIMEOUT_SIM_S)
         finally:
             result = client.result()
-    finally:
-        clock.close()
     return result
 
 
@@ -68,7 +72,11 @@ def test_camera_plugin_takes_a_geotagged_photo(tmp_path, client_logs, script, ow
     grpc = ports.sdk_base + PORT_BLOCK - 1 if own_server else None
     require_free_udp([ports.sdk_port(0)])
     config = SimulationConfig(
-        ports=ports, record_hz=0, out_dir=tmp_path / "run", world_overrides={"cameras": True}
+        ports=ports,
+        record_hz=0,
+        out_dir=tmp_path / "run",
+        world_overrides={"cameras": True},
+        ping_period_s=LOCKSTEP.ping_period_s,
     )
     with Simulation(config) as sim:
         args = ["--url", f"udpin://0.0.0.0:{ports.sdk_port(0)}"]

@@ -1,6 +1,7 @@
 """Classic MAVSDK-Python (``mavsdk_grpc`` + a real ``mavsdk_server``) against ``swarmsitl up``.
 
-The simulation runs paced at :data:`e2e_support.SPEED` x real time. MAVSDK's wall-clock command
+The simulation runs in lockstep with the client, at most :data:`e2e_support.SPEED` x real time.
+MAVSDK's wall-clock command
 and parameter timeouts (0.5 s x retries) are unaffected by the speed-up, because the emulator
 ACKs commands and echoes parameters at once (on its next poll) instead of after a manoeuvre.
 Nothing here asserts wall-clock timings: only states and positions.

@@ -25,7 +25,7 @@ PORTS = module_ports()
 
 def run_up(out, vehicles: int, sdk: int, listen: int) -> subprocess.CompletedProcess:
     cmd = cli_command(
-        "up", "--vehicles", vehicles, "--speed", SPEED, "--sdk-port", sdk,
+        "up", "--vehicles", vehicles, "--lockstep", "--max-speed", SPEED, "--sdk-port", sdk,
         "--listen-port", listen, "--gcs-port", 0, "--out", out, "--duration", 5, "--no-camera",
     )  # fmt: skip
     return subprocess.run(

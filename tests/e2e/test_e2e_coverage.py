@@ -1,6 +1,7 @@
 """The coverage companion (``python -m companion.scripts.coverage``) against ``swarmsitl up``.
 
-One vehicle with its camera streaming, paced at :data:`e2e_support.SPEED`; the companion runs
+One vehicle with its camera streaming, in lockstep with the companion (at most
+:data:`e2e_support.SPEED`); the companion runs
 as ``swarmsitl run`` would start it: its own process, told everything by ``SWARMSITL_*``
 variables, a small rectangle at 8 m so the flight takes about a simulated minute.
 Its ports come from the suite's allocator (:func:`e2e_support.module_ports`,
@@ -20,21 +21,21 @@ import sys
 import pytest
 from e2e_support import (
     REPO_ROOT,
-    SPEED,
     WaitTimeout,
     kill_mavsdk_servers,
+    lockstep_clock,
     mavsdk_servers,
     module_ports,
     require_free_udp,
-    run_paced,
+    run_lockstep,
     start_swarm,
     stop_swarm,
     wait_sim,
 )
 from pymavlink import mavutil
 
+from harness.lockstep import LOCKSTEP
 from harness.run_ports import free_port_block
-from harness.sim_clock import ClockFile
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.e2e
@@ -84,7 +85,6 @@ def _companion_env(out_dir, clock, duration_s: float, params: dict, video: bool)
     origin = (cfg.origin_lat_deg, cfg.origin_lon_deg, cfg.origin_alt_amsl_m)
     env = os.environ | {
         "PYTHONUNBUFFERED": "1",
-        "SWARMSITL_SPEED": str(SPEED),
         "SWARMSITL_CLOCK_FILE": str(clock),
         "SWARMSITL_MAVLINK_URL": PORTS.url(0),
         "SWARMSITL_GRPC_PORT": str(PORTS.grpc),
@@ -183,8 +183,8 @@ def test_the_coverage_companion_flies_its_lanes_and_lands(tmp_path):
 
 @pytest.mark.slow  # the demo's test checks the spills found against the world's in the default run
 def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
-    """Two spill-coloured slabs in the rectangle (simulation in this process, paced): the camera
-    thread finds exactly two spills, each within 3 m of a slab's centre (frames, poses, the
+    """Two spill-coloured slabs in the rectangle (simulation in this process, in lockstep): the
+    camera thread finds exactly two spills, each within 3 m of a slab's centre (frames, poses, the
     attitude quaternion and the camera model agree)."""
     from harness.simulation import PortPlan, Simulation, SimulationConfig
     from sitl.physics.obstacles import BoxObstacle
@@ -205,14 +205,14 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
         record_hz=0,
         out_dir=tmp_path / "run",
         world_overrides={"cameras": True, "obstacles": slabs},
+        ping_period_s=LOCKSTEP.ping_period_s,
     )
     grpc = b + 5
-    with Simulation(config) as sim:
+    with Simulation(config) as sim, contextlib.ExitStack() as stack:
         origin = sim.world.origin
-        clock = ClockFile(tmp_path / "run" / "clock")
+        clock, acks = stack.enter_context(lockstep_clock(tmp_path / "run" / "clock"))
         env = os.environ | {
             "PYTHONUNBUFFERED": "1",
-            "SWARMSITL_SPEED": str(SPEED),
             "SWARMSITL_CLOCK_FILE": str(clock.path),
             "SWARMSITL_MAVLINK_URL": f"udpin://0.0.0.0:{ports.sdk_port(0)}",
             "SWARMSITL_GRPC_PORT": str(grpc),
@@ -235,9 +235,8 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
                 text=True, start_new_session=True,
             )  # fmt: skip
         try:
-            run_paced(sim, clock, lambda: proc.poll() is not None, TIMEOUT_SIM_S)
+            run_lockstep(sim, clock, acks, lambda: proc.poll() is not None, TIMEOUT_SIM_S)
         finally:
-            clock.close()
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()

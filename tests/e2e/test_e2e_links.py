@@ -3,8 +3,8 @@
 The onboard link runs behind the 921600-baud UART model and the ground-station link behind the
 57600-baud SiK model. pymavlink (raw, on the onboard link; mavutil, on the ground-station link)
 and classic MAVSDK-Python (``mavsdk_grpc`` with its bundled ``mavsdk_server``) must connect,
-get telemetry and have their commands acknowledged; MAVSDK arms and takes off. Paced at
-:data:`e2e_support.SPEED`; only states are asserted, never timings.
+get telemetry and have their commands acknowledged; MAVSDK arms and takes off. In lockstep, at
+most :data:`e2e_support.SPEED` x real time; only states are asserted, never timings.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Missions, raw mission/geofence/rally items and the geofence plugin with classic MAVSDK-Python.
 
-Each test starts its own ``swarmsitl up`` (one vehicle, paced at :data:`e2e_support.SPEED`) so
+Each test starts its own ``swarmsitl up`` (one vehicle, in lockstep, at most
+:data:`e2e_support.SPEED` x real time) so
 plans and flight state never leak between tests, and runs one client of ``clients/`` with its own
 ``mavsdk_server``. What each report must show is in :mod:`mission_checks`.
 """

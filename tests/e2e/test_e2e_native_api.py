@@ -1,6 +1,7 @@
 """MAVSDK 4.x native API (ctypes, in-process C++ core) against ``swarmsitl up``.
 
-The simulation runs paced at :data:`e2e_support.SPEED` x real time; MAVSDK's wall-clock command
+The simulation runs in lockstep with the client, at most :data:`e2e_support.SPEED` x real time;
+MAVSDK's wall-clock command
 timeouts are unaffected because the emulator ACKs at once. Only states and positions are asserted.
 """
 

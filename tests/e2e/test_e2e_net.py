@@ -84,7 +84,8 @@ def test_up_with_net_lets_any_companion_program_reach_the_others(tmp_path):
     require_free_udp([PORTS.sdk, PORTS.sdk + 1, PORTS.listen, PORTS.listen + 1, *net_ports])
     out = tmp_path / "run"
     cmd = cli_command(
-        "up", "--vehicles", 2, "--net", "edge,fog", "--speed", SPEED, "--duration", 20,
+        "up", "--vehicles", 2, "--net", "edge,fog", "--lockstep", "--max-speed", SPEED,
+        "--duration", 20,
         "--out", out, "--sdk-port", PORTS.sdk, "--listen-port", PORTS.listen, "--gcs-port", 0,
         "--no-camera", "--net-port", net, "--net-proxy-port", proxy,
     )  # fmt: skip

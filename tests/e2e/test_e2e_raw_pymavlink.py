@@ -2,7 +2,8 @@
 
 Checks the command and parameter protocols at the byte level: retransmissions, unknown and
 misaddressed commands, NaN and infinite parameters, malformed frames, out-of-range PARAM_SET.
-The simulation runs paced at :data:`e2e_support.SPEED` x real time. Absence of a reply is judged
+The simulation runs in lockstep, at most :data:`e2e_support.SPEED` x real time. Absence of a reply
+is judged
 by ordering, not by timing: a later command's ACK proves the earlier datagram was processed.
 """
 

@@ -1,10 +1,10 @@
 """Three vehicles in one ``swarmsitl up``, flown concurrently by three classic MAVSDK clients.
 
 Client i listens on sdk port + i (PX4 SITL's 14540 + i convention) and runs its own
-``mavsdk_server`` on its own gRPC port. The simulation runs paced at :data:`e2e_support.SPEED` x
-real time (three vehicles and three servers on two cores may run it slower; the clients only
-wait on states, and MAVSDK's wall-clock command timeouts are unaffected because the emulator ACKs
-at once). Only states and positions are asserted.
+``mavsdk_server`` on its own gRPC port. The simulation runs in lockstep with the clients, at
+most :data:`e2e_support.SPEED` x real time (three vehicles and three servers on two cores may
+run it slower; the clients only wait on states, and MAVSDK's wall-clock command timeouts are
+unaffected because the emulator ACKs at once). Only states and positions are asserted.
 """
 
 from __future__ import annotations

@@ -1,14 +1,16 @@
 """The stress proof of the lockstep process tier: CPU load and random pauses of companions.
 
-Opt-in (``python -m pytest -m stress``; docs/testing.md): runs the lockstep end-to-end modules
-in a child pytest while two busy processes load both cores and, every 3 to 6 wall seconds, one
-companion process or ``mavsdk_server`` of the child's runs is stopped (SIGSTOP) for 1 to 2 wall
-seconds. The lockstep (``harness.lockstep``) must turn every pause into wall time, never into
-simulated time: the child's tests, whose waits and checks are in simulated time, must pass.
+Opt-in (``python -m pytest -m stress``; docs/testing.md): runs the end-to-end modules (all of
+tests/e2e and tests/conformance, the scenario-run modules of tests/harness) in a child pytest on
+two workers, module beside module, while two busy processes load both cores and, every 3 to 6
+wall seconds, one companion process, e2e client or ``mavsdk_server`` of the child's runs is
+stopped (SIGSTOP) for 1 to 2 wall seconds. The lockstep (``harness.lockstep``) must turn every
+pause into wall time, never into simulated time: the child's tests, whose waits and checks are
+in simulated time, must pass.
 Repeat it (``for i in 1 2 3 4 5; do python -m pytest -m stress; done``) for a pass rate.
 
-The paced modules of tests/e2e and tests/conformance (``swarmsitl up --speed X`` with clients on
-the wall clock) are not in it: a paused client there misses simulated time by design.
+Left out (:data:`PACED_BY_DESIGN`): the few tests of the paced mode itself (``--speed X``), in
+which a paused client misses simulated time by design.
 """
 
 from __future__ import annotations
@@ -34,10 +36,22 @@ LOCKSTEP_TIER = (
     "tests/harness/test_companions_doc_e2e.py",
     "tests/harness/test_indoor_scenario_e2e.py",
     "tests/harness/test_swarm_fidelity_e2e.py",
-    "tests/e2e/test_readme_commands.py",
+    "tests/e2e",
+    "tests/conformance",
 )
 """Modules whose runs are in lockstep with their companions (test_lockstep_e2e stops its own
 companion on purpose and is left out: a pause here would end its stop early)."""
+PACED_BY_DESIGN = (
+    "tests/e2e/test_e2e_external_autopilot.py::"
+    "test_classic_mavsdk_takes_off_with_an_external_autopilot[paced]",
+    "tests/e2e/test_e2e_first_flight.py",  # `swarmsitl first-flight --speed`: the paced demo
+    "tests/e2e/test_e2e_net.py::test_net_demo_flies_messages_and_reports_links_and_energy",
+)
+"""Tests of the paced mode (``--speed X``): deselected in the child."""
+CHILD_WORKERS = 2
+"""xdist workers of the child, each taking whole modules (``--dist loadscope``: unlike the
+default suite's scheduler, end-to-end modules run beside each other and beside the heavy ones,
+which is more load, and the lockstep must hold under it)."""
 PAUSE_WALL_S = (1.0, 2.0)
 """Length of one pause, wall s (uniform)."""
 BETWEEN_WALL_S = (3.0, 6.0)
@@ -61,12 +75,14 @@ def descendants(root: int) -> list[int]:
 
 
 def is_companion(pid: int) -> bool:
-    """A companion program or its mavsdk_server: started by a run with SWARMSITL_MAVLINK_URL."""
+    """A companion program, an e2e client or their mavsdk_server: a process given the run's
+    MAVLink URL or clock file (``swarmsitl`` itself, MAVProxy and the tests are not)."""
     try:
         with open(f"/proc/{pid}/environ", "rb") as f:
-            return b"SWARMSITL_MAVLINK_URL=" in f.read()
+            environ = f.read()
     except OSError:
         return False
+    return b"SWARMSITL_MAVLINK_URL=" in environ or b"SWARMSITL_CLOCK_FILE=" in environ
 
 
 class Pauser(threading.Thread):
@@ -107,7 +123,9 @@ def test_the_lockstep_tier_passes_under_load_and_pauses(tmp_path):
     try:
         with log.open("w") as out:
             child = subprocess.Popen(
-                [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-q", *LOCKSTEP_TIER],
+                [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-q",
+                 "-n", str(CHILD_WORKERS), "--dist", "loadscope", *LOCKSTEP_TIER,
+                 *(f"--deselect={t}" for t in PACED_BY_DESIGN)],
                 cwd=ROOT, stdout=out, stderr=subprocess.STDOUT, env=env,
             )  # fmt: skip
             pauser = Pauser(child.pid, random.Random())

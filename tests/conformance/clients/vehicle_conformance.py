@@ -50,8 +50,8 @@ HOLD_SETTLE_S = 8.0
 """Simulated seconds after action.hold() until the vehicle must be at rest."""
 PROBE_TIMEOUT_S = 60.0
 """Simulated seconds a probe of an unsupported plugin may take: MAVSDK's own timeouts, a few
-wall seconds, are shorter at any speed up to the paced e2e speed (a loaded machine only makes
-the simulation slower, so they fire at fewer simulated seconds)."""
+wall seconds, are shorter at any speed up to the e2e runs' cap (``--max-speed``; a loaded
+machine or a held simulation only makes them fire at fewer simulated seconds)."""
 
 
 def wrap_deg(angle: float) -> float:
