@@ -46,6 +46,7 @@ from _common import (
 from _plans import mission_items, result_name
 
 __all__ = [
+    "SEEN_S",
     "Api",
     "Checks",
     "ClientError",
@@ -67,6 +68,11 @@ __all__ = [
 
 CONNECT_TIMEOUT_S = 120.0
 """Simulated seconds to connect and see global position and home OK."""
+SEEN_S = 30.0
+"""Simulated seconds for the client to see a state the vehicle reaches at once (a flight mode
+in its next 1 Hz HEARTBEAT, the first item of a stream). Generous on purpose: the lockstep
+bounds the simulation's lead over a live client process, not over its event loop's backlog, so
+a client starved of CPU sees such a state up to ``--max-speed`` times its lag late."""
 
 
 RECONNECT_GRPC_OFFSET = 5

@@ -15,7 +15,7 @@ import argparse
 import asyncio
 import statistics
 
-from _conformance import Api, Checks, Report, client_main, collect, outcome
+from _conformance import SEEN_S, Api, Checks, Report, client_main, collect, outcome
 
 WINDOW_S = 8.0
 """Simulated seconds a position setpoint is held before the vehicle must be there."""
@@ -72,7 +72,9 @@ class Offboard:
             await api.plugin("action").arm()
             await ob.set_position_ned(t.PositionNedYaw(0.0, 0.0, 0.0, 0.0))
             await ob.start()
-            mode = await api.until("flight_mode", lambda m: m.name == "OFFBOARD", 5, "OFFBOARD")
+            mode = await api.until(
+                "flight_mode", lambda m: m.name == "OFFBOARD", SEEN_S, "OFFBOARD"
+            )
             return {"flight_mode": mode.name, "is_active": await ob.is_active()}
 
         async def position(north: float, east: float, down: float, yaw: float) -> dict:
@@ -103,7 +105,7 @@ class Offboard:
 
         async def stop_and_land() -> dict:
             await ob.stop()
-            mode = await api.until("flight_mode", lambda m: m.name == "HOLD", 5, "HOLD")
+            mode = await api.until("flight_mode", lambda m: m.name == "HOLD", SEEN_S, "HOLD")
             await api.plugin("action").land()
             await api.until("in_air", lambda x: not x, 60, "landed (in_air False)")
             return {"mode_after_stop": mode.name, "is_active": await ob.is_active()}

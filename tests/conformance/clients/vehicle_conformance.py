@@ -24,6 +24,7 @@ import statistics
 
 import pymap3d
 from _conformance import (
+    SEEN_S,
     Api,
     Checks,
     ClientError,
@@ -398,7 +399,7 @@ class Flight:
             )  # fmt: skip
             await mission.set_current_mission_item(2)
             with contextlib.suppress(SimTimeout):
-                await until(lambda: [2, 3] in progress, 10, "mission progress [2, 3]")
+                await until(lambda: [2, 3] in progress, SEEN_S, "mission progress [2, 3]")
             watcher.cancel()
             out = {
                 "progress": progress,
@@ -599,7 +600,7 @@ class Flight:
         async def land() -> dict:
             await self.takeoff()
             await a.land()
-            mode = (await api.until("flight_mode", lambda m: m.name == "LAND", 5, "LAND")).name
+            mode = (await api.until("flight_mode", lambda m: m.name == "LAND", SEEN_S, "LAND")).name
             await api.until("in_air", lambda x: not x, 60, "landed (in_air False)")
             await self.armed(False, 20)
             return {"mode": mode, "rel_alt_m": (await api.now("position")).relative_altitude_m}
@@ -682,7 +683,7 @@ class Flight:
                 *(outcome(calls[n], PROBE_TIMEOUT_S) for n in names)
             )  # fmt: skip
             out = dict(zip(names, results, strict=True))
-            cameras = await within(first(p["camera"].camera_list()), 10, "the camera list")
+            cameras = await within(first(p["camera"].camera_list()), SEEN_S, "the camera list")
             out["camera_count"] = len(cameras.cameras)
             await p["manual_control"].set_manual_control_input(0.0, 0.0, 0.5, 0.0)
             out["manual_control_position"] = await outcome(
