@@ -35,7 +35,7 @@ from harness.endpoint_table import VehicleEndpoints, endpoint_table
 from harness.kernels import forbid_compiles_if_requested
 from harness.launch import StopFlag, console, open_simulation, run_dir_of
 from harness.link_options import NO_LINK, check_link_model, describe, links_config
-from harness.lockstep import LOCKSTEP, ClockAcks, LockstepGate, gated_links, run_gated
+from harness.lockstep import LOCKSTEP, ClockAcks, fleet_gate, run_gated
 from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
 from harness.net_cli import write_report as write_net_report
 from harness.net_plan import NetPlan, NetRun, parse_roles
@@ -829,16 +829,7 @@ def up(
     try:
         with console.status("starting ...") as status:
             if lockstep:
-                gate = LockstepGate(
-                    LOCKSTEP,
-                    acks,
-                    lambda: (
-                        gated_links(sim, range(vehicles), onboard_only=False)
-                        if sim.fleet is not None
-                        else ()
-                    ),
-                    max_speed=max_speed,
-                )
+                gate = fleet_gate(sim, acks, max_speed)
                 run_gated(sim, gate, duration if duration > 0 else float("inf"), should_stop)
             else:
                 sim.run_paced(

@@ -29,6 +29,7 @@ sends heartbeats. docs/scenarios.md states the guarantee and its limits.
 from __future__ import annotations
 
 import contextlib
+import enum
 import math
 import mmap
 import os
@@ -53,6 +54,19 @@ CAP_SLACK_WALL_S = 0.1
 """How far a speed-capped simulation may fall behind its pace before the pace starts anew."""
 HEARTBEAT_PERIOD_WALL_S = 1.0
 """How often a MAVSDK or QGroundControl ground station sends HEARTBEAT, wall s."""
+KEEP_ALIVE_LOOK_WALL_S = 0.1
+"""How often a holding gate has the links send their wall-clock HEARTBEATs if due, wall s."""
+CAP_LOOK_WALL_S = 0.005
+"""Longest sleep of a gate that waits for the speed cap (the links are answered between)."""
+
+
+class Refusal(enum.Enum):
+    """Why the gate does not let the simulation go on now."""
+
+    PARTICIPANT = "participant"
+    """A participant lags (or is stopped): the wait is a lockstep hold."""
+    CAP = "cap"
+    """The speed cap's pace is not due yet."""
 
 
 @dataclass(frozen=True)
@@ -112,6 +126,21 @@ def gated_links(
         for link, kind in zip(links, ("onboard", "gcs"), strict=False):
             out.append(GatedLink(link.presence, dl_loss_s, shaped=(i, kind) in sim.shapers))
     return out
+
+
+def fleet_gate(sim: Simulation, acks: ClockAcks | None, max_speed: float = 0.0) -> LockstepGate:
+    """The gate of ``swarmsitl up --lockstep [--max-speed X]``.
+
+    The links of every emulated vehicle (onboard and ground station) and the clock readers of
+    ``acks`` take part. It sees no processes (its peers are the user's): a stopped peer holds
+    it through its silence.
+    """
+    vehicles = range(len(sim.vehicle_links))
+
+    def links() -> list[GatedLink]:
+        return gated_links(sim, vehicles, onboard_only=False) if sim.fleet is not None else []
+
+    return LockstepGate(LOCKSTEP, acks, links, max_speed=max_speed)
 
 
 def process_state(pid: int) -> str | None:
@@ -218,6 +247,10 @@ class LinkPoller(Protocol):
         """Read and answer the links without stepping."""
         ...
 
+    def keep_links_alive(self) -> None:
+        """Send the HEARTBEATs a peer's wall-clock watchdog needs while the clock is held."""
+        ...
+
 
 @dataclass
 class LockstepGate:
@@ -230,6 +263,8 @@ class LockstepGate:
     groups: Callable[[], Iterable[int]] = lambda: ()
     """Process groups of the companions that take part (a stopped member holds the simulation)."""
     wall_clock_s: Callable[[], float] = time.monotonic
+    sleep: Callable[[float], None] = time.sleep
+    """How the gate waits, wall s (a test's fake wall clock advances in it)."""
     max_speed: float = 0.0
     """Never more simulated seconds per wall second than this (0: as fast as the participants
     allow); ``swarmsitl up --lockstep --max-speed X``."""
@@ -243,8 +278,9 @@ class LockstepGate:
     _stopped_at: float = -math.inf
     _resumed_at: float = -math.inf
     _cap_origin: tuple[float, float] | None = None
-    waited_for_participant: bool = False
-    """Whether the last :meth:`allows` that refused did so for a participant."""
+    _cap_due_wall: float = -math.inf
+    """Wall time at which the speed cap lets the simulation go on (:meth:`_capped`)."""
+    _alive_at: float = -math.inf
 
     def limit_s(self, now_wall: float, links: Iterable[GatedLink] | None = None) -> float:
         """Latest simulation time every live participant allows now (``links``: asked anew)."""
@@ -288,9 +324,7 @@ class LockstepGate:
         self._stopped = stopped
         return stopped
 
-    def _capped(
-        self, target_s: float, now_s: float, now_wall: float, links: Iterable[GatedLink]
-    ) -> bool:
+    def _capped(self, now_s: float, now_wall: float, links: Iterable[GatedLink]) -> bool:
         """The simulation is ahead of a speed cap's pace (:attr:`max_speed`, a shaped link).
 
         A block may start once the simulation's time is due (so it ends at most one block
@@ -311,41 +345,57 @@ class LockstepGate:
         if self._cap_origin is None:
             self._cap_origin = (now_s, now_wall)
         origin_s, origin_wall = self._cap_origin
-        due_wall = origin_wall + (now_s - origin_s) / min(caps)
-        if now_wall - due_wall > CAP_SLACK_WALL_S:
+        self._cap_due_wall = origin_wall + (now_s - origin_s) / min(caps)
+        if now_wall - self._cap_due_wall > CAP_SLACK_WALL_S:
             self._cap_origin = now_s, now_wall
             return False
-        return due_wall > now_wall
+        return self._cap_due_wall > now_wall
 
-    def allows(self, target_s: float, now_s: float) -> bool:
-        """Every live participant and the speed cap let the simulation reach ``target_s`` now.
-
-        :attr:`waited_for_participant` says which of them refused.
-        """
+    def refusal(self, target_s: float, now_s: float) -> Refusal | None:
+        """Who keeps the simulation at ``now_s`` from running to ``target_s`` now (None: go)."""
         now_wall = self.wall_clock_s()
-        self.waited_for_participant = True
         if self.stopped(now_wall):
-            return False
+            return Refusal.PARTICIPANT
         links = list(self.links())  # built once per look: the runner reads each vehicle's params
         if self.limit_s(now_wall, links) < target_s - 1e-9:
-            return False
-        self.waited_for_participant = False
-        return not self._capped(target_s, now_s, now_wall, links)
+            return Refusal.PARTICIPANT
+        return Refusal.CAP if self._capped(now_s, now_wall, links) else None
+
+    def allows(self, target_s: float, now_s: float) -> bool:
+        """Every live participant and the speed cap let the simulation reach ``target_s`` now."""
+        return self.refusal(target_s, now_s) is None
 
     def hold(
         self, sim: LinkPoller, target_s: float, give_up: Callable[[], bool] = lambda: False
     ) -> None:
-        """Wait, answering the links, until the simulation may run to ``target_s`` (or give_up)."""
-        if self.allows(target_s, sim.time_s):
+        """Wait, answering the links, until the simulation may run to ``target_s`` (or give_up).
+
+        While it waits the links keep sending HEARTBEAT once a wall second
+        (``sim.keep_links_alive``): a peer's wall-clock watchdog must not declare lost a
+        vehicle whose clock only waits. A wait for the speed cap sleeps until the pace is
+        due (looking at the links every ``CAP_LOOK_WALL_S``); a wait for a participant looks
+        every ``bounds.wait_wall_s``.
+        """
+        refusal = self.refusal(target_s, sim.time_s)
+        if refusal is None:
             return
         start = self.wall_clock_s()
-        held = self.waited_for_participant
+        held = refusal is Refusal.PARTICIPANT
         while not give_up():
             sim.poll_links()
-            time.sleep(self.bounds.wait_wall_s)
-            if self.allows(target_s, sim.time_s):
+            now_wall = self.wall_clock_s()
+            if now_wall - self._alive_at >= KEEP_ALIVE_LOOK_WALL_S:
+                self._alive_at = now_wall
+                sim.keep_links_alive()
+            if refusal is Refusal.CAP:
+                pause = min(max(self._cap_due_wall - now_wall, 0.0), CAP_LOOK_WALL_S)
+            else:
+                pause = self.bounds.wait_wall_s
+            self.sleep(max(pause, self.bounds.wait_wall_s))
+            refusal = self.refusal(target_s, sim.time_s)
+            if refusal is None:
                 break
-            held = held or self.waited_for_participant
+            held = held or refusal is Refusal.PARTICIPANT
         if held:
             self.holds += 1
             self.held_wall_s += self.wall_clock_s() - start

@@ -729,6 +729,16 @@ class Simulation:
         if self.endpoints or self.router:
             self._poll_links(self.world.time_s)
 
+    def keep_links_alive(self) -> None:
+        """Send the HEARTBEATs a held clock owes its peers' wall-clock watchdogs.
+
+        A held lockstep calls it: every emulated autopilot's link that sent no HEARTBEAT for a
+        wall second sends one (``MavlinkEndpoint.keep_alive``), so no peer declares lost a
+        vehicle that only waits for it.
+        """
+        for ep in self.endpoints:
+            ep.keep_alive()
+
     def _poll_links(self, now_s: float) -> None:
         """Poll every MAVLink link; only those whose socket has data read it."""
         ready = {fd for fd, _ in self._readiness.poll(0)}

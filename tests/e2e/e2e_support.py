@@ -43,7 +43,7 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
-from harness.lockstep import LOCKSTEP, ClockAcks, LockstepGate, gated_links, run_gated
+from harness.lockstep import ClockAcks, fleet_gate, run_gated
 from harness.pytest_plugin import WaitTimeout, sim_time_s, wait_until
 from harness.run_ports import free_port_block
 from harness.sim_clock import ClockFile
@@ -365,10 +365,7 @@ def run_lockstep(
         clock.publish(sim.time_s)
         return done()
 
-    vehicles = range(len(sim.vehicle_links))
-    gate = LockstepGate(
-        LOCKSTEP, acks, lambda: gated_links(sim, vehicles, onboard_only=False), max_speed=SPEED
-    )
+    gate = fleet_gate(sim, acks, max_speed=SPEED)
     clock.publish(sim.time_s)
     run_gated(sim, gate, max_duration_sim_s, publish_and_check)
     clock.publish(sim.time_s)

@@ -14,10 +14,13 @@ import pytest
 
 from autopilot_emu.mavlink.presence import PeerPresence
 from harness.lockstep import (
+    CAP_LOOK_WALL_S,
+    KEEP_ALIVE_LOOK_WALL_S,
     ClockAcks,
     GatedLink,
     LockstepBounds,
     LockstepGate,
+    Refusal,
     process_state,
     run_gated,
 )
@@ -37,6 +40,8 @@ class FakeSim:
         self.dt_s = dt_s
         self.polls = 0
         self.on_poll = on_poll
+        self.kept_alive: list[int] = []
+        """The poll counts at which the links were asked to send their held HEARTBEATs."""
 
     def step(self) -> None:
         self.time_s = round(self.time_s + self.dt_s, 9)
@@ -44,6 +49,9 @@ class FakeSim:
     def poll_links(self) -> None:
         self.polls += 1
         self.on_poll()
+
+    def keep_links_alive(self) -> None:
+        self.kept_alive.append(self.polls)
 
 
 def gate_with(links, wall):
@@ -91,7 +99,7 @@ def test_max_speed_paces_the_simulation_without_counting_holds_or_bursting():
     wall = [0.0]
     gate = LockstepGate(BOUNDS, wall_clock_s=lambda: wall[0], max_speed=2.0)
     assert gate.allows(0.02, 0.0)  # the pace starts here: the first block goes at once
-    assert not gate.allows(0.04, 0.02) and not gate.waited_for_participant  # 0.02 s due at 0.01
+    assert gate.refusal(0.04, 0.02) is Refusal.CAP  # 0.02 s is due at 0.01 wall s
     wall[0] = 0.01
     assert gate.allows(0.04, 0.02)
     wall[0] = 5.0  # far behind the pace: a new pace from here, no burst of 10 simulated s
@@ -100,17 +108,43 @@ def test_max_speed_paces_the_simulation_without_counting_holds_or_bursting():
     assert gate.allows(0.08, 0.06)
 
     wall[0] = 0.0
-    gate = LockstepGate(BOUNDS, wall_clock_s=lambda: wall[0], max_speed=2.0)
+    sleeps: list[float] = []
+
+    def sleep(wall_s: float) -> None:
+        sleeps.append(wall_s)
+        wall[0] += wall_s
+
+    gate = LockstepGate(BOUNDS, wall_clock_s=lambda: wall[0], sleep=sleep, max_speed=2.0)
     sim = FakeSim(dt_s=0.01)
-
-    def wall_moves() -> None:
-        wall[0] += 0.001
-
-    sim.on_poll = wall_moves
     run_gated(sim, gate, 1.0, lambda: False, block_s=0.02)
     assert sim.time_s == pytest.approx(1.0)
     assert wall[0] >= (1.0 - 0.02) / 2.0  # 2x at most (the first block goes at once)
     assert gate.holds == 0 and gate.held_wall_s == 0.0  # waits for the cap are not holds
+    # It sleeps until the pace is due, in looks of CAP_LOOK_WALL_S, not of wait_wall_s.
+    assert len(sleeps) <= (1.0 / 2.0) / CAP_LOOK_WALL_S + 1
+    assert max(sleeps) == pytest.approx(CAP_LOOK_WALL_S)
+
+
+def test_a_long_hold_has_the_links_send_their_heartbeats_and_counts_once():
+    """A peer's wall-clock heartbeat watchdog (MAVSDK: 3 s) must not see a held vehicle go
+    silent: while the gate holds, it asks the links every KEEP_ALIVE_LOOK_WALL_S to send the
+    HEARTBEATs that are due (``Simulation.keep_links_alive``)."""
+    wall = [0.0]
+    presence = PeerPresence()
+    presence.echoed(0.0, 0.0, 0.0)
+
+    def sleep(wall_s: float) -> None:
+        wall[0] += wall_s
+
+    gate = LockstepGate(
+        BOUNDS, links=lambda: [GatedLink(presence, 10.0)], wall_clock_s=lambda: wall[0],
+        sleep=sleep,
+    )  # fmt: skip
+    sim = FakeSim()
+    sim.time_s = BOUNDS.lead_s
+    gate.hold(sim, sim.time_s + 0.02, lambda: wall[0] >= 2.0)
+    assert len(sim.kept_alive) == pytest.approx(2.0 / KEEP_ALIVE_LOOK_WALL_S, abs=1)
+    assert gate.holds == 1 and gate.held_wall_s == pytest.approx(2.0, abs=0.01)
 
 
 def test_hold_answers_the_links_until_the_participant_catches_up():

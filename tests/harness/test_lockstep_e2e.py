@@ -55,7 +55,9 @@ def test_a_frozen_companion_pauses_the_simulation_and_keeps_its_link(
 ):
     """Stopping the whole companion (program and its mavsdk_server) or only the Python program
     stops the simulated clock within the lockstep's bound; it stands still for as long as the
-    companion does, then the flight lands without a failsafe."""
+    companion does, then the flight lands without a failsafe. A held vehicle still sends
+    HEARTBEAT once a wall second: a running mavsdk_server never times it out (before, one
+    that did stopped its own heartbeats, and the held simulation waited for them)."""
     run_dir, log = tmp_path / "run", tmp_path / "run.log"
     ports = swarmsitl_ports
     args = ["run", SCENARIO, "--out", run_dir, *_port_options(ports), "--grpc-port", ports.grpc]
@@ -86,4 +88,7 @@ def test_a_frozen_companion_pauses_the_simulation_and_keeps_its_link(
         assert paused - at_stop <= LOCKSTEP.lead_s + CHECK_EVERY_S + 1e-6, (at_stop, paused)
     report = json.loads((run_dir / "report.json").read_text())
     assert report["passed"] and report["complete"], (report.get("checks"), output)
+    if frozen == "program only":  # its mavsdk_server ran on: the held vehicle kept beating
+        server_log = (run_dir / "vehicle1" / "companion.log").read_text()
+        assert "Heartbeats from system 1 timed out" not in server_log, server_log
     assert report["lockstep"]["held_wall_s"] >= FREEZE_WALL_S - SETTLE_WALL_S

@@ -113,6 +113,9 @@ _FAST_STREAMS: dict[int, tuple[messages.FieldsBuilder, framing.FieldsFormat]] = 
 }
 """The hot streams: packed from their field values, without pymavlink objects."""
 
+HELD_HEARTBEAT_WALL_S = 1.0
+"""While the simulation's clock is held, a link still sends HEARTBEAT this often, wall s
+(:meth:`MavlinkEndpoint.keep_alive`)."""
 STATUSTEXT_POLL_INTERVAL_US = 20_000
 """How often the vehicle's status-text queue is read, simulation microseconds."""
 TLOG_FLUSH_INTERVAL_US = 1_000_000
@@ -414,6 +417,8 @@ class MavlinkEndpoint:
         """The frame being handled was relayed to the vehicle's other links."""
         self._held_heartbeats: list[bytes] = []
         """Other components' HEARTBEATs waiting for this link's next own frame (``_relay``)."""
+        self._heartbeat_wall_s = -_NEVER
+        """Wall time of this link's last own HEARTBEAT (:meth:`keep_alive`)."""
         self._forward_member = self._hub.forwarding.join(self._relay) if config.forwarding else None
 
     # --- lifecycle ---------------------------------------------------------------------------
@@ -521,6 +526,25 @@ class MavlinkEndpoint:
             for frame in shaper.due_outbound(now_s):
                 self._sendto_peers(frame)
         self._update_quiet()
+
+    def keep_alive(self) -> None:
+        """Send HEARTBEAT if this link sent none for HELD_HEARTBEAT_WALL_S wall seconds.
+
+        For a simulation whose clock is held (a lockstep waiting for a participant): its
+        streams wait for simulated time, but a peer's heartbeat watchdog keeps wall time.
+        MAVSDK's declares the vehicle lost after 3 wall s and then stops its own HEARTBEATs,
+        so a held simulation waiting for those would wait until the peer counts as gone and
+        then run on into the data-link-loss failsafe. A link whose HEARTBEAT stream is off
+        stays silent. PX4 SITL in lockstep goes silent while its simulator pauses: this is a
+        deviation (docs/scenarios.md).
+        """
+        heartbeat = mavlink2.MAVLINK_MSG_ID_HEARTBEAT
+        if self._sock is None or not self._streams.knows(heartbeat):
+            return
+        if self._streams.interval_us(heartbeat) <= 0:
+            return
+        if self._wall_clock_s() - self._heartbeat_wall_s >= HELD_HEARTBEAT_WALL_S:
+            self._emit(heartbeat)
 
     def _receive(self, sock: socket.socket, now_s: float) -> None:
         """Drain up to MAX_DATAGRAMS_PER_POLL datagrams: handle them, or hand them to the shaper."""
@@ -768,7 +792,7 @@ class MavlinkEndpoint:
         for spec in due:
             msg_id = spec.msg_id
             fast = _FAST_STREAMS.get(msg_id)
-            if fast is None:
+            if fast is None or msg_id == mavlink2.MAVLINK_MSG_ID_HEARTBEAT:
                 self._emit(msg_id)
                 continue
             if snapshot is None:
@@ -777,6 +801,8 @@ class MavlinkEndpoint:
 
     def _emit(self, msg_id: int) -> None:
         before = self._bytes_out
+        if msg_id == mavlink2.MAVLINK_MSG_ID_HEARTBEAT:
+            self._heartbeat_wall_s = self._wall_clock_s()
         fast = _FAST_STREAMS.get(msg_id)
         if fast is not None:
             self._send_fields(msg_id, self._telemetry(), *fast)

@@ -18,7 +18,12 @@ from mavlink_fakes import (
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
-from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint, PortInUseError
+from autopilot_emu.mavlink.endpoint import (
+    HELD_HEARTBEAT_WALL_S,
+    EndpointConfig,
+    MavlinkEndpoint,
+    PortInUseError,
+)
 from autopilot_emu.mavlink.streams import (
     MAX_STREAM_RATE_HZ,
     MIN_INTERVAL_US,
@@ -286,6 +291,42 @@ def test_a_ground_stations_heartbeat_is_noted_with_its_times(client, vehicle):
         client.send(endpoint, gcs)
         client.exchange(endpoint, 3.0, lambda _: endpoint.stats.frames_received >= 2)
         assert (endpoint.presence.heartbeat_s, endpoint.presence.heartbeat_wall_s) == (3.0, 7.0)
+
+
+def test_a_held_link_still_sends_heartbeat_once_a_wall_second(client, vehicle):
+    """keep_alive (a held lockstep calls it): a HEARTBEAT when the link sent none, streamed
+    ones included, for HELD_HEARTBEAT_WALL_S wall seconds; never on a link whose HEARTBEAT
+    stream is off."""
+    wall = [100.0]
+    with make_endpoint(vehicle, peers=(client.address,), wall_clock_s=lambda: wall[0]) as endpoint:
+        endpoint.poll(0.0)  # the stream's HEARTBEAT of t = 0, at wall 100 s
+        assert _count(client.drain(), "HEARTBEAT") == 1
+        wall[0] = 100.0 + HELD_HEARTBEAT_WALL_S - 0.01
+        endpoint.keep_alive()
+        assert _count(client.drain(), "HEARTBEAT") == 0
+        wall[0] = 100.0 + HELD_HEARTBEAT_WALL_S
+        endpoint.keep_alive()
+        endpoint.keep_alive()
+        assert _count(client.drain(), "HEARTBEAT") == 1
+        wall[0] += 0.5
+        endpoint.poll(1.0)  # the stream's HEARTBEAT of t = 1 s
+        assert _count(client.drain(), "HEARTBEAT") == 1
+        wall[0] += HELD_HEARTBEAT_WALL_S - 0.01
+        endpoint.keep_alive()
+        assert _count(client.drain(), "HEARTBEAT") == 0
+        wall[0] += 0.01
+        endpoint.keep_alive()
+        assert _count(client.drain(), "HEARTBEAT") == 1
+    with make_endpoint(
+        vehicle,
+        peers=(client.address,),
+        wall_clock_s=lambda: wall[0],
+        stream_rates_hz={"HEARTBEAT": 0},
+    ) as quiet:
+        quiet.poll(0.0)
+        wall[0] += 10 * HELD_HEARTBEAT_WALL_S
+        quiet.keep_alive()
+        assert _count(client.drain(), "HEARTBEAT") == 0
 
 
 def test_learned_peer_receives_streams_and_configured_peers_are_kept(client, vehicle):

@@ -5,6 +5,7 @@ SWARMSITL_OUT: ``hovering`` (its pid, once at altitude), and waits for ``release
 """
 
 import asyncio
+import logging
 import os
 import sys
 import traceback
@@ -40,6 +41,8 @@ async def main() -> None:
 
 
 if __name__ == "__main__":
+    # mavsdk_server's own lines (a heartbeat timeout, a reconnection) go to companion.log.
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     try:
         asyncio.run(main())
     except Exception:
