@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -28,6 +29,7 @@ from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from autopilot_emu.params import MAV_PARAM_TYPE_INT32, ParamError, ParamStore
 from autopilot_emu.rangefinder import ROTATION_DOWNWARD
+from harness.autopilot_side import AutopilotSide, FleetSide, HilSide, Readings
 from harness.client_links import UdpOut, client_links
 from harness.link_options import (
     GCS,
@@ -437,6 +439,10 @@ class Simulation:
             else None
         )
         self._closed = False
+        self._side: AutopilotSide = (
+            HilSide(self.hil) if self.hil is not None else FleetSide(self.fleet)
+        )
+        """Where each step's readings go (:meth:`step`, stages 3 and 5)."""
         self.phase_seconds: dict[str, float] | None = None
         """Wall seconds per phase of ``step`` once ``time_phases()`` was called."""
 
@@ -654,65 +660,51 @@ class Simulation:
         return self.world.time_s
 
     def step(self) -> None:
-        """Advance one physics step and run everything that became due."""
+        """Advance one physics step and run everything that became due.
+
+        The stages, in order (the same with the autopilots in memory or across TCP):
+
+        1. physics: the world steps under the last actuator commands;
+        2. measure: the world's sensors, motion capture, cameras, battery and rangefinders
+           (polled in this order: their random draws depend on it);
+        3. deliver: the readings go to the autopilots (:class:`AutopilotSide`);
+        4. observe: motion capture is published, camera frames go to their servers and hooks
+           (an external autopilot computes meanwhile);
+        5. actuate: the autopilots' commands for the next step;
+        6. links: the MAVLink links are polled every ``_poll_every`` steps;
+        7. record.
+        """
         if self.phase_seconds is not None:
             self._step_timed()
             return
-        if self.hil is not None:
-            self._step_external()
-            return
-        self.world.step(self._actuators)
-        self._actuators = None  # None: the world keeps every command
-        sensors, gps = self.world.poll_sensors()
-        if gps is not None:
-            self.fleet.handle_gps(gps)
-        if sensors is not None:
-            self._actuators = self.fleet.handle_sensors(sensors)
-        if self.mocap is not None:
-            self.mocap.publish(self.world.poll_mocap())
-        frames = self.world.poll_cameras()
-        if frames is not None:
-            self._on_frames(frames)
-        battery = self.world.poll_battery()
-        if battery is not None:
-            self.fleet.handle_battery(battery)
-        ranges = self.world.poll_rangefinders()
-        if ranges is not None:
-            self.fleet.handle_distance_sensors(ranges)
-        self._step_count += 1
-        if (self.endpoints or self.router) and self._step_count % self._poll_every == 0:
-            self._poll_links(self.world.time_s)
-        if self.recorder is not None:
-            self.recorder.maybe_record()
-
-    def _step_external(self) -> None:
-        """``step`` with the autopilots across TCP: the same data path, in the same order."""
-        hil = self.hil
         world = self.world
         world.step(self._actuators)
-        sensors, gps = world.poll_sensors()
-        if gps is not None:
-            hil.send_gps(gps)
-        if sensors is not None:
-            hil.send_sensors(sensors)
-        if self.mocap is not None:
-            self.mocap.publish(world.poll_mocap())
-        frames = world.poll_cameras()
-        if frames is not None:
-            self._on_frames(frames)
-        battery = world.poll_battery()
-        if battery is not None:
-            hil.send_battery(battery)
-        ranges = world.poll_rangefinders()
-        if ranges is not None:
-            hil.send_distance_sensors(ranges)
-        hil.send_state(world.time_s, lambda: world.truth)
-        self._actuators = hil.actuators()  # lockstep: waits for the replies to HIL_SENSOR
+        readings, mocap, frames = self._measure()
+        self._side.deliver(readings, world.time_s, lambda: world.truth)
+        self._observe(mocap, frames)
+        self._actuators = self._side.actuators()  # None: the world keeps every command
         self._step_count += 1
-        if self.router and self._step_count % self._poll_every == 0:
+        if (self.endpoints or self.router) and self._step_count % self._poll_every == 0:
             self._poll_links(world.time_s)
         if self.recorder is not None:
             self.recorder.maybe_record()
+
+    def _measure(self) -> tuple[Readings, Any, list[CameraFrame] | None]:
+        """Stage 2 of :meth:`step`: what the world measured on this step."""
+        world = self.world
+        sensors, gps = world.poll_sensors()
+        mocap = world.poll_mocap() if self.mocap is not None else None
+        frames = world.poll_cameras()
+        battery = world.poll_battery()
+        ranges = world.poll_rangefinders()
+        return Readings(sensors, gps, battery, ranges), mocap, frames
+
+    def _observe(self, mocap: Any, frames: list[CameraFrame] | None) -> None:
+        """Stage 4 of :meth:`step`: motion capture and camera frames to their consumers."""
+        if self.mocap is not None:
+            self.mocap.publish(mocap)
+        if frames is not None:
+            self._on_frames(frames)
 
     def wait_for_autopilots(
         self, should_stop: Callable[[], bool] = lambda: False, timeout_s: float | None = None
@@ -764,43 +756,33 @@ class Simulation:
         self._position_hooks.append(hook)
 
     def _step_timed(self) -> None:
-        """``step`` with the wall time of each phase added to ``phase_seconds``."""
+        """:meth:`step`'s stages, the wall time of each added to ``phase_seconds``."""
         clock = time.perf_counter
         acc = self.phase_seconds
+        world = self.world
         t0 = clock()
-        self.world.step(self._actuators)
-        self._actuators = None  # None: the world keeps every command
+        world.step(self._actuators)
         t1 = clock()
-        sensors, gps = self.world.poll_sensors()
-        ranges = self.world.poll_rangefinders()
-        frames = self.world.poll_cameras()
-        if frames is not None:
-            self._on_frames(frames)
+        readings, mocap, frames = self._measure()
         t2 = clock()
-        if gps is not None:
-            self.fleet.handle_gps(gps)
-        if sensors is not None:
-            self._actuators = self.fleet.handle_sensors(sensors)
-        if self.mocap is not None:
-            self.mocap.publish(self.world.poll_mocap())
-        battery = self.world.poll_battery()
-        if battery is not None:
-            self.fleet.handle_battery(battery)
-        if ranges is not None:
-            self.fleet.handle_distance_sensors(ranges)
+        self._side.deliver(readings, world.time_s, lambda: world.truth)
         t3 = clock()
+        self._observe(mocap, frames)
+        t4 = clock()
+        self._actuators = self._side.actuators()
+        t5 = clock()
         self._step_count += 1
         if (self.endpoints or self.router) and self._step_count % self._poll_every == 0:
-            self._poll_links(self.world.time_s)
-        t4 = clock()
+            self._poll_links(world.time_s)
+        t6 = clock()
         if self.recorder is not None:
             self.recorder.maybe_record()
-        t5 = clock()
+        t7 = clock()
         acc["physics (sitl step)"] += t1 - t0
-        acc["sensors (sitl HIL messages)"] += t2 - t1
-        acc["autopilots (estimation, control)"] += t3 - t2
-        acc["MAVLink endpoints"] += t4 - t3
-        acc["recording"] += t5 - t4
+        acc["sensors (sitl HIL messages)"] += t2 - t1 + t4 - t3
+        acc["autopilots (estimation, control)"] += t3 - t2 + t5 - t4
+        acc["MAVLink endpoints"] += t6 - t5
+        acc["recording"] += t7 - t6
 
     def time_phases(self) -> None:
         """Start accumulating the wall time of each phase of ``step`` in ``phase_seconds``."""
