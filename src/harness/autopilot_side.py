@@ -1,10 +1,10 @@
 """The autopilot side of a physics step: the emulated fleet in memory or PX4 across TCP.
 
 A simulation step hands what the world measured to the vehicles' autopilots and takes back
-their actuator commands. Two sides do that: the in-process PX4 emulator (``autopilot_emu.Fleet``,
-called directly) and external autopilots behind the HIL server (``sitl.hil_server``, MAVLink
-HIL messages over TCP). Both implement :class:`AutopilotSide`, so ``Simulation.step`` is written
-once.
+their actuator commands. Two sides do that: the in-process PX4 emulator
+(``autopilot_emu.fleet.AutopilotFleet``, called directly) and external autopilots behind the
+HIL server (``sitl.hil_server``, MAVLink HIL messages over TCP). Both implement
+:class:`AutopilotSide`, so ``Simulation.step`` is written once.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
-    from autopilot_emu.fleet import Fleet
+    from autopilot_emu.fleet import AutopilotFleet
     from sitl.hil_server import HilServer
 
 
@@ -47,7 +47,7 @@ class AutopilotSide(Protocol):
 class FleetSide:
     """The emulated autopilots, in memory: each reading is handled as it is delivered."""
 
-    def __init__(self, fleet: Fleet) -> None:
+    def __init__(self, fleet: AutopilotFleet) -> None:
         self.fleet = fleet
         self._actuators: list[Any] | None = None
 

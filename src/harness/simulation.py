@@ -443,6 +443,8 @@ class Simulation:
             HilSide(self.hil) if self.hil is not None else FleetSide(self.fleet)
         )
         """Where each step's readings go (:meth:`step`, stages 3 and 5)."""
+        self._truth = lambda: self.world.truth
+        """The world's ground truth for a side that sends it (built once, not every step)."""
         self.phase_seconds: dict[str, float] | None = None
         """Wall seconds per phase of ``step`` once ``time_phases()`` was called."""
 
@@ -680,7 +682,7 @@ class Simulation:
         world = self.world
         world.step(self._actuators)
         readings, mocap, frames = self._measure()
-        self._side.deliver(readings, world.time_s, lambda: world.truth)
+        self._side.deliver(readings, world.time_s, self._truth)
         self._observe(mocap, frames)
         self._actuators = self._side.actuators()  # None: the world keeps every command
         self._step_count += 1
@@ -765,7 +767,7 @@ class Simulation:
         t1 = clock()
         readings, mocap, frames = self._measure()
         t2 = clock()
-        self._side.deliver(readings, world.time_s, lambda: world.truth)
+        self._side.deliver(readings, world.time_s, self._truth)
         t3 = clock()
         self._observe(mocap, frames)
         t4 = clock()

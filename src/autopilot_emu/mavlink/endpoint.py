@@ -538,10 +538,8 @@ class MavlinkEndpoint:
         stays silent. PX4 SITL in lockstep goes silent while its simulator pauses: this is a
         deviation (docs/scenarios.md).
         """
-        heartbeat = mavlink2.MAVLINK_MSG_ID_HEARTBEAT
-        if self._sock is None or not self._streams.knows(heartbeat):
-            return
-        if self._streams.interval_us(heartbeat) <= 0:
+        heartbeat = mavlink2.MAVLINK_MSG_ID_HEARTBEAT  # a stream of every link (EVERY_LINK)
+        if self._sock is None or self._streams.interval_us(heartbeat) <= 0:
             return
         if self._wall_clock_s() - self._heartbeat_wall_s >= HELD_HEARTBEAT_WALL_S:
             self._emit(heartbeat)
