@@ -39,6 +39,7 @@ import pymap3d
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
+from sitl.world import WorldConfig
 
 TAKEOFF_AT_S = 3.0
 GOTO_AT_S = 12.0
@@ -150,11 +151,11 @@ def fly_scenario(
     sim_seconds: float,
     port_base: int,
     breakdown: bool = False,
-    world_overrides: dict | None = None,
+    world: WorldConfig | None = None,
 ) -> tuple[float, dict]:
     """Run the scenario for n vehicles; return wall seconds and a flight summary.
 
-    ``world_overrides`` are extra WorldConfig fields (e.g. cameras, rangefinders).
+    ``world``: the world beyond the defaults (e.g. cameras, rangefinders).
     """
     # One onboard link per vehicle (listening on listen_base + i, sending to sdk_base + i); no
     # ground-station or payload link.
@@ -166,9 +167,7 @@ def fly_scenario(
         payload_listen_base=0,
         payload_base=0,
     )
-    cfg = SimulationConfig(
-        n_vehicles=n, ports=ports, record_hz=0.0, world_overrides=world_overrides or {}
-    )
+    cfg = SimulationConfig(n_vehicles=n, ports=ports, record_hz=0.0, world=world)
     with Simulation(cfg) as sim:
         vehicles = [sim.fleet.vehicle(i) for i in range(n)]
         start = sim.world.truth.position_enu_m.copy()

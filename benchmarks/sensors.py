@@ -118,18 +118,18 @@ def main() -> int:
         ms[w] = camera_ms_per_frame(w, h, args.frames)
         print(f"camera {w}x{h}, down, ground filling the view: {ms[w]:.2f} ms per frame")
 
-    sensors_on = {
-        "rangefinders": True,
-        "cameras": True,
-        "camera": with_mount(
+    sensors_on = WorldConfig(
+        rangefinders=True,
+        cameras=True,
+        camera=with_mount(
             CameraSpec(width_px=320, height_px=240, hfov_deg=114.59, rate_hz=CAMERA_HZ), "down"
         ),
-    }
-    sensors_off = {"rangefinders": False, "cameras": False}
+    )
+    sensors_off = WorldConfig(rangefinders=False, cameras=False)
     walls = {}
-    for name, overrides in (("none", sensors_off), ("sensors", sensors_on)):
+    for name, world in (("none", sensors_off), ("sensors", sensors_on)):
         runs = [
-            fly_scenario(N_VEHICLES, args.sim_seconds, args.port_base, world_overrides=overrides)
+            fly_scenario(N_VEHICLES, args.sim_seconds, args.port_base, world=world)
             for _ in range(args.repeat)
         ]
         walls[name] = min(wall for wall, _ in runs)

@@ -51,7 +51,7 @@ from harness.signing_options import (
     unauthenticated_warning,
 )
 from harness.sim_clock import ClockFile
-from harness.sim_options import parse_frames, world_options, world_overrides
+from harness.sim_options import parse_frames, world_options
 from harness.simulation import EXTERNAL, INTERNAL, PortPlan, Simulation, SimulationConfig
 from harness.sweep_cli import sweep
 from harness.wind_options import (
@@ -63,7 +63,7 @@ from harness.wind_options import (
     parse_wind,
     wind_config,
 )
-from harness.world_setup import WorldSetup
+from harness.world_setup import WorldSetup, world_config
 from sitl.hil_server import HIL_PORT_BASE
 from sitl.sensors.camera import MOUNT_PITCH_DEG, RENDER_S_PER_PIXEL, CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
@@ -159,7 +159,7 @@ def print_world(
     setup: WorldSetup, path: Path | None, cfg: SimulationConfig, sim: Simulation
 ) -> None:
     """Tell what the world brought: scene, launch area, wind, and the bridges to start."""
-    scene = setup.world_overrides["scene"]
+    scene = setup.scene
     wind = cfg.wind
     wind_text = (
         "calm"
@@ -650,17 +650,15 @@ def up(
         else setup.wind,
         params=setup.params if setup is not None else {},
         vehicle_params=params_load.vehicle_params if params_load is not None else (),
-        world_overrides={
-            **(world_overrides(setup, explicit_mocap=mocap > 0) if setup is not None else {}),
-            **({"cameras": True, "camera": camera_spec} if camera else {}),
-            **({"mocap_hz": mocap} if mocap > 0 else {}),
-            **({"rangefinders": True} if rangefinders else {}),
-            **(
-                {"gps_outages": GpsOutages(windows=parse_gps_outages(gps_outage))}
-                if gps_outage
-                else {}
-            ),
-        },
+        world=world_config(
+            vehicles,
+            setup,
+            rangefinders=rangefinders,
+            cameras=camera,
+            camera=camera_spec,
+            mocap_hz=mocap if mocap > 0 else None,
+            gps_outages=GpsOutages(windows=parse_gps_outages(gps_outage)) if gps_outage else None,
+        ),
         mocap_port=mocap_port,
         onboard_link=link,
         gcs_link=gcs_link,

@@ -14,6 +14,7 @@ from harness.launch import console
 from harness.param_options import PARAMS_HELP, ParamsLoad, load_params_options
 from harness.sim_options import parse_frames, world_options
 from harness.simulation import Simulation, SimulationConfig
+from harness.world_setup import world_config
 
 params_app = typer.Typer(
     no_args_is_help=True,
@@ -109,7 +110,7 @@ def dump(
         mocap_port=0,
         params=setup.params if setup is not None else {},
         vehicle_params=load.vehicle_params if load is not None else (),
-        world_overrides={"rangefinders": True} if rangefinders else {},
+        world=world_config(vehicles, setup, rangefinders=rangefinders),
     )
     with Simulation(cfg) as sim:
         rows = [

@@ -53,7 +53,7 @@ from harness.run_totals import fleet_totals, metric_checks, versions
 from harness.scenario import Scenario
 from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
-from harness.world_setup import WorldSetup
+from harness.world_setup import WorldSetup, world_config
 from sitl.sensors.camera import CameraFrame, with_mount
 from sitl.vehicles.multirotor import load_airframe
 
@@ -174,22 +174,15 @@ class ScenarioRun:
         spec, scenario = self.scenario.spec, self.scenario
         ports = self.options.ports
         frames = tuple(v.group.airframe for v in self.vehicles)
-        overrides: dict[str, Any] = {}
-        wind = None
-        params: dict[str, float] = {}
-        if self.setup is not None:
-            overrides |= self.setup.world_overrides
-            wind = self.setup.wind
-            params |= self.setup.params
-        overrides["spawn_enu_m"] = tuple(tuple(p) for p in self.spawn_enu_m)
-        sensors = spec.sensors
-        if sensors.rangefinders:
-            overrides["rangefinders"] = True
-        if sensors.cameras:
-            overrides["cameras"] = True
-            cameras = self._cameras(frames)
-            if cameras is not None:
-                overrides["camera"] = cameras
+        setup, sensors = self.setup, spec.sensors
+        world = world_config(
+            spec.n_vehicles,
+            setup,
+            spawn_enu_m=tuple(tuple(p) for p in self.spawn_enu_m),
+            rangefinders=sensors.rangefinders,
+            cameras=sensors.cameras,
+            camera=self._cameras(frames) if sensors.cameras else None,
+        )
         return SimulationConfig(
             n_vehicles=spec.n_vehicles,
             seed=self.seed,
@@ -205,9 +198,9 @@ class ScenarioRun:
             ),
             out_dir=self.run_dir,
             mocap_port=ports.mocap,
-            wind=wind,
-            world_overrides=overrides,
-            params=params,
+            wind=setup.wind if setup is not None else None,
+            world=world,
+            params=dict(setup.params) if setup is not None else {},
             vehicle_params=tuple(scenario.params_of(v) for v in self.vehicles),
             onboard_link=spec.links.onboard,
             gcs_link=spec.links.gcs,

@@ -49,11 +49,3 @@ def world_options(
     except (OSError, ValueError) as exc:  # WorldSpecError is a ValueError: file:line: field
         console.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
         raise typer.Exit(2) from exc
-
-
-def world_overrides(setup: WorldSetup, explicit_mocap: bool) -> dict:
-    """The world's WorldConfig fields; an explicit ``--mocap HZ`` keeps its own rate."""
-    overrides = dict(setup.world_overrides)
-    if explicit_mocap:
-        overrides.pop("mocap_hz", None)
-    return overrides

@@ -10,6 +10,7 @@ drive the next step. The MAVLink endpoints are polled on the simulation clock. T
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import functools
 import logging
@@ -17,7 +18,7 @@ import select
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -183,8 +184,12 @@ class SimulationConfig:
     """Rate of the ground-truth recording, Hz (0 disables)."""
     wind: WindConfig | None = None
     """Wind of the world (steady, turbulence, gusts); None: calm air."""
-    world_overrides: dict = field(default_factory=dict)
-    """Extra WorldConfig fields (e.g. spawn_altitude_m; mocap_hz > 0 publishes mocap poses)."""
+    world: WorldConfig | None = None
+    """The world beyond the fields above: scene, obstacles, sensors switched on, spawn points,
+    GNSS outages, motion capture (mocap_hz > 0 publishes poses), ... None: a plain field.
+    Its ``n_vehicles``, ``seed``, ``physics_hz``, ``spacing_m``, ``airframe`` and ``wind`` are
+    the same settings as this config's: each is taken from whichever of the two sets it, and
+    set differently in both is a ValueError. :meth:`world_config` is the world the run builds."""
     mocap_port: int = 15400
     """UDP port vehicle 0's motion-capture poses go to (+i), on ports.peer_addr; 0: none."""
     stream_rates_hz: dict[StreamProfile, dict[str, float]] = field(default_factory=dict)
@@ -241,6 +246,11 @@ class SimulationConfig:
             path = getattr(self, name)
             if path is not None:
                 object.__setattr__(self, name, Path(path).absolute())
+        if self.world is not None:
+            if not isinstance(self.world, WorldConfig):
+                raise ValueError(f"world must be a WorldConfig or None, got {self.world!r}")
+            for name, value in _shared_world_settings(self, self.world).items():
+                object.__setattr__(self, name, value)
         links = links_config(self.links_file)
         check_link_model(self.onboard_link, "onboard_link", links)
         check_link_model(self.gcs_link, "gcs_link", links)
@@ -253,8 +263,7 @@ class SimulationConfig:
             )
         if self.signing_key is not None and len(self.signing_key) != 32:
             raise ValueError(f"signing_key must have 32 bytes, got {len(self.signing_key)}")
-        if "airframe" in self.world_overrides:
-            raise ValueError("set the airframe with frames, not world_overrides")
+        self.world_config()  # a world that cannot be built is this config's error
         if self.params:
             object.__setattr__(self, "params", check_params(self.params))
         if self.vehicle_params:
@@ -278,6 +287,58 @@ class SimulationConfig:
                 f"mavlink_poll_hz ({self.mavlink_poll_hz}) must divide physics_hz "
                 f"({self.physics_hz})"
             )
+
+    def world_config(self) -> WorldConfig:
+        """The world of this run: ``world`` (or the defaults) with this config's settings."""
+        return replace(
+            self.world if self.world is not None else _DEFAULT_WORLD,
+            n_vehicles=self.n_vehicles,
+            seed=self.seed,
+            physics_hz=self.physics_hz,
+            spacing_m=self.spacing_m,
+            airframe=tuple(self.frames),
+            wind=self.wind,
+        )
+
+
+_DEFAULT_WORLD = WorldConfig()
+_CONFIG_DEFAULTS = {
+    f.name: f.default
+    for f in fields(SimulationConfig)
+    if f.name in ("n_vehicles", "seed", "physics_hz", "spacing_m", "frames", "wind")
+}
+_SHARED = {
+    "n_vehicles": "n_vehicles",
+    "seed": "seed",
+    "physics_hz": "physics_hz",
+    "spacing_m": "spacing_m",
+    "frames": "airframe",
+    "wind": "wind",
+}
+"""SimulationConfig fields that are also WorldConfig fields (by their name there)."""
+
+
+def _shared_world_settings(config: SimulationConfig, world: WorldConfig) -> dict[str, Any]:
+    """The shared settings the world sets and the config leaves at its default.
+
+    Raises:
+        ValueError: a setting both set, to different values.
+    """
+    out: dict[str, Any] = {}
+    for ours, theirs in _SHARED.items():
+        mine, default = getattr(config, ours), _CONFIG_DEFAULTS[ours]
+        given, world_default = getattr(world, theirs), getattr(_DEFAULT_WORLD, theirs)
+        if ours == "frames":
+            given = (given,) if isinstance(given, str) else tuple(given)
+            world_default = (world_default,)
+        if given in (world_default, mine):
+            continue
+        if mine != default:
+            raise ValueError(
+                f"world.{theirs}={given!r} disagrees with {ours}={mine!r}: set it in one place"
+            )
+        out[ours] = given
+    return out
 
 
 def apply_airframe_params(store: ParamStore, airframe: MultirotorSpec) -> set[str]:
@@ -335,37 +396,32 @@ def apply_rangefinder_params(store: ParamStore, airframe: MultirotorSpec) -> Non
             store.set(f"EKF2_RNG_POS_{axis}", value)
 
 
+def _close_logging_errors(link: MavlinkEndpoint) -> None:
+    """Close a link; a failure is logged, not raised (the others must close too)."""
+    try:
+        link.close()
+    except OSError as exc:
+        log.warning("closing endpoint failed: %s", exc)
+
+
 class Simulation:
     """World, autopilots and endpoints of one run."""
 
     def __init__(self, config: SimulationConfig) -> None:
         self.config = config
         n = config.n_vehicles
-        self.world = World(
-            WorldConfig(
-                n_vehicles=n,
-                spacing_m=config.spacing_m,
-                physics_hz=config.physics_hz,
-                seed=config.seed,
-                wind=config.wind,
-                airframe=tuple(config.frames),
-                **config.world_overrides,
-            )
-        )
+        self._resources = contextlib.ExitStack()
+        """What :meth:`close` releases, the last opened first (a failed construction too)."""
+        self._closed = False
+        self.world = World(config.world_config())
+        self._resources.callback(self.world.close)
+        self._resources.callback(self._save_recordings)  # after every link is closed
         self.airframe_params_skipped: set[str] = set()
         """Parameters of the airframes' ``px4`` sections this autopilot does not know (skipped)."""
         self.fleet: AutopilotFleet | None = None
         """The in-process autopilots (None with an external autopilot)."""
         self.hil: HilServer | None = None
         """The simulator's TCP side of PX4's simulator protocol (external autopilot only)."""
-        if config.autopilot == EXTERNAL:
-            try:
-                self._external_init()
-            except BaseException:
-                self.world.close()
-                raise
-        else:
-            self._internal_init()
         self.epoch_start_s = time.time()
         self.endpoints: list[MavlinkEndpoint] = []
         self.vehicle_links: list[list[MavlinkEndpoint]] = [[] for _ in range(n)]
@@ -384,43 +440,51 @@ class Simulation:
         """Directory each vehicle serves over MAVLink FTP: ``<out_dir>/vehicle<N>/fs``, or a
         temporary directory removed on close when there is no out_dir."""
         self._scratch: tempfile.TemporaryDirectory | None = None
-        if config.out_dir is not None:
-            config.out_dir.mkdir(parents=True, exist_ok=True)
-        try:
-            if config.mavlink and self.fleet is not None:
-                for i in range(n):
-                    self.endpoints.extend(self._links(i))
-        except BaseException:
-            self.close()
-            raise
         self.mocap: MocapPublisher | None = None
         """Sends motion-capture datagrams when the world has mocap_hz > 0 and mocap_port."""
-        if config.mocap_port and self.world.config.mocap_hz > 0:
-            self.mocap = MocapPublisher(config.ports.peer_addr, config.mocap_port, n)
         self.video_servers: list[MjpegServer | None] = []
         """Each vehicle's camera stream server (None: no camera, or cameras off)."""
-        try:
-            for i, spec in enumerate(self.world.camera_specs):
-                self.video_servers.append(None if spec is None else self._video_server(i))
-        except BaseException:
-            self.close()
-            raise
         self.camera_managers: list[CameraManager | None] = [None] * n
         """Each vehicle's MAVLink camera (compid 100) on its payload link; None: no camera, no
         MAVLink or no payload link."""
+        self.recorder: FlightRecorder | None = None
         try:
-            for i, spec in enumerate(self.world.camera_specs):
-                if spec is not None and self._payload_links[i] is not None:
-                    self.camera_managers[i] = self._camera_manager(i, spec)
+            self._open()
         except BaseException:
-            self.close()
+            self._resources.close()
             raise
-        try:
-            router = config.router
-            self.router = router if router is None or isinstance(router, LinkRouter) else router()
-        except BaseException:
-            self.close()
-            raise
+
+    def _open(self) -> None:
+        """Open the autopilots and every link, each registered with ``_resources`` as opened."""
+        config, n, resources = self.config, self.config.n_vehicles, self._resources
+        if config.autopilot == EXTERNAL:
+            self._external_init()
+            resources.callback(self.hil.close)
+        else:
+            self._internal_init()
+        if config.out_dir is not None:
+            config.out_dir.mkdir(parents=True, exist_ok=True)
+        if config.mavlink and self.fleet is not None:
+            for i in range(n):
+                for link in self._links(i):
+                    self.endpoints.append(link)
+                    resources.callback(_close_logging_errors, link)
+        if config.mocap_port and self.world.config.mocap_hz > 0:
+            self.mocap = MocapPublisher(config.ports.peer_addr, config.mocap_port, n)
+            resources.callback(self.mocap.close)
+        for i, spec in enumerate(self.world.camera_specs):
+            server = None if spec is None else self._video_server(i)
+            self.video_servers.append(server)
+            if server is not None:
+                resources.callback(server.close)
+        for i, spec in enumerate(self.world.camera_specs):
+            if spec is not None and self._payload_links[i] is not None:
+                camera = self.camera_managers[i] = self._camera_manager(i, spec)
+                resources.callback(camera.close)
+        router = config.router
+        self.router = router if router is None or isinstance(router, LinkRouter) else router()
+        if self.router is not None:
+            resources.callback(self.router.close)
         self._readiness = select.poll()
         self._link_fds = [(ep, ep.fileno()) for ep in self.endpoints]
         self._camera_fds = [(c, c.fileno()) for c in self.camera_managers if c is not None]
@@ -429,16 +493,9 @@ class Simulation:
         self._poll_every = round(config.physics_hz / config.mavlink_poll_hz)
         self._step_count = 0
         self._actuators: list | None = None
-        self.recorder = (
-            FlightRecorder(
-                self,
-                config.record_hz,
-                None if config.out_dir is None else config.out_dir / "truth.csv",
-            )
-            if config.record_hz > 0
-            else None
-        )
-        self._closed = False
+        if config.record_hz > 0:
+            truth_csv = None if config.out_dir is None else config.out_dir / "truth.csv"
+            self.recorder = FlightRecorder(self, config.record_hz, truth_csv)
         self._side: AutopilotSide = (
             HilSide(self.hil) if self.hil is not None else FleetSide(self.fleet)
         )
@@ -446,7 +503,13 @@ class Simulation:
         self._truth = lambda: self.world.truth
         """The world's ground truth for a side that sends it (built once, not every step)."""
         self.phase_seconds: dict[str, float] | None = None
-        """Wall seconds per phase of ``step`` once ``time_phases()`` was called."""
+        """Wall seconds per stage of ``step`` once ``time_phases()`` was called."""
+        self._readings = Readings(None, None, None, None)
+        """What the measure stage read on this step (the deliver stage hands it on)."""
+        self._mocap_sample: Any = None
+        self._frames: list[CameraFrame] | None = None
+        self._stages = tuple(stage for _, stage in self._stage_methods())
+        """What :meth:`step` runs, in order (timed wrappers after ``time_phases()``)."""
 
     def _internal_init(self) -> None:
         """One emulated autopilot per vehicle, with the airframes' and the config's parameters."""
@@ -583,9 +646,7 @@ class Simulation:
         """Vehicle i's camera as MAVLink component 100 on its payload link."""
         base = self.config.out_dir
         if base is None:
-            if self._scratch is None:
-                self._scratch = tempfile.TemporaryDirectory(prefix="swarmsitl-fs-")
-            base = Path(self._scratch.name)
+            base = self._scratch_dir()
         protocol = CameraProtocol(
             spec,
             sysid=i + 1,
@@ -644,13 +705,18 @@ class Simulation:
             if camera is not None:
                 camera.on_frame(frame)
 
+    def _scratch_dir(self) -> Path:
+        """A temporary directory for what a run without ``out_dir`` keeps, removed on close."""
+        if self._scratch is None:
+            self._scratch = tempfile.TemporaryDirectory(prefix="swarmsitl-fs-")
+            self._resources.callback(self._scratch.cleanup)
+        return Path(self._scratch.name)
+
     def _ftp_root(self, i: int) -> Path:
         """Create vehicle i's FTP root with an empty ``log/`` (PX4 SITL's rootfs has one)."""
         base = self.config.out_dir
         if base is None:
-            if self._scratch is None:
-                self._scratch = tempfile.TemporaryDirectory(prefix="swarmsitl-fs-")
-            base = Path(self._scratch.name)
+            base = self._scratch_dir()
         root = base / f"vehicle{i + 1}" / "fs"
         (root / "log").mkdir(parents=True, exist_ok=True)
         self.ftp_roots.append(root)
@@ -675,38 +741,57 @@ class Simulation:
         5. actuate: the autopilots' commands for the next step;
         6. links: the MAVLink links are polled every ``_poll_every`` steps;
         7. record.
+
+        Each stage is a method without arguments (what one hands the next is kept on the
+        simulation); :meth:`time_phases` swaps in timed wrappers of the same methods.
         """
-        if self.phase_seconds is not None:
-            self._step_timed()
-            return
+        for stage in self._stages:
+            stage()
+
+    def _stage_physics(self) -> None:
+        self.world.step(self._actuators)
+
+    def _stage_measure(self) -> None:
         world = self.world
-        world.step(self._actuators)
-        readings, mocap, frames = self._measure()
-        self._side.deliver(readings, world.time_s, self._truth)
-        self._observe(mocap, frames)
+        sensors, gps = world.poll_sensors()
+        self._mocap_sample = world.poll_mocap() if self.mocap is not None else None
+        self._frames = world.poll_cameras()
+        battery = world.poll_battery()
+        ranges = world.poll_rangefinders()
+        self._readings = Readings(sensors, gps, battery, ranges)
+
+    def _stage_deliver(self) -> None:
+        self._side.deliver(self._readings, self.world.time_s, self._truth)
+
+    def _stage_observe(self) -> None:
+        if self.mocap is not None:
+            self.mocap.publish(self._mocap_sample)
+        if self._frames is not None:
+            self._on_frames(self._frames)
+
+    def _stage_actuate(self) -> None:
         self._actuators = self._side.actuators()  # None: the world keeps every command
+
+    def _stage_links(self) -> None:
         self._step_count += 1
         if (self.endpoints or self.router) and self._step_count % self._poll_every == 0:
-            self._poll_links(world.time_s)
+            self._poll_links(self.world.time_s)
+
+    def _stage_record(self) -> None:
         if self.recorder is not None:
             self.recorder.maybe_record()
 
-    def _measure(self) -> tuple[Readings, Any, list[CameraFrame] | None]:
-        """Stage 2 of :meth:`step`: what the world measured on this step."""
-        world = self.world
-        sensors, gps = world.poll_sensors()
-        mocap = world.poll_mocap() if self.mocap is not None else None
-        frames = world.poll_cameras()
-        battery = world.poll_battery()
-        ranges = world.poll_rangefinders()
-        return Readings(sensors, gps, battery, ranges), mocap, frames
-
-    def _observe(self, mocap: Any, frames: list[CameraFrame] | None) -> None:
-        """Stage 4 of :meth:`step`: motion capture and camera frames to their consumers."""
-        if self.mocap is not None:
-            self.mocap.publish(mocap)
-        if frames is not None:
-            self._on_frames(frames)
+    def _stage_methods(self) -> tuple[tuple[str, Callable[[], None]], ...]:
+        """The stages of :meth:`step` by name, in order."""
+        return (
+            ("physics", self._stage_physics),
+            ("measure", self._stage_measure),
+            ("deliver", self._stage_deliver),
+            ("observe", self._stage_observe),
+            ("actuate", self._stage_actuate),
+            ("links", self._stage_links),
+            ("record", self._stage_record),
+        )
 
     def wait_for_autopilots(
         self, should_stop: Callable[[], bool] = lambda: False, timeout_s: float | None = None
@@ -757,47 +842,23 @@ class Simulation:
         """
         self._position_hooks.append(hook)
 
-    def _step_timed(self) -> None:
-        """:meth:`step`'s stages, the wall time of each added to ``phase_seconds``."""
-        clock = time.perf_counter
-        acc = self.phase_seconds
-        world = self.world
-        t0 = clock()
-        world.step(self._actuators)
-        t1 = clock()
-        readings, mocap, frames = self._measure()
-        t2 = clock()
-        self._side.deliver(readings, world.time_s, self._truth)
-        t3 = clock()
-        self._observe(mocap, frames)
-        t4 = clock()
-        self._actuators = self._side.actuators()
-        t5 = clock()
-        self._step_count += 1
-        if (self.endpoints or self.router) and self._step_count % self._poll_every == 0:
-            self._poll_links(world.time_s)
-        t6 = clock()
-        if self.recorder is not None:
-            self.recorder.maybe_record()
-        t7 = clock()
-        acc["physics (sitl step)"] += t1 - t0
-        acc["sensors (sitl HIL messages)"] += t2 - t1 + t4 - t3
-        acc["autopilots (estimation, control)"] += t3 - t2 + t5 - t4
-        acc["MAVLink endpoints"] += t6 - t5
-        acc["recording"] += t7 - t6
-
     def time_phases(self) -> None:
-        """Start accumulating the wall time of each phase of ``step`` in ``phase_seconds``."""
-        self.phase_seconds = dict.fromkeys(
-            (
-                "physics (sitl step)",
-                "sensors (sitl HIL messages)",
-                "autopilots (estimation, control)",
-                "MAVLink endpoints",
-                "recording",
-            ),
-            0.0,
-        )
+        """Accumulate the wall time of each stage of :meth:`step` in ``phase_seconds``.
+
+        The stages are wrapped, not copied: a timed step runs the same methods in the same order.
+        """
+        acc = self.phase_seconds = {name: 0.0 for name, _ in self._stage_methods()}
+        clock = time.perf_counter
+
+        def timed(name: str, stage: Callable[[], None]) -> Callable[[], None]:
+            def run() -> None:
+                t0 = clock()
+                stage()
+                acc[name] += clock() - t0
+
+            return run
+
+        self._stages = tuple(timed(name, stage) for name, stage in self._stage_methods())
 
     def run_lockstep(
         self, duration_s: float, until: Callable[[Simulation], bool] | None = None
@@ -841,34 +902,21 @@ class Simulation:
                 time.sleep(ahead)
 
     def close(self) -> None:
-        """Close endpoints (flushing tlogs), write recordings, release PyBullet."""
-        if getattr(self, "_closed", False):
+        """Close the links (flushing tlogs), write the recordings, release PyBullet."""
+        if self._closed:
             return
         self._closed = True
-        if getattr(self, "hil", None) is not None:
-            self.hil.close()
-        for ep in self.endpoints:
-            try:
-                ep.close()
-            except OSError as exc:
-                log.warning("closing endpoint failed: %s", exc)
-        if getattr(self, "router", None) is not None:
-            self.router.close()
-        if getattr(self, "mocap", None) is not None:
-            self.mocap.close()
-        for server in getattr(self, "video_servers", []):
-            if server is not None:
-                server.close()
-        for camera in getattr(self, "camera_managers", []):
-            if camera is not None:
-                camera.close()
-        if getattr(self, "recorder", None) is not None and self.config.out_dir is not None:
-            self.recorder.write_csv(self.config.out_dir / "truth.csv")
-        if self.config.out_dir is not None and self.fleet is not None:
-            save_client_params(self.config.out_dir, self.fleet.params)  # last: costs no output
-        if self._scratch is not None:
-            self._scratch.cleanup()
-        self.world.close()
+        self._resources.close()
+
+    def _save_recordings(self) -> None:
+        """The ground truth and the vehicles' parameters into the run directory (if any)."""
+        out = self.config.out_dir
+        if out is None:
+            return
+        if self.recorder is not None:
+            self.recorder.write_csv(out / "truth.csv")
+        if self.fleet is not None:
+            save_client_params(out, self.fleet.params)
 
     def __enter__(self) -> Simulation:
         return self

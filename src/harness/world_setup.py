@@ -1,8 +1,9 @@
 """What a ``worlds`` world asks of a simulation run: scene, spawn points, wind, mocap, parameters.
 
 ``world_setup(world, n_vehicles)`` turns a built world into the pieces ``SimulationConfig`` takes
-(``world_overrides``, ``wind``, ``params``), so ``swarmsitl up --world`` and ``swarmsitl run`` set
-a world up the same way.
+(``wind``, ``params``, and the scene and spawn points ``world_config`` puts into its ``world``), so
+``swarmsitl up --world``, ``swarmsitl run`` and ``swarmsitl params dump`` set a world up the same
+way. ``world_config`` is the one place a run's ``WorldConfig`` is built from a command's options.
 """
 
 from __future__ import annotations
@@ -12,8 +13,10 @@ from dataclasses import dataclass, field
 
 import worlds
 from sitl.physics.wind import WindConfig
+from sitl.sensors.camera import CameraSpec
 from sitl.sensors.gps import GpsOutages, GpsOutageWindow
 from sitl.sensors.mocap import MocapParams
+from sitl.world import WorldConfig
 from worlds.launch import default_area, spawn_points
 from worlds.model import XYZ
 
@@ -33,9 +36,10 @@ MIL-F-8785C's W20 is defined."""
 class WorldSetup:
     """A world's contribution to a ``SimulationConfig`` (pass the fields on as they are)."""
 
-    world_overrides: dict = field(default_factory=dict)
-    """WorldConfig fields: ``scene``, ``spawn_enu_m``; GPS-denied worlds also ``mocap_hz``
-    and ``gps_outages`` (no fix for the whole run)."""
+    scene: worlds.World | None = None
+    """The built world (its solids, people and spills become the simulator's scene)."""
+    gps_outages: GpsOutages | None = None
+    """GPS-denied worlds: no fix for the whole run; None: the receivers work."""
     wind: WindConfig | None = None
     """The world's wind (steady + Dryden turbulence), None: calm air."""
     params: dict[str, float] = field(default_factory=dict)
@@ -83,25 +87,67 @@ def world_setup(
             raise ValueError(f"spawn_enu_m: one point per vehicle ({n_vehicles})")
         spawn = tuple(tuple(float(c) for c in p) for p in spawn_enu_m)
         area_name = launch_area or ""
-    overrides: dict = {"scene": world, "spawn_enu_m": spawn}
     params: dict[str, float] = {}
     mocap_hz = 0.0
+    outages = None
     if world.gps_denied:
         mocap_hz = GPS_DENIED_MOCAP_HZ
-        overrides["mocap_hz"] = mocap_hz
-        overrides["gps_outages"] = GpsOutages(windows=(GpsOutageWindow(0.0, math.inf),))
+        outages = GpsOutages(windows=(GpsOutageWindow(0.0, math.inf),))
         params = {
             "EKF2_EV_CTRL": float(EV_CTRL_POSITION_AND_YAW),
             "EKF2_EV_DELAY": MocapParams().latency_ms,
         }
     return WorldSetup(
-        world_overrides=overrides,
+        scene=world,
+        gps_outages=outages,
         wind=wind_config(world.wind),
         params=params,
         spawn_enu_m=spawn,
         mocap_hz=mocap_hz,
         bridge=world.gps_denied,
         launch_area=area_name,
+    )
+
+
+def world_config(
+    n_vehicles: int,
+    setup: WorldSetup | None = None,
+    *,
+    spawn_enu_m: tuple[XYZ, ...] | None = None,
+    rangefinders: bool = False,
+    cameras: bool = False,
+    camera: CameraSpec | tuple[CameraSpec | None, ...] | None = None,
+    mocap_hz: float | None = None,
+    gps_outages: GpsOutages | None = None,
+) -> WorldConfig:
+    """The world of a run: a world file's scene (``setup``) and the sensors a command asks for.
+
+    Args:
+        n_vehicles: number of vehicles, >= 1.
+        setup: what a world file asks for (scene, spawn points, GNSS denial, motion capture);
+            None: the plain field.
+        spawn_enu_m: the vehicles' resting points, replacing the setup's (a scenario's groups).
+        rangefinders: fly the airframes' rangefinders.
+        cameras: render the airframes' cameras (or ``camera``).
+        camera: with ``cameras``, the camera(s) replacing the airframes' own.
+        mocap_hz: motion-capture rate, Hz, replacing the world's (``--mocap``); None: the
+            world's (a GPS-denied world's 50 Hz, else off).
+        gps_outages: GNSS outages replacing the world's; None: the world's.
+
+    The run's seed, rates, spacing, airframes and wind are ``SimulationConfig``'s own fields.
+    """
+    if setup is not None and spawn_enu_m is None:
+        spawn_enu_m = setup.spawn_enu_m
+    return WorldConfig(
+        n_vehicles=n_vehicles,
+        scene=setup.scene if setup is not None else None,
+        spawn_enu_m=spawn_enu_m or None,
+        rangefinders=rangefinders,
+        cameras=cameras,
+        camera=camera if cameras else None,
+        mocap_hz=(setup.mocap_hz if setup is not None else 0.0) if mocap_hz is None else mocap_hz,
+        gps_outages=gps_outages
+        or (setup.gps_outages if setup is not None and setup.gps_outages else GpsOutages()),
     )
 
 

@@ -27,6 +27,7 @@ from harness.lockstep import LOCKSTEP
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.e2e
 
@@ -75,7 +76,7 @@ def test_camera_plugin_takes_a_geotagged_photo(tmp_path, client_logs, script, ow
         ports=ports,
         record_hz=0,
         out_dir=tmp_path / "run",
-        world_overrides={"cameras": True},
+        world=WorldConfig(cameras=True),
         ping_period_s=LOCKSTEP.ping_period_s,
     )
     with Simulation(config) as sim:

@@ -204,7 +204,7 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
         ports=ports,
         record_hz=0,
         out_dir=tmp_path / "run",
-        world_overrides={"cameras": True, "obstacles": slabs},
+        world=WorldConfig(cameras=True, obstacles=slabs),
         ping_period_s=LOCKSTEP.ping_period_s,
     )
     grpc = b + 5

@@ -22,6 +22,7 @@ from udp_client import UdpClient
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.process
 
@@ -58,7 +59,7 @@ def rig(tmp_path):
         ports=_ports(),
         record_hz=0,
         out_dir=tmp_path / "run",
-        world_overrides={"cameras": True},
+        world=WorldConfig(cameras=True),
     )
     sim = Simulation(config)
     ports = config.ports
@@ -128,7 +129,7 @@ def test_a_command_for_the_camera_comes_out_of_the_payload_link(tmp_path):
     """With the simulated camera unplugged, a raw socket on its port receives MAVSDK's command
     for compid 100 verbatim, and what it sends as compid 100 reaches the onboard client."""
     ports = _ports()
-    config = SimulationConfig(ports=ports, record_hz=0, world_overrides={"cameras": True})
+    config = SimulationConfig(ports=ports, record_hz=0, world=WorldConfig(cameras=True))
     with Simulation(config) as sim:
         sim.camera_managers[0].close()
         sim.camera_managers[0] = None
@@ -159,7 +160,7 @@ def test_a_taken_camera_port_is_a_clear_error():
     blocker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     blocker.bind(("127.0.0.1", ports.payload_port(0)))
     try:
-        config = SimulationConfig(ports=ports, record_hz=0, world_overrides={"cameras": True})
+        config = SimulationConfig(ports=ports, record_hz=0, world=WorldConfig(cameras=True))
         with pytest.raises(OSError, match=f"{ports.payload_port(0)}.*camera of system 1"):
             Simulation(config)
     finally:

@@ -15,6 +15,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu.modes import AutoSubMode
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
@@ -38,7 +39,7 @@ def link(tmp_path):
                 payload_listen_base=0,
                 payload_base=free_port_block(),
             ),
-            world_overrides={"cameras": True},
+            world=WorldConfig(cameras=True),
         )
     )
     lk = SimLink(sim, port)

@@ -7,6 +7,7 @@ import pytest
 
 from autopilot_emu import magnetic_declination, quaternion
 from harness.simulation import Simulation, SimulationConfig
+from sitl.world import WorldConfig
 
 SYDNEY = {"origin_lat_deg": -33.9, "origin_lon_deg": 151.2, "origin_alt_amsl_m": 30.0}
 
@@ -18,7 +19,7 @@ def _heading_error_deg(world: dict, decl_type: int | None = None) -> tuple[float
     the looked-up declination afterwards (PX4 resets the yaw at once; this filter's heading
     correction takes ~7 s per e-fold at Sydney's inclination), hence the 30 s.
     """
-    config = SimulationConfig(mavlink=False, record_hz=0, seed=3, world_overrides=world)
+    config = SimulationConfig(mavlink=False, record_hz=0, seed=3, world=WorldConfig(**world))
     with Simulation(config) as sim:
         params = sim.fleet.params[0]
         if decl_type is not None:

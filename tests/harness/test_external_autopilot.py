@@ -20,6 +20,7 @@ from autopilot_emu.simulator_link import SimulatorLinkConfig
 from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
 from harness.run_ports import free_port_block
 from harness.simulation import EXTERNAL, PortPlan, Simulation, SimulationConfig
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
@@ -41,7 +42,7 @@ def _config(autopilot: str, n: int) -> SimulationConfig:
         mocap_port=0,
         autopilot=autopilot,
         ports=PortPlan(hil_base=0, video_base=0),
-        world_overrides={"rangefinders": True},
+        world=WorldConfig(rangefinders=True),
     )
 
 

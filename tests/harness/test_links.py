@@ -17,6 +17,7 @@ from mavlink_listener import MavlinkListener
 from pymavlink.dialects.v20 import common as mavlink2
 
 from harness.simulation import PortPlan, Simulation, SimulationConfig
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
@@ -57,7 +58,7 @@ def flight():
     ports = PortPlan(sdk_base=onboard.port, listen_base=0, gcs_port=ground.port, gcs_listen_base=0)
     sim = Simulation(
         SimulationConfig(
-            n_vehicles=1, ports=ports, record_hz=0, seed=4, world_overrides={"rangefinders": True}
+            n_vehicles=1, ports=ports, record_hz=0, seed=4, world=WorldConfig(rangefinders=True)
         )
     )
     try:

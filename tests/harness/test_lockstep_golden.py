@@ -42,6 +42,7 @@ import pytest
 
 from harness.simulation import Simulation, SimulationConfig
 from sitl.physics.wind import WindConfig
+from sitl.world import WorldConfig
 
 GOLDEN = Path(__file__).parent / "data" / "lockstep_golden.npz"
 SAMPLE_EVERY_S = 0.1
@@ -57,7 +58,7 @@ SCENARIOS: dict[str, dict] = {
         "n_vehicles": 3,
         "frames": ("typhoon_h480", "x500", "typhoon_h480"),
         "wind": WindConfig(speed_m_s=4.0, from_deg=60.0, turbulence_w20_m_s=2.0, gust_peak_m_s=2.0),
-        "world_overrides": {"rangefinders": True},
+        "world": WorldConfig(n_vehicles=3, rangefinders=True),
     },
 }
 TIGHT_UNTIL_S = 6.0
@@ -87,7 +88,7 @@ def fly(name: str) -> dict[str, np.ndarray]:
         mavlink=False,
         record_hz=0.0,
         wind=spec["wind"],
-        world_overrides=spec.get("world_overrides", {}),
+        world=spec.get("world"),
         mocap_port=0,
     )
     samples: dict[str, list[np.ndarray]] = {k: [] for k in TOLERANCE}

@@ -10,6 +10,7 @@ import pytest
 from companion import mocap_wire
 from harness.simulation import Simulation, SimulationConfig
 from sitl import frames
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
@@ -39,7 +40,7 @@ def test_each_vehicle_gets_its_poses_on_its_port():
         n_vehicles=2,
         record_hz=0,
         mavlink=False,
-        world_overrides={"mocap_hz": 50.0},
+        world=WorldConfig(mocap_hz=50.0),
         mocap_port=base,
     )
     poses: dict[int, list] = {0: [], 1: []}

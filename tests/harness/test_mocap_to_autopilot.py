@@ -13,6 +13,7 @@ import pytest
 from companion.scripts import mocap_bridge
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
@@ -32,7 +33,7 @@ def test_mocap_pose_reaches_the_fleet_as_external_vision(monkeypatch):
     config = SimulationConfig(
         record_hz=0,
         ports=PortPlan(listen_base=0, sdk_base=telemetry_sink.getsockname()[1], gcs_port=0),
-        world_overrides={"mocap_hz": 50.0},
+        world=WorldConfig(mocap_hz=50.0),
         mocap_port=mocap_port,
     )
     calls: list[tuple] = []

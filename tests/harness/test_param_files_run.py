@@ -20,6 +20,7 @@ from harness.cli import app
 from harness.param_options import CLIENT_PARAMS_FILE, load_params_options
 from harness.run_ports import free_port_block
 from harness.simulation import Simulation, SimulationConfig
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
@@ -165,7 +166,7 @@ def test_dump_writes_the_start_values_and_up_takes_them_back_unchanged(tmp_path)
         frames=("typhoon_h480", "x500"),
         mavlink=False,
         record_hz=0,
-        world_overrides={"rangefinders": True},
+        world=WorldConfig(rangefinders=True),
     )
     with Simulation(config) as sim:
         expected = {

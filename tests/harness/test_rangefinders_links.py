@@ -3,6 +3,7 @@ reads the ground; the onboard (offboard API) link too; HAGL goes out in ALTITUDE
 
 from __future__ import annotations
 
+import dataclasses
 from collections import defaultdict
 
 import pytest
@@ -12,13 +13,14 @@ from udp_client import UdpClient
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
 _CLIENTS = free_port_block(2)
 PORTS = PortPlan(sdk_base=_CLIENTS, listen_base=0, gcs_port=_CLIENTS + 1, gcs_listen_base=0)
 """The clients' ports from the suite's allocator; the vehicle's own listen ports OS-chosen."""
-ON = {"rangefinders": True}
+ON = WorldConfig(rangefinders=True)
 """The rangefinders are off by default in the Python API."""
 
 
@@ -46,7 +48,7 @@ def _run(sim: Simulation, clients, seconds: float) -> None:
 
 def test_ground_station_and_onboard_links_see_every_rangefinder(clients):
     gcs, onboard = clients
-    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world_overrides=ON)) as sim:
+    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world=ON)) as sim:
         _run(sim, clients, 2.0)
         true_height = sim.world.truth.position_enu_m[0, 2]
     mount = sim.world.airframe.rangefinders[6].position_frd_m[2]
@@ -67,7 +69,7 @@ def test_ground_station_and_onboard_links_see_every_rangefinder(clients):
 
 def test_message_interval_and_request_message_for_distance_sensor(clients):
     gcs, onboard = clients
-    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world_overrides=ON)) as sim:
+    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world=ON)) as sim:
         _run(sim, clients, 0.5)
         _command(gcs, mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, 132, -1)
         _run(sim, clients, 0.1)
@@ -90,8 +92,8 @@ def test_hagl_over_a_box_and_no_rangefinders(clients):
     """Resting on a 1 m box: ALTITUDE's terrain is the box top, the clearance the height over it."""
     gcs, onboard = clients
     box = BoxObstacle((0.0, 0.0, 0.5), (2.0, 2.0, 1.0))
-    overrides = {"obstacles": (box,), "spawn_altitude_m": 1.3, **ON}
-    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world_overrides=overrides)) as sim:
+    world = dataclasses.replace(ON, obstacles=(box,), spawn_altitude_m=1.3)
+    with Simulation(SimulationConfig(ports=PORTS, record_hz=0, world=world)) as sim:
         _run(sim, clients, 3.0)
         height_over_box = sim.world.truth.position_enu_m[0, 2] - 1.0
     altitude = onboard.of("ALTITUDE")[-1]
@@ -101,7 +103,7 @@ def test_hagl_over_a_box_and_no_rangefinders(clients):
     )
     gcs.inbox.clear()
     onboard.inbox.clear()
-    config = SimulationConfig(ports=PORTS, record_hz=0, world_overrides={"rangefinders": False})
+    config = SimulationConfig(ports=PORTS, record_hz=0, world=WorldConfig(rangefinders=False))
     with Simulation(config) as sim:
         _run(sim, clients, 1.0)
     assert onboard.of("DISTANCE_SENSOR") == [] and gcs.of("DISTANCE_SENSOR") == []

@@ -134,7 +134,7 @@ def test_groups_start_in_their_own_launch_areas_and_a_full_area_is_refused(tmp_p
     run = ScenarioRun(loaded, RunOptions(tmp_path / "run"))
     area = loaded.world.launch_area("agent_start_3").center_enu_m
     assert run.spawn_enu_m.tolist() == [list(area), [1.0, 2.0, 0.0]]
-    assert run._simulation_config().world_overrides["spawn_enu_m"][1] == (1.0, 2.0, 0.0)
+    assert run._simulation_config().world_config().spawn_enu_m[1] == (1.0, 2.0, 0.0)
 
     crowded = tmp_path / "crowded.yaml"
     crowded.write_text(

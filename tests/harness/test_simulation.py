@@ -1,12 +1,16 @@
 """Lockstep simulation: deterministic for a seed, and the full stack flies the demo pattern."""
 
+import dataclasses
 import math
+import socket
 
 import numpy as np
 import pymap3d
 import pytest
 
+from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig, check_params
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
@@ -233,3 +237,37 @@ def test_a_misspelt_autopilot_parameter_gets_the_close_names():
         check_params({"MPC_XY_CRUSE": 6.0})
     with pytest.raises(ValueError, match=r"'QQQQ' \(of \['QQQQ'\]\)"):
         check_params({"QQQQ": 6.0})
+
+
+def test_the_world_config_is_typed_and_each_shared_setting_is_set_in_one_place():
+    both = SimulationConfig(n_vehicles=3, world=WorldConfig(rangefinders=True, seed=5))
+    world = both.world_config()
+    assert (world.n_vehicles, world.seed, world.rangefinders) == (3, 5, True)
+    assert both.seed == 5  # the world set it, the config left its default
+    assert SimulationConfig(world=WorldConfig(n_vehicles=2)).n_vehicles == 2
+    with pytest.raises(ValueError, match=r"world\.n_vehicles=2 disagrees with n_vehicles=3"):
+        SimulationConfig(n_vehicles=3, world=WorldConfig(n_vehicles=2))
+    with pytest.raises(ValueError, match="airframe"):
+        SimulationConfig(frames=("x500",), world=WorldConfig(airframe="typhoon_h480_fast"))
+    with pytest.raises(ValueError, match="world must be a WorldConfig"):
+        SimulationConfig(world={"rangefinders": True})
+
+
+def test_a_failed_start_closes_what_it_had_opened():
+    """A camera stream port in use fails the start after the MAVLink links were bound: they are
+    released, so a second simulation on the same ports starts."""
+    base = free_port_block(4)
+    ports = PortPlan(
+        sdk_base=base, listen_base=base + 1, gcs_port=0, payload_base=0, payload_listen_base=0
+    )
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        video = taken.getsockname()[1]
+        bad = SimulationConfig(
+            ports=dataclasses.replace(ports, video_base=video), world=WorldConfig(cameras=True)
+        )
+        with pytest.raises(OSError, match="camera stream of vehicle 1"):
+            Simulation(bad)
+    with Simulation(SimulationConfig(ports=ports, record_hz=0)) as sim:
+        assert sim.endpoints[0].local_address[1] == base + 1

@@ -14,6 +14,7 @@ from udp_client import UdpClient
 
 from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
 
@@ -109,7 +110,7 @@ def test_the_camera_signs_too_and_its_heartbeat_reaches_a_signed_client(tmp_path
         ports=ports,
         record_hz=0,
         out_dir=tmp_path / "run",
-        world_overrides={"cameras": True},
+        world=WorldConfig(cameras=True),
         signing_key=KEY,
     )
     try:

@@ -13,6 +13,7 @@ from harness.run_ports import free_port_block
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 from sitl.sensors.camera import CameraSpec, with_mount
+from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.process
 
@@ -26,7 +27,7 @@ def _config(video_base: int, n: int = 1, frames=("typhoon_h480",), **world) -> S
         mavlink=False,
         record_hz=0,
         ports=PortPlan(video_base=video_base),
-        world_overrides={"cameras": True, "obstacles": (WALL,), **world},
+        world=WorldConfig(cameras=True, obstacles=(WALL,), **world),
     )
 
 

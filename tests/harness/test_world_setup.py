@@ -9,7 +9,13 @@ import pytest
 
 import worlds
 from harness.simulation import Simulation, SimulationConfig
-from harness.world_setup import GPS_DENIED_MOCAP_HZ, WorldSetup, wind_config, world_setup
+from harness.world_setup import (
+    GPS_DENIED_MOCAP_HZ,
+    WorldSetup,
+    wind_config,
+    world_config,
+    world_setup,
+)
 from sitl.physics.wind import WindField
 from worlds.examples import example_path
 
@@ -27,14 +33,14 @@ def test_offshore_vehicles_start_on_the_helideck_in_the_sea_wind(offshore):
     setup = world_setup(offshore, 3, spacing_m=3.0)
     deck = offshore.launch_area("helideck")
     assert isinstance(setup, WorldSetup) and setup.launch_area == "helideck"
-    assert setup.world_overrides["scene"] is offshore
-    assert setup.world_overrides["spawn_enu_m"] == setup.spawn_enu_m
+    assert setup.scene is offshore
+    assert world_config(3, setup).spawn_enu_m == setup.spawn_enu_m
     assert len(setup.spawn_enu_m) == 3
     for x, y, z in setup.spawn_enu_m:
         assert math.dist((x, y), deck.center_enu_m[:2]) <= deck.radius_m
         assert z == deck.center_enu_m[2]
     assert not setup.bridge and setup.mocap_hz == 0.0 and setup.params == {}
-    assert "gps_outages" not in setup.world_overrides
+    assert setup.gps_outages is None and world_config(3, setup).mocap_hz == 0.0
     np.testing.assert_allclose(setup.wind.steady_enu_m_s, offshore.wind.velocity_enu_m_s)
 
 
@@ -68,8 +74,10 @@ def test_a_gps_denied_world_gets_mocap_no_gnss_and_external_vision():
     indoor = _world("indoor")
     setup = world_setup(indoor, 3, spacing_m=1.2)
     assert setup.bridge and setup.mocap_hz == GPS_DENIED_MOCAP_HZ
-    assert setup.world_overrides["mocap_hz"] == GPS_DENIED_MOCAP_HZ
-    outages = setup.world_overrides["gps_outages"]
+    world = world_config(3, setup)
+    assert world.mocap_hz == GPS_DENIED_MOCAP_HZ and world.scene is indoor
+    assert world_config(3, setup, mocap_hz=100.0).mocap_hz == 100.0  # up --mocap 100
+    outages = world.gps_outages
     assert outages.scripted(0.0, np.arange(3)).all()
     assert outages.scripted(1.0e6, np.arange(3)).all()
     assert setup.params["EKF2_EV_CTRL"] == 9.0
@@ -120,7 +128,7 @@ def deck_flight(offshore):
         record_hz=0,
         seed=1,
         wind=setup.wind,
-        world_overrides=setup.world_overrides,
+        world=world_config(1, setup),
         params=setup.params,
     )
     out = {}
@@ -175,7 +183,7 @@ def test_a_gps_denied_world_flies_on_its_motion_capture():
         record_hz=0,
         seed=2,
         mocap_port=0,  # no datagrams: the poses are handed over below
-        world_overrides=setup.world_overrides,
+        world=world_config(1, setup),
         params=setup.params,
     )
     with Simulation(config) as sim:
