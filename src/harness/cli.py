@@ -34,11 +34,12 @@ from harness.client_links import parse_udp_out
 from harness.endpoint_table import VehicleEndpoints, endpoint_table
 from harness.kernels import forbid_compiles_if_requested
 from harness.launch import StopFlag, console, open_simulation, run_dir_of
-from harness.link_options import NO_LINK, check_link_model, describe, links_config
+from harness.link_models import NO_LINK, check_link_model, describe, links_config
 from harness.lockstep import LOCKSTEP, ClockAcks, fleet_gate, run_gated
-from harness.net_cli import attach, cloud, net_demo, node_table, role_process, stop_processes
-from harness.net_cli import write_report as write_net_report
+from harness.net_cli import cloud, net_demo
 from harness.net_plan import NetPlan, NetRun, parse_roles
+from harness.net_roles import attach, node_table, role_process, stop_processes
+from harness.net_roles import write_report as write_net_report
 from harness.param_options import CLIENT_PARAMS_FILE, PARAMS_HELP
 from harness.params_cli import load_params_or_exit, params_app, print_params_load
 from harness.replay_cli import replay

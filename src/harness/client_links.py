@@ -35,7 +35,7 @@ from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.mavlink.transport import PtyTransport
-from harness.link_options import SERIAL, datarate_bytes_s, links_config, mavlink_shaper
+from harness.link_models import SERIAL, datarate_bytes_s, links_config, mavlink_shaper
 
 if TYPE_CHECKING:
     from harness.simulation import Simulation

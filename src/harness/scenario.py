@@ -26,7 +26,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 import worlds
 from autopilot_emu.params import ParamStore
 from harness.companion_args import DeclarationError, check_args, declared_params, program_module
-from harness.link_options import check_link_model, links_config
+from harness.link_models import check_link_model, links_config
 from harness.net_plan import VEHICLE_ROLES
 from harness.suggest import did_you_mean
 from sitl.power.loads import LOAD_PRESETS

@@ -32,7 +32,7 @@ from autopilot_emu.params import MAV_PARAM_TYPE_INT32, ParamError, ParamStore
 from autopilot_emu.rangefinder import ROTATION_DOWNWARD
 from harness.autopilot_side import AutopilotSide, FleetSide, HilSide, Readings
 from harness.client_links import UdpOut, client_links
-from harness.link_options import (
+from harness.link_models import (
     GCS,
     NO_LINK,
     ONBOARD,
@@ -198,7 +198,7 @@ class SimulationConfig:
     make large swarms faster (PX4: ``mavlink stream -r``)."""
     onboard_link: str = NO_LINK
     """Link model of every companion <-> autopilot (onboard) link: a preset of the link file
-    (``uart``: 921600 baud, see ``harness.link_options``); ``none``: plain UDP."""
+    (``uart``: 921600 baud, see ``harness.link_models``); ``none``: plain UDP."""
     gcs_link: str = NO_LINK
     """Link model of every ground-station link (``sik``: a 57600-baud telemetry radio)."""
     link_datarate_bytes_s: float | None = None

@@ -29,7 +29,7 @@ from companion.net.node import Node
 from companion.net.transport import PortTransport
 from companion.scenario_env import ScenarioEnv
 from harness.fleet_spawn import fleet_spawn
-from harness.link_options import links_config
+from harness.link_models import links_config
 from harness.run_report import plot_tracks, quantity
 from harness.run_totals import fleet_totals, metric_checks, versions
 from harness.scenario import Scenario, ScenarioError

@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 
 from autopilot_emu.mavlink.streams import StreamProfile
 from harness.cli import app
-from harness.link_options import (
+from harness.link_models import (
     datarate_bytes_s,
     link_models,
     links_config,
