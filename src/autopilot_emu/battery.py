@@ -36,6 +36,7 @@ from autopilot_emu.battery_kernel import (
     VOLTAGE_FILTER_TAU_S,
     battery_kernel,
 )
+from autopilot_emu.params import ParamStore, param_column
 
 __all__ = [
     "FUSION_GAIN",
@@ -60,6 +61,17 @@ class BatteryParams:
     v_empty: np.ndarray
     v_charged: np.ndarray
     r_internal: np.ndarray
+
+    @classmethod
+    def from_params(cls, params: list[ParamStore]) -> BatteryParams:
+        """Read the parameters of every vehicle."""
+        return cls(
+            n_cells=param_column(params, "BAT1_N_CELLS"),
+            capacity_mah=param_column(params, "BAT1_CAPACITY"),
+            v_empty=param_column(params, "BAT1_V_EMPTY"),
+            v_charged=param_column(params, "BAT1_V_CHARGED"),
+            r_internal=param_column(params, "BAT1_R_INTERNAL"),
+        )
 
 
 class FleetBattery:

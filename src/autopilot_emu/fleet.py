@@ -4,8 +4,10 @@ Inputs and outputs are the PX4 simulator messages (pymavlink objects): HIL_SENSO
 rate, HIL_GPS at the GPS rate and BATTERY_STATUS (the power module's voltage and current) in,
 HIL_ACTUATOR_CONTROLS out, one per vehicle. Whether they come
 from PyBullet in memory or from a socket makes no difference here. Each IMU sample runs estimator
-prediction, attitude and rate control and the mixer for the whole fleet in numpy; navigation
-(commander + position control) runs at ``nav_hz``.
+prediction and the inner control loop (attitude, rate control, mixer) for the whole fleet;
+navigation (commanders, hover-thrust estimator, trajectory and position control) runs at
+``nav_hz``. Each control loop of :mod:`autopilot_emu.control` owns its state and gains; the
+fleet wires their inputs and outputs.
 """
 
 from __future__ import annotations
@@ -22,18 +24,11 @@ from autopilot_emu import geodesy, magnetic_declination
 from autopilot_emu import quaternion as quat
 from autopilot_emu.battery import BatteryParams, FleetBattery
 from autopilot_emu.commander import Commander, Home, NavInput, NavOutput
-from autopilot_emu.control.hover_thrust import HoverThrustEstimator, HoverThrustParams
-from autopilot_emu.control.hover_thrust_kernel import hover_thrust_tick_kernel
-from autopilot_emu.control.inner_loop_kernel import inner_loop_kernel
-from autopilot_emu.control.mixer import MAX_ROTORS, Mixer, RotorGeometry
-from autopilot_emu.control.nav_kernel import nav_kernel
-from autopilot_emu.control.position import PositionController, PositionGains, PositionSetpoint
-from autopilot_emu.control.rate import RateController
-from autopilot_emu.control.trajectory import (
-    JerkLimitedTrajectory,
-    TrajectoryLimits,
-    load_hold_point_kernel,
-)
+from autopilot_emu.control.hover_thrust import HoverThrustLoop, HoverThrustParams
+from autopilot_emu.control.inner_loop import InnerLoop
+from autopilot_emu.control.mixer import MAX_ROTORS
+from autopilot_emu.control.nav import NavGains, NavLoop, PositionSetpoint
+from autopilot_emu.control.trajectory import load_hold_point_kernel
 from autopilot_emu.estimator import EstimatorConfig, FleetEstimator
 from autopilot_emu.hil_sensor_kernel import hil_sensor_kernel
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
@@ -47,7 +42,7 @@ from autopilot_emu.modes.offboard import (
     OffboardSetpoint,
     to_local_ned,
 )
-from autopilot_emu.params import ParamStore, param_column
+from autopilot_emu.params import ParamStore
 from autopilot_emu.rangefinder import FleetRangefinders
 from autopilot_emu.telemetry import FleetTelemetry
 from autopilot_emu.terrain import FleetTerrain, TerrainParams
@@ -98,28 +93,21 @@ class AutopilotFleet:
             raise ValueError(f"expected {n} parameter stores, got {len(self.params)}")
         self.estimator = FleetEstimator(n, config.estimator)
         self.commanders = [Commander(p) for p in self.params]
-        self.position_control = PositionController(n)
-        self.trajectory = JerkLimitedTrajectory(n)
-        """Auto-mode setpoint smoothing between the commander and the position controller."""
+        self.nav_loop = NavLoop(n, NavGains.from_params(self.params))
+        """Trajectory smoothing and position control, at ``nav_hz``."""
+        self.hover_thrust_loop = HoverThrustLoop(n)
+        """PX4's mc_hover_thrust_estimator, at ``nav_hz`` (parameters set at the first message)."""
+        self.inner_loop = InnerLoop.from_params(self.params)
+        """Attitude, rate control and mixer, at each IMU sample."""
         self._smooth = np.zeros(n, dtype=bool)
         """Vehicles whose commander asks for a smoothed target (auto modes)."""
-        self._smoothing = np.zeros(n, dtype=bool)
-        """Vehicles whose position controller tracked the trajectory at the last tick."""
         for i, cmd in enumerate(self.commanders):
-            cmd.trajectory_state = functools.partial(self._trajectory_state, i)
+            cmd.trajectory_state = functools.partial(self.nav_loop.trajectory_state, i)
         load_hold_point_kernel()  # not at the first Hold, mid-flight
-        self.rate_control = RateController(n)
-        self.mixer = Mixer([RotorGeometry.from_params(p) for p in self.params])
         self.battery = FleetBattery(n)
         self.time_usec = 0
-        self.thrust = np.zeros(n)
-        self.outputs = np.zeros((n, MAX_ROTORS))
-        """Motor outputs 0..1 in PX4's output order, (N, MAX_ROTORS); unused outputs 0."""
         self.active = np.zeros(n, dtype=bool)
         self.armed = np.zeros(n, dtype=bool)
-        self.q_sp = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
-        self.rate_sp = np.zeros((n, 3))
-        """Body-rate setpoints of the attitude loop, (N, 3) rad/s."""
         self.last_sensors: list[mavlink2.MAVLink_hil_sensor_message] | None = None
         """The last HIL_SENSOR of each vehicle (HIGHRES_IMU)."""
         self.last_gps: list[mavlink2.MAVLink_hil_gps_message | None] = [None] * n
@@ -130,15 +118,8 @@ class AutopilotFleet:
         self._sp = PositionSetpoint.hold(n)
         self._nav_period_s = 1.0 / config.nav_hz
         self._nav_accum_s = self._nav_period_s  # run navigation on the first sample
-        self._param_versions: list[int] = []
-        self._gains: _Gains | None = None
-        self.hover_thrust_estimator: HoverThrustEstimator | None = None
-        """PX4's mc_hover_thrust_estimator for each vehicle (built with the gains)."""
-        self.hover_thrust = np.zeros(n)
-        """Hover thrust the position controller uses: the last valid estimate since arming, else
-        MPC_THR_HOVER, (N,) 0..1."""
-        self.hover_thrust_learned = np.zeros(n, dtype=bool)
-        """The hover-thrust estimator has been valid since arming: ``hover_thrust`` is learned."""
+        self._param_versions: list[int] | None = None
+        """ParamStore versions the loops' gains were read at (None: not yet)."""
         self._controls_tail = [0.0] * (16 - MAX_ROTORS)
         """HIL_ACTUATOR_CONTROLS entries after the motor outputs (always 0)."""
         self._pressure_alt_m = np.zeros(n)
@@ -146,7 +127,6 @@ class AutopilotFleet:
         """Local projection scale of each vehicle's EKF origin (lat, lon), m/deg."""
         self._att_target_q = np.full((n, 4), np.nan)
         """Offboard attitude setpoints (NaN rows: none)."""
-        self._overridden = np.zeros(n, dtype=bool)
         self._att_target_thrust = np.full(n, np.nan)
         """Offboard collective thrust of attitude / rate setpoints (NaN: position control)."""
         self._rate_target = np.full((n, 3), np.nan)
@@ -186,14 +166,24 @@ class AutopilotFleet:
             est.align_heading(acc, mag, has_mag & ~est.attitude_ok)
         est.update_sensors(acc, gyro, dt, mag, has_mag, baro, has_baro)  # mag, IMU, baro
 
-        gains = self._refresh_gains()
+        self._refresh_params()
         self._nav_accum_s += dt
         if self._nav_accum_s >= self._nav_period_s - 1e-9:
             est.update_acceleration(self._nav_accum_s)
-            self._update_hover_thrust(self._nav_accum_s, gains)
-            self._navigate(self._nav_accum_s, gains)
+            self._update_hover_thrust(self._nav_accum_s)
+            self._navigate(self._nav_accum_s)
             self._nav_accum_s = 0.0
-        self._control(dt, gains)
+        self.inner_loop.step(
+            q=est.q,
+            rates_rad_s=est.rates_rad_s,
+            q_sp=self.nav_loop.state.q_sp,
+            thrust=self.nav_loop.state.thrust,
+            overridden=self.nav_loop.state.overridden,
+            rate_target_rad_s=self._rate_target,
+            dt_s=dt,
+            active=self.active,
+            armed=self.armed,
+        )
         return self._actuator_messages(t_usec)
 
     def handle_battery(self, msgs: list[mavlink2.MAVLink_battery_status_message]) -> None:
@@ -202,7 +192,7 @@ class AutopilotFleet:
         The pack voltage is the sum of the valid cell entries (a power module reports it whole
         in cell 0); a current of -1 is unknown.
         """
-        self._refresh_gains()
+        self._refresh_params()
         volts = np.array([sum(c for c in m.voltages if c != _NO_CELL) * 1e-3 for m in msgs])
         amps = np.array([m.current_battery * 0.01 for m in msgs], dtype=float)
         self.battery.update(volts, amps, self.time_usec * 1e-6)
@@ -215,7 +205,7 @@ class AutopilotFleet:
         Each becomes that sensor's latest reading (forwarded on the vehicle's MAVLink links); a
         downward-facing one also feeds the terrain estimate (``autopilot_emu.terrain``).
         """
-        self._refresh_gains()
+        self._refresh_params()
         new_down = self.rangefinders.update(msgs)
         if new_down.any() and self.terrain_params is not None:
             est, rf = self.estimator, self.rangefinders
@@ -274,18 +264,19 @@ class AutopilotFleet:
             )
 
     # -- loops ------------------------------------------------------------------------------------
-    def _navigate(self, dt: float, gains: _Gains) -> None:
+    def _navigate(self, dt: float) -> None:
         est = self.estimator
         pos, vel = est.position_ned_m, est.velocity_ned_m_s
         yaw = quat.yaw_of(est.r).tolist()
         ok = est.position_ok.tolist()
         origin = est.origin_lla.tolist()
         origin_set = est.origin_set.tolist()
-        thrust = self.thrust.tolist()
+        thrust = self.nav_loop.state.thrust.tolist()
         remaining = self.battery.remaining.tolist()
         # The commander gets the learned hover thrust only (NaN until the estimator is valid):
         # its land detector must not judge "low thrust" against the MPC_THR_HOVER guess.
-        hover = np.where(self.hover_thrust_learned, self.hover_thrust, np.nan).tolist()
+        hts = self.hover_thrust_loop.state
+        hover = np.where(hts.learned, hts.in_use, np.nan).tolist()
         sp = self._sp
         time_s = est.time_s
         for i, cmd in enumerate(self.commanders):
@@ -320,118 +311,103 @@ class AutopilotFleet:
             self.active[i] = out.active
             self._smooth[i] = out.smooth
             self.armed[i] = cmd.armed
-        self._control_positions(pos, vel, dt, gains)
+        self.nav_loop.step(
+            setpoint=sp,
+            smooth=self._smooth,
+            hover_thrust=self.hover_thrust_loop.state.in_use,
+            position_ned_m=pos,
+            velocity_ned_m_s=vel,
+            dt_s=dt,
+            active=self.active,
+            attitude_target=self._att_target_q,
+            thrust_target=self._att_target_thrust,
+            rate_integral=self.inner_loop.state.rate_integral,
+        )
 
-    def _trajectory_state(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """Vehicle i's smoothed setpoint (position, velocity, acceleration), None if unsmoothed."""
-        if not self._smoothing[i]:
-            return None
-        t = self.trajectory
-        return t.position_m[i], t.velocity_m_s[i], t.acceleration_m_s2[i]
-
-    def _control_positions(
-        self, pos: np.ndarray, vel: np.ndarray, dt: float, gains: _Gains
-    ) -> None:
-        """Trajectory smoothing, position control and offboard overrides: one compiled call.
-
-        Auto-mode targets are replaced by the jerk-limited trajectory's state (position on the
-        axes the commander controls by position, velocity and acceleration as feed-forward), and
-        the controller's own limits become MPC_XY_VEL_MAX / MPC_Z_VEL_MAX_UP / _DN, as in PX4, so
-        that it can catch up with the trajectory. Idle vehicles restart their position and rate
-        controllers; offboard attitude / thrust setpoints replace the position loop's output.
-        """
-        sp, traj, pc = self._sp, self.trajectory, self.position_control
-        nav_kernel(
-            sp.position_ned_m, sp.velocity_ff_m_s, sp.yaw_rad, sp.max_speed_xy_m_s,
-            sp.max_speed_up_m_s, sp.max_speed_down_m_s, sp.acceleration_ff_m_s2, sp.smoothed,
-            gains.limits_packed, traj.position_m, traj.velocity_m_s, traj.acceleration_m_s2,
-            self._smooth, self._smoothing,
-            gains.position_axes, gains.position_vehicle, self.hover_thrust,
-            pc.vel_int, pc.vel_sp, pc._prev_vel, self.rate_control.integral,
-            pos, vel, dt, self.active,
-            self._att_target_q, self._att_target_thrust,
-            self.q_sp, self.thrust, self._overridden,
-        )  # fmt: skip
-
-    def _update_hover_thrust(self, dt: float, gains: _Gains) -> None:
+    def _update_hover_thrust(self, dt: float) -> None:
         """Fuse one sample into the hover-thrust estimators; hand the result to the controller.
 
         Inputs are the autopilot's own: the estimated vertical acceleration and the upward part
-        of the last collective thrust command. Until an estimate is valid the controller uses
-        MPC_THR_HOVER; afterwards the last valid estimate (PX4 keeps it while a manoeuvre makes
-        the estimate invalid). When the value in use changes, the vertical velocity integrator
-        absorbs the change so the thrust stays continuous (as PX4's updateHoverThrust).
+        of the last collective thrust command (see :mod:`autopilot_emu.control.hover_thrust`).
         """
-        hte = self.hover_thrust_estimator
-        assert hte is not None
-        est, p, pc = self.estimator, hte.params, self.position_control
+        est = self.estimator
         flying = np.array(
             [c.in_air and c.landed_state != LandedState.TAKEOFF for c in self.commanders]
         )
-        hover_thrust_tick_kernel(
-            flying, self.armed, est.accel_ned_m_s2, self.thrust, est.r, est.velocity_ned_m_s,
-            dt, p.initial, p.process_noise, p.gate, p.error_init, p.range,
-            p.vxy_threshold_m_s, p.vz_threshold_m_s, hte.hover_thrust, hte.variance,
-            hte.acc_variance, hte.residual_lpf, hte.ratio_lpf, hte.valid, hte._good_for_s,
-            self.hover_thrust_learned, self.hover_thrust, pc.vel_int,
-        )  # fmt: skip
-
-    def _control(self, dt: float, gains: _Gains) -> None:
-        """Attitude, rate control and mixer of every vehicle: one compiled call per IMU sample."""
-        est, rc, mixer = self.estimator, self.rate_control, self.mixer
-        inner_loop_kernel(
-            est.q, est.rates_rad_s, self.q_sp, self.thrust, gains.inner, self._overridden,
-            self._rate_target, dt, self.active, self.armed, rc.integrator_limit, rc.integral,
-            rc._prev_rates, mixer.matrix, mixer.thrust_column, mixer.used, mixer.idle_output,
-            self.rate_sp, self.outputs,
-        )  # fmt: skip
+        self.hover_thrust_loop.step(
+            flying=flying,
+            armed=self.armed,
+            accel_ned_m_s2=est.accel_ned_m_s2,
+            thrust=self.nav_loop.state.thrust,
+            rotation=est.r,
+            velocity_ned_m_s=est.velocity_ned_m_s,
+            dt_s=dt,
+            velocity_integral=self.nav_loop.state.velocity_integral,
+        )
 
     def _actuator_messages(
         self, t_usec: int
     ) -> list[mavlink2.MAVLink_hil_actuator_controls_message]:
         build = mavlink2.MAVLink_hil_actuator_controls_message
         # float32, as HIL_ACTUATOR_CONTROLS carries them: in memory or packed, the same numbers.
-        outputs = self.outputs.astype(np.float32).tolist()
+        outputs = self.inner_loop.state.outputs.astype(np.float32).tolist()
         armed, tail = self.armed.tolist(), self._controls_tail
         return [
             build(t_usec, outputs[i] + tail, _MODE_ARMED if armed[i] else _MODE_DISARMED, 0)
             for i in range(self.n)
         ]
 
-    def _refresh_gains(self) -> _Gains:
+    def _refresh_params(self) -> None:
+        """Re-read every part's parameters when a vehicle's ParamStore changed."""
         versions = list(map(_VERSION, self.params))
-        if versions != self._param_versions or self._gains is None:
-            self.estimator.set_params(self.params)
-            self._gains = _Gains.from_params(self.params)
-            self._param_versions = versions
-            est = self.estimator
-            est.set_declination(
-                magnetic_declination.declinations_deg(self.params, est.origin_lla, est.origin_set)
-            )
-            self.battery.set_params(_battery_params(self.params))
-            self.terrain_params = TerrainParams.from_params(self.params)
-            hte_params = _hover_thrust_params(self.params)
-            if self.hover_thrust_estimator is None:
-                self.hover_thrust_estimator = HoverThrustEstimator(hte_params)
-            else:
-                self.hover_thrust_estimator.set_params(hte_params)
-            if not self.hover_thrust.any():
-                self.hover_thrust = hte_params.initial.copy()
-            self._gains.position.hover_thrust = self.hover_thrust
-            self._gains.hover_thrust = self.hover_thrust
-            geometries = [RotorGeometry.from_params(p) for p in self.params]
-            if any(
-                g.moment_ratio_m.tolist() != o.moment_ratio_m.tolist()
-                or g.position_m.tolist() != o.position_m.tolist()
-                for g, o in zip(geometries, self.mixer.geometries, strict=True)
-            ):
-                self.mixer = Mixer(geometries, self.mixer.idle_output)
-        return self._gains
+        if versions == self._param_versions:
+            return
+        self._param_versions = versions
+        params, est = self.params, self.estimator
+        est.set_params(params)
+        self.nav_loop.gains = NavGains.from_params(params)
+        est.set_declination(
+            magnetic_declination.declinations_deg(params, est.origin_lla, est.origin_set)
+        )
+        self.battery.set_params(BatteryParams.from_params(params))
+        self.terrain_params = TerrainParams.from_params(params)
+        self.hover_thrust_loop.set_params(HoverThrustParams.from_params(params))
+        self.inner_loop.set_params(params)
 
     @property
     def setpoint(self) -> PositionSetpoint:
         """What the position controller tracks, (N, ...) arrays (NaN position: not controlled)."""
         return self._sp
+
+    @property
+    def velocity_sp(self) -> np.ndarray:
+        """Velocity setpoints of the position controller, (N, 3) m/s NED."""
+        return self.nav_loop.state.velocity_sp_m_s
+
+    @property
+    def q_sp(self) -> np.ndarray:
+        """Attitude setpoints, (N, 4) wxyz."""
+        return self.nav_loop.state.q_sp
+
+    @property
+    def thrust(self) -> np.ndarray:
+        """Collective thrust setpoints, (N,) 0..1."""
+        return self.nav_loop.state.thrust
+
+    @property
+    def rate_sp(self) -> np.ndarray:
+        """Body-rate setpoints of the attitude loop (or offboard), (N, 3) rad/s."""
+        return self.inner_loop.state.rate_sp_rad_s
+
+    @property
+    def outputs(self) -> np.ndarray:
+        """Motor outputs 0..1 in PX4's output order, (N, MAX_ROTORS); unused outputs 0."""
+        return self.inner_loop.state.outputs
+
+    @property
+    def hover_thrust(self) -> np.ndarray:
+        """Hover thrust the position controller uses, (N,) 0..1 (see ``HoverThrustState``)."""
+        return self.hover_thrust_loop.state.in_use
 
     # -- per-vehicle views ---------------------------------------------------------------------
     def vehicle(self, i: int) -> FleetVehicle:
@@ -444,8 +420,8 @@ class AutopilotFleet:
         self.armed[i] = cmd.armed
         if not cmd.armed:
             self.active[i] = False
-            self.outputs[i] = 0.0
-            self.thrust[i] = 0.0
+            self.inner_loop.state.outputs[i] = 0.0
+            self.nav_loop.state.thrust[i] = 0.0
 
     def handle_vision(
         self,
@@ -486,112 +462,6 @@ class AutopilotFleet:
         if not 0.0 <= age <= 0.5:
             age = 0.0
         self.estimator.update_vision(mask, pos, pos_var, yaw, yaw_var, vel, vel_var, age)
-
-
-def _hover_thrust_params(params: list[ParamStore]) -> HoverThrustParams:
-    def col(name: str) -> np.ndarray:
-        return param_column(params, name)
-
-    return HoverThrustParams(
-        initial=col("MPC_THR_HOVER"),
-        process_noise=col("HTE_HT_NOISE"),
-        gate=col("HTE_ACC_GATE"),
-        error_init=col("HTE_HT_ERR_INIT"),
-        vxy_threshold_m_s=col("HTE_VXY_THR"),
-        vz_threshold_m_s=col("HTE_VZ_THR"),
-        range=col("HTE_THR_RANGE"),
-    )
-
-
-def _battery_params(params: list[ParamStore]) -> BatteryParams:
-    def col(name: str) -> np.ndarray:
-        return param_column(params, name)
-
-    return BatteryParams(
-        n_cells=col("BAT1_N_CELLS"),
-        capacity_mah=col("BAT1_CAPACITY"),
-        v_empty=col("BAT1_V_EMPTY"),
-        v_charged=col("BAT1_V_CHARGED"),
-        r_internal=col("BAT1_R_INTERNAL"),
-    )
-
-
-@dataclass
-class _Gains:
-    position: PositionGains
-    att_p: np.ndarray
-    rate_p: np.ndarray
-    rate_i: np.ndarray
-    rate_d: np.ndarray
-    rate_max: np.ndarray
-    hover_thrust: np.ndarray
-    limits: TrajectoryLimits
-    """Trajectory acceleration, jerk and error limits; its speeds are the controller's own
-    (MPC_XY_VEL_MAX, MPC_Z_VEL_MAX_UP / _DN): the trajectory's come from the commander."""
-    inner: np.ndarray = field(init=False)
-    """(5, N, 3) att_p, rate_max, rate_p, rate_i, rate_d stacked for ``inner_loop_kernel``."""
-    position_axes: np.ndarray = field(init=False)
-    """(4, N, 3) pos_p, vel_p, vel_i, vel_d stacked for ``nav_kernel``."""
-    position_vehicle: np.ndarray = field(init=False)
-    """(3, N) tilt_max_rad, cos_tilt_max, acc_hor_max_m_s2 stacked for ``nav_kernel``."""
-    limits_packed: np.ndarray = field(init=False)
-    """(8, N) the ``limits`` fields in declaration order, for ``nav_kernel``."""
-
-    def __post_init__(self) -> None:
-        # Kernel arguments cost per array: stack what only changes with the parameters.
-        self.inner = np.stack((self.att_p, self.rate_max, self.rate_p, self.rate_i, self.rate_d))
-        g, lim = self.position, self.limits
-        self.position_axes = np.stack((g.pos_p, g.vel_p, g.vel_i, g.vel_d))
-        self.position_vehicle = np.stack((g.tilt_max_rad, g.cos_tilt_max, g.acc_hor_max_m_s2))
-        self.limits_packed = np.stack(
-            (
-                lim.speed_xy_m_s, lim.speed_up_m_s, lim.speed_down_m_s, lim.acc_xy_m_s2,
-                lim.acc_up_m_s2, lim.acc_down_m_s2, lim.jerk_m_s3, lim.error_max_m,
-            )
-        )  # fmt: skip
-
-    @classmethod
-    def from_params(cls, params: list[ParamStore]) -> _Gains:
-        def col(name: str) -> np.ndarray:
-            return param_column(params, name)
-
-        def rpy(fmt: str) -> np.ndarray:
-            return np.stack([col(fmt.format(a)) for a in ("ROLL", "PITCH", "YAW")], axis=1)
-
-        hover = col("MPC_THR_HOVER")
-        xyz = ("MPC_XY_{}", "MPC_XY_{}", "MPC_Z_{}")
-
-        def axes(suffix: str) -> np.ndarray:
-            return np.stack([col(fmt.format(suffix)) for fmt in xyz], axis=1)
-
-        position = PositionGains(
-            pos_p=axes("P"),
-            vel_p=axes("VEL_P_ACC"),
-            vel_i=axes("VEL_I_ACC"),
-            vel_d=axes("VEL_D_ACC"),
-            hover_thrust=hover,
-            tilt_max_rad=np.radians(col("MPC_TILTMAX_AIR")),
-            acc_hor_max_m_s2=col("MPC_ACC_HOR"),
-        )
-        return cls(
-            position=position,
-            att_p=rpy("MC_{}_P"),
-            rate_p=rpy("MC_{}RATE_P"),
-            rate_i=rpy("MC_{}RATE_I"),
-            rate_d=rpy("MC_{}RATE_D"),
-            rate_max=np.radians(rpy("MC_{}RATE_MAX")),
-            hover_thrust=hover,
-            limits=TrajectoryLimits(
-                speed_xy_m_s=col("MPC_XY_VEL_MAX"),
-                speed_up_m_s=col("MPC_Z_VEL_MAX_UP"),
-                speed_down_m_s=col("MPC_Z_VEL_MAX_DN"),
-                acc_xy_m_s2=col("MPC_ACC_HOR"),
-                acc_up_m_s2=col("MPC_ACC_UP_MAX"),
-                acc_down_m_s2=col("MPC_ACC_DOWN_MAX"),
-                jerk_m_s3=col("MPC_JERK_AUTO"),
-                error_max_m=col("MPC_XY_ERR_MAX"),
-            ),
-        )
 
 
 class FleetVehicle:

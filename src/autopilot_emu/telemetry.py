@@ -170,7 +170,7 @@ class FleetTelemetry:
             rows = self._setpoints = np.concatenate(
                 (
                     f.setpoint.position_ned_m,
-                    f.position_control.vel_sp,
+                    f.velocity_sp,
                     f.setpoint.yaw_rad[:, None],
                     f.q_sp,
                     f.rate_sp,

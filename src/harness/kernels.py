@@ -70,11 +70,7 @@ _NAV = (
     F2, F2, F1, F1, F1, F1, F2, B1, F2, F2, F2, F2, B1, B1, F3, F2, F1, F2, F2, F2, F2, F2, F2, F,
     B1, F2, F1, F2, F1, B1,
 )  # fmt: skip
-_POSITION = (
-    F2, F2, F1, F1, F1, F1, F2, B1, F2, F2, F2, F2, F1, F1, F1, F1, F2, F2, F, B1, F2, F2, F2, F2,
-    F1,
-)  # fmt: skip
-"""The argument lists too long for one line."""
+"""The argument list too long for one line."""
 
 
 SIGNATURES: dict[str, tuple[Signature, ...]] = {
@@ -109,23 +105,6 @@ SIGNATURES: dict[str, tuple[Signature, ...]] = {
         (B1, B1, F2, F1, F3, F2, F, *(F1,) * 12, B1, F1, B1, F1, F2),
     ),
     "autopilot_emu.control.trajectory_kernel:hold_point_kernel": ((F1, F1, F1, F1, F, F, F),),
-    # -- autopilot: the parts' own entry points (the classes' methods; the fleet runs the fused
-    # kernels above, the unit tests and benchmarks these) ---------------------------------------
-    "autopilot_emu.control.attitude_kernel:attitude_rate_kernel": ((F2, F2, F2, F2, F1, BOOL, F2),),
-    "autopilot_emu.control.rate_kernel:rate_pid_kernel": (
-        (F2, F2, F2, F2, F2, F, B1, F, F2, F2, F2),
-    ),
-    "autopilot_emu.control.mixer_kernel:mix_kernel": ((F2, F1, F3, F2, B2, F, F2),),
-    "autopilot_emu.control.position_kernel:position_kernel": (_POSITION,),
-    "autopilot_emu.control.trajectory_kernel:trajectory_kernel": (
-        (F2, F2, F1, F1, F1, F1, F1, F1, F1, F1, F2, F, F2, F2, F2),
-    ),
-    "autopilot_emu.control.hover_thrust_kernel:hover_thrust_kernel": (
-        (B1, F1, F1, F2, F, *(F1,) * 11, B1, F1),
-    ),
-    "autopilot_emu.control.hover_thrust_kernel:reset_kernel": (
-        (B1, F1, F1, F1, F1, F1, F1, F1, B1, F1),
-    ),
     "autopilot_emu.nan_scalar:fmin": ((F, F),),
     "autopilot_emu.nan_scalar:fmax": ((F, F),),
     "autopilot_emu.nan_scalar:clamp": ((F, F, F),),

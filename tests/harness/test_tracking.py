@@ -237,7 +237,7 @@ def test_a_hexa_and_a_quad_fly_through_their_own_mixers_and_learn_their_hover_th
     )
     try:
         fleet = sim.fleet
-        assert list(fleet.mixer.rotor_counts) == [6, 4]
+        assert list(fleet.inner_loop.mixer.rotor_counts) == [6, 4]
         sim.run_lockstep(3.0)
         for i in (0, 1):
             v = fleet.vehicle(i)
@@ -248,7 +248,7 @@ def test_a_hexa_and_a_quad_fly_through_their_own_mixers_and_learn_their_hover_th
             sim.run_lockstep(0.1)
             thrust.append(fleet.thrust.copy())
         held = np.mean(thrust, axis=0)
-        assert fleet.hover_thrust_estimator.valid.all()
+        assert fleet.hover_thrust_loop.state.valid.all()
         np.testing.assert_allclose(fleet.hover_thrust, held, rtol=0.05)
         start = sim.world.truth.position_enu_m[:, 1].copy()
         cruise = 5.0

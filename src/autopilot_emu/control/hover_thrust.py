@@ -1,4 +1,4 @@
-"""Hover-thrust estimator, batched over the fleet: learns MPC_THR_HOVER in flight.
+"""Hover-thrust estimator loop, batched over the fleet: learns MPC_THR_HOVER in flight.
 
 As PX4's mc_hover_thrust_estimator (zero-order hover-thrust EKF): one state, the hover thrust
 h, assumed constant (process noise HTE_HT_NOISE). In the air, each navigation tick fuses the
@@ -12,7 +12,11 @@ with speed (drag and prop wash bias the model). The estimate is bounded to MPC_T
 HTE_THR_RANGE (and 0.1..0.9), and becomes *valid* once its variance stays below 0.001 for 2 s;
 disarmed, it restarts from MPC_THR_HOVER with the standard deviation HTE_HT_ERR_INIT.
 
-The acceleration comes from the autopilot's own estimate, never from simulator truth.
+The hover thrust the position controller uses is the last valid estimate since arming, else
+MPC_THR_HOVER; when it changes, the vertical velocity integrator absorbs the change so the
+thrust stays continuous (as PX4's updateHoverThrust). The acceleration comes from the autopilot's
+own estimate, never from simulator truth. One entry point, :meth:`HoverThrustLoop.step`, runs
+``hover_thrust_kernel.hover_thrust_tick_kernel`` for the fleet.
 """
 
 from __future__ import annotations
@@ -24,14 +28,14 @@ import numpy as np
 from autopilot_emu.control.hover_thrust_kernel import (
     ACC_VAR_INIT,
     G_M_S2,
-    hover_thrust_kernel,
-    reset_kernel,
+    hover_thrust_tick_kernel,
 )
+from autopilot_emu.params import ParamStore, param_column
 
-__all__ = ["G_M_S2", "HoverThrustEstimator", "HoverThrustParams"]
+__all__ = ["G_M_S2", "HoverThrustLoop", "HoverThrustParams", "HoverThrustState"]
 
 
-@dataclass
+@dataclass(frozen=True)
 class HoverThrustParams:
     """Per-vehicle HTE_* and MPC_THR_HOVER values, (N,) arrays."""
 
@@ -44,64 +48,115 @@ class HoverThrustParams:
     error_init: np.ndarray
     """HTE_HT_ERR_INIT, 1-sigma, normalised thrust."""
     vxy_threshold_m_s: np.ndarray
-    """HTE_VXY_THR."""
+    """HTE_VXY_THR, m/s."""
     vz_threshold_m_s: np.ndarray
-    """HTE_VZ_THR."""
+    """HTE_VZ_THR, m/s."""
     range: np.ndarray
     """HTE_THR_RANGE: largest deviation of the estimate from MPC_THR_HOVER."""
 
+    @classmethod
+    def from_params(cls, params: list[ParamStore]) -> HoverThrustParams:
+        """Read the parameters of every vehicle."""
+        return cls(
+            initial=param_column(params, "MPC_THR_HOVER"),
+            process_noise=param_column(params, "HTE_HT_NOISE"),
+            gate=param_column(params, "HTE_ACC_GATE"),
+            error_init=param_column(params, "HTE_HT_ERR_INIT"),
+            vxy_threshold_m_s=param_column(params, "HTE_VXY_THR"),
+            vz_threshold_m_s=param_column(params, "HTE_VZ_THR"),
+            range=param_column(params, "HTE_THR_RANGE"),
+        )
 
-class HoverThrustEstimator:
-    """One-state Kalman filter on the hover thrust of each of N vehicles."""
 
-    def __init__(self, params: HoverThrustParams) -> None:
-        n = len(params.initial)
-        self.params = params
-        self.hover_thrust = params.initial.copy()
-        self.variance = np.asarray(params.error_init, dtype=np.float64) ** 2
-        self.acc_variance = np.full(n, ACC_VAR_INIT)
-        self.residual_lpf = np.zeros(n)
-        self.ratio_lpf = np.zeros(n)
-        self.valid = np.zeros(n, dtype=bool)
-        self._good_for_s = np.zeros(n)
+@dataclass
+class HoverThrustState:
+    """The estimator of every vehicle and the hover thrust handed on, (N,) arrays."""
+
+    estimate: np.ndarray
+    """Hover-thrust estimate, normalised thrust."""
+    variance: np.ndarray
+    """Its variance, (normalised thrust)²."""
+    acc_variance: np.ndarray
+    """Learned acceleration noise variance, (m/s²)²."""
+    residual_lpf: np.ndarray
+    """Low-passed acceleration residual, m/s²."""
+    ratio_lpf: np.ndarray
+    """Low-passed signed innovation test ratio."""
+    valid: np.ndarray
+    """The estimate is valid (its variance small for long enough)."""
+    good_for_s: np.ndarray
+    """How long the variance has been small, s."""
+    learned: np.ndarray
+    """The estimate has been valid since arming: ``in_use`` is learned."""
+    in_use: np.ndarray
+    """Hover thrust the position controller uses: the last valid estimate since arming, else
+    MPC_THR_HOVER; 0 before the first parameters."""
+
+    @classmethod
+    def zeros(cls, n: int) -> HoverThrustState:
+        """State of n vehicles before any parameters."""
+        return cls(
+            estimate=np.zeros(n),
+            variance=np.zeros(n),
+            acc_variance=np.full(n, ACC_VAR_INIT),
+            residual_lpf=np.zeros(n),
+            ratio_lpf=np.zeros(n),
+            valid=np.zeros(n, dtype=bool),
+            good_for_s=np.zeros(n),
+            learned=np.zeros(n, dtype=bool),
+            in_use=np.zeros(n),
+        )
+
+
+class HoverThrustLoop:
+    """One-state Kalman filter on the hover thrust of each of N vehicles, at the nav rate."""
+
+    def __init__(self, n: int) -> None:
+        self.state = HoverThrustState.zeros(n)
+        self.params: HoverThrustParams | None = None
+        """Set by :meth:`set_params` before the first step."""
 
     def set_params(self, params: HoverThrustParams) -> None:
-        """New parameters; a changed initial uncertainty resets the variance (as PX4)."""
-        changed = params.error_init != self.params.error_init
-        self.variance = np.where(changed, params.error_init**2, self.variance)
+        """New parameters (the first start the estimator), as PX4.
+
+        A changed initial uncertainty resets the variance; a hover thrust not yet in use starts
+        at MPC_THR_HOVER.
+        """
+        s, old = self.state, self.params
+        if old is None:
+            s.estimate[:] = params.initial
+            s.variance[:] = params.error_init**2
+        else:
+            np.copyto(s.variance, params.error_init**2, where=params.error_init != old.error_init)
         self.params = params
+        if not s.in_use.any():
+            s.in_use[:] = params.initial
 
-    def reset(self, mask: np.ndarray) -> None:
-        """Back to MPC_THR_HOVER with HTE_HT_ERR_INIT (on the ground, disarmed)."""
-        p = self.params
-        reset_kernel(
-            np.asarray(mask, dtype=np.bool_), _f64(p.initial), _f64(p.error_init),
-            self.hover_thrust, self.variance, self.acc_variance, self.residual_lpf,
-            self.ratio_lpf, self.valid, self._good_for_s,
-        )  # fmt: skip
-
-    def update(
+    def step(
         self,
-        active: np.ndarray,
-        acc_up_m_s2: np.ndarray,
-        thrust_up: np.ndarray,
+        *,
+        flying: np.ndarray,
+        armed: np.ndarray,
+        accel_ned_m_s2: np.ndarray,
+        thrust: np.ndarray,
+        rotation: np.ndarray,
         velocity_ned_m_s: np.ndarray,
         dt_s: float,
+        velocity_integral: np.ndarray,
     ) -> None:
-        """Predict and fuse one sample for the ``active`` (armed, in the air) vehicles.
+        """Fuse one sample per vehicle; update the hover thrust in use (``state.in_use``).
 
-        Compiled (``hover_thrust_kernel``); the state arrays are updated in place.
+        ``flying`` (N,) vehicles in the air past take-off; ``armed`` (N,), disarmed ones restart.
+        Estimated acceleration and velocity NED (N, 3), m/s² and m/s; the last collective thrust
+        command (N,) 0..1 and the attitude ``rotation`` (N, 3, 3) body -> NED give its upward
+        part. ``velocity_integral`` (N, 3), m/s², is the position controller's: its vertical
+        axis absorbs a change of the hover thrust in use.
         """
-        p = self.params
-        hover_thrust_kernel(
-            np.asarray(active, dtype=np.bool_), _f64(acc_up_m_s2), _f64(thrust_up),
-            _f64(velocity_ned_m_s), float(dt_s), _f64(p.initial), _f64(p.process_noise),
-            _f64(p.gate), _f64(p.range), _f64(p.vxy_threshold_m_s), _f64(p.vz_threshold_m_s),
-            self.hover_thrust, self.variance, self.acc_variance, self.residual_lpf,
-            self.ratio_lpf, self.valid, self._good_for_s,
+        p, s = self.params, self.state
+        assert p is not None, "set_params first"
+        hover_thrust_tick_kernel(
+            flying, armed, accel_ned_m_s2, thrust, rotation, velocity_ned_m_s, dt_s, p.initial,
+            p.process_noise, p.gate, p.error_init, p.range, p.vxy_threshold_m_s,
+            p.vz_threshold_m_s, s.estimate, s.variance, s.acc_variance, s.residual_lpf,
+            s.ratio_lpf, s.valid, s.good_for_s, s.learned, s.in_use, velocity_integral,
         )  # fmt: skip
-
-
-def _f64(a: np.ndarray) -> np.ndarray:
-    """C-contiguous float64 (one compiled signature for the kernels)."""
-    return np.ascontiguousarray(a, dtype=np.float64)

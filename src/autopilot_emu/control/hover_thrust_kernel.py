@@ -1,8 +1,9 @@
 """Compiled hover-thrust estimator step (see :mod:`autopilot_emu.control.hover_thrust`).
 
-One vehicle row at a time, shared by :meth:`HoverThrustEstimator.update` and the fleet's
-navigation-rate step (:func:`hover_thrust_tick_kernel`: reset of disarmed vehicles, the update,
-and the hand-over of a valid estimate to the position controller).
+One vehicle row at a time (:func:`reset_row`, :func:`update_row`), run for the fleet by
+:func:`hover_thrust_tick_kernel` (reset of disarmed vehicles, the update, and the hand-over of a
+valid estimate to the position controller), which
+:meth:`autopilot_emu.control.hover_thrust.HoverThrustLoop.step` calls.
 """
 
 from __future__ import annotations
@@ -40,21 +41,6 @@ def reset_row(
     ratio_lpf[i] = 0.0
     valid[i] = False
     good_for_s[i] = 0.0
-
-
-@numba.njit(cache=True, error_model="numpy")
-def reset_kernel(
-    mask: np.ndarray, initial: np.ndarray, error_init: np.ndarray, hover: np.ndarray,
-    variance: np.ndarray, acc_variance: np.ndarray, residual_lpf: np.ndarray,
-    ratio_lpf: np.ndarray, valid: np.ndarray, good_for_s: np.ndarray,
-) -> None:  # fmt: skip
-    """:func:`reset_row` for the vehicles in ``mask``."""
-    for i in range(hover.shape[0]):
-        if mask[i]:
-            reset_row(
-                i, initial, error_init, hover, variance, acc_variance, residual_lpf, ratio_lpf,
-                valid, good_for_s,
-            )  # fmt: skip
 
 
 @numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
@@ -109,24 +95,6 @@ def update_row(
     good = var_new < VALID_VAR and (valid[i] or passing)
     good_for_s[i] = good_for_s[i] + dt_s if good else 0.0
     valid[i] = good and (valid[i] or good_for_s[i] >= VALID_HOLD_S)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def hover_thrust_kernel(
-    active: np.ndarray, acc_up_m_s2: np.ndarray, thrust_up: np.ndarray,
-    velocity_ned_m_s: np.ndarray, dt_s: float, initial: np.ndarray, process_noise: np.ndarray,
-    gate: np.ndarray, thr_range: np.ndarray, vxy_threshold: np.ndarray,
-    vz_threshold: np.ndarray, hover: np.ndarray, variance: np.ndarray,
-    acc_variance: np.ndarray, residual_lpf: np.ndarray, ratio_lpf: np.ndarray,
-    valid: np.ndarray, good_for_s: np.ndarray,
-) -> None:  # fmt: skip
-    """:func:`update_row` for every vehicle."""
-    for i in range(hover.shape[0]):
-        update_row(
-            i, active[i], acc_up_m_s2[i], thrust_up[i], velocity_ned_m_s, dt_s, initial,
-            process_noise, gate, thr_range, vxy_threshold, vz_threshold, hover, variance,
-            acc_variance, residual_lpf, ratio_lpf, valid, good_for_s,
-        )  # fmt: skip
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -1,10 +1,8 @@
 """The fleet's per-IMU-sample control chain as one compiled call: attitude -> rates -> mixer.
 
-What :meth:`autopilot_emu.fleet.AutopilotFleet._control` runs at the IMU rate, fused so that a
-tick costs one kernel call whatever the fleet size. Built from the same row functions as the
-public :func:`~autopilot_emu.control.attitude.attitude_rate_setpoint`,
-:class:`~autopilot_emu.control.rate.RateController` and
-:class:`~autopilot_emu.control.mixer.Mixer`.
+What :meth:`autopilot_emu.control.inner_loop.InnerLoop.step` runs at the IMU rate, fused so that
+a tick costs one kernel call whatever the fleet size. Built from the row functions of
+:mod:`attitude_kernel`, :mod:`rate_kernel` and :mod:`mixer_kernel`.
 """
 
 from __future__ import annotations
@@ -15,7 +13,7 @@ import numba
 import numpy as np
 
 from autopilot_emu.control.attitude_kernel import attitude_rate_row
-from autopilot_emu.control.mixer_kernel import _desaturate_row, _fractions_row, _output_row
+from autopilot_emu.control.mixer_kernel import desaturate_row, fractions_row, output_row
 from autopilot_emu.control.rate_kernel import rate_pid_row
 from autopilot_emu.nan_scalar import fmax, fmin
 
@@ -53,7 +51,7 @@ def inner_loop_kernel(
     att_p, rate_max, rate_p, rate_i, rate_d = gains[0], gains[1], gains[2], gains[3], gains[4]
     torque = np.empty((n, 3))
     for i in range(n):
-        attitude_rate_row(i, q, q_sp, att_p, rate_max, thrust, False, rate_sp)
+        attitude_rate_row(i, q, q_sp, att_p, rate_max, rate_sp)
         if overridden[i]:
             for a in range(3):
                 r = rate_target[i, a] if math.isfinite(rate_target[i, a]) else rate_sp[i, a]
@@ -64,9 +62,9 @@ def inner_loop_kernel(
             integral, prev_rates, torque,
         )  # fmt: skip
     for i in range(n):
-        if _fractions_row(i, torque, thrust, matrix, thrust_column, outputs):
-            _desaturate_row(i, torque, thrust, matrix, thrust_column, used, outputs)
-        _output_row(i, used, idle_output, outputs)
+        if fractions_row(i, torque, thrust, matrix, thrust_column, outputs):
+            desaturate_row(i, torque, thrust, matrix, thrust_column, used, outputs)
+        output_row(i, used, idle_output, outputs)
         if not armed[i]:
             outputs[i, :] = 0.0
         elif not active[i]:

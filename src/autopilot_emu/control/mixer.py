@@ -9,6 +9,9 @@ its pseudo-inverse. Motor order is PX4's output order. Thrust is taken ∝ outpu
 output, thrust ∝ speed², i.e. THR_MDL_FAC = 1).
 
 Vehicles may have different rotor counts: outputs are (N, MAX_ROTORS) with unused outputs 0.
+The allocation runs in the inner loop (:class:`autopilot_emu.control.inner_loop.InnerLoop`,
+rows of ``mixer_kernel``): roll/pitch have priority; when a thrust fraction leaves 0..1 the
+collective thrust is shifted to keep them, and yaw is scaled into what is left.
 """
 
 from __future__ import annotations
@@ -17,7 +20,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from autopilot_emu.control.mixer_kernel import mix_kernel
 from autopilot_emu.params import ParamStore
 
 MAX_ROTORS = 8
@@ -68,7 +70,7 @@ class RotorGeometry:
 
 @dataclass
 class Mixer:
-    """Pseudo-inverse allocation with roll/pitch priority over yaw and thrust, per vehicle."""
+    """Pseudo-inverse allocation matrices of N vehicles, built from their rotor geometries."""
 
     geometries: list[RotorGeometry] = field(
         default_factory=lambda: [RotorGeometry.from_rows(TYPHOON_H480_ROTORS)]
@@ -81,8 +83,6 @@ class Mixer:
     """(N, MAX_ROTORS) collective thrust -> thrust fractions, mean 1 over the used rotors."""
     used: np.ndarray = field(init=False)
     """(N, MAX_ROTORS) outputs that drive a rotor."""
-    idle_outputs: np.ndarray = field(init=False)
-    """(N, MAX_ROTORS) armed-idle output: idle_output on used rotors, 0 elsewhere."""
     rotor_counts: np.ndarray = field(init=False)
     """(N,) rotors of each vehicle."""
 
@@ -101,23 +101,17 @@ class Mixer:
             self.matrix[i, :m] = mix[:, :3] / peak
             self.thrust_column[i, :m] = mix[:, 3] / mix[:, 3].mean()
             self.used[i, :m] = True
-        self.idle_outputs = self.idle_output * self.used.astype(float)
         self.rotor_counts = self.used.sum(axis=1)
 
-    def mix(self, torque: np.ndarray, thrust: np.ndarray) -> np.ndarray:
-        """Outputs (N, MAX_ROTORS) for torque (N, 3) in -1..1 and collective thrust (N,) 0..1.
+    @classmethod
+    def from_params(cls, params: list[ParamStore], idle_output: float = 0.15) -> Mixer:
+        """From each vehicle's CA_ROTOR* parameters."""
+        return cls([RotorGeometry.from_params(p) for p in params], idle_output)
 
-        Roll/pitch have priority: when a fraction leaves 0..1 the collective thrust is shifted
-        to keep them, and yaw is scaled into what is left (see ``mixer_kernel``).
-        """
-        out = np.empty_like(self.thrust_column)
-        mix_kernel(
-            np.ascontiguousarray(torque, dtype=np.float64),
-            np.ascontiguousarray(thrust, dtype=np.float64),
-            self.matrix,
-            self.thrust_column,
-            self.used,
-            float(self.idle_output),
-            out,
+    def same_rotors(self, geometries: list[RotorGeometry]) -> bool:
+        """True when ``geometries`` are the rotor layouts this allocation was built from."""
+        return all(
+            g.moment_ratio_m.tolist() == o.moment_ratio_m.tolist()
+            and g.position_m.tolist() == o.position_m.tolist()
+            for g, o in zip(geometries, self.geometries, strict=True)
         )
-        return out

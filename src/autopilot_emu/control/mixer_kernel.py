@@ -1,11 +1,11 @@
-"""Compiled control allocation: torque and collective thrust -> motor outputs, for the fleet.
+"""Compiled control allocation: torque and collective thrust -> motor outputs, one row each.
 
-Shared by :meth:`autopilot_emu.control.mixer.Mixer.mix` and the fleet's fused per-IMU-sample
-kernel. Per vehicle: its thrust fractions first; if one of them leaves 0..1 (and none is NaN),
-the vehicle's outputs are desaturated (roll/pitch kept by shifting the collective thrust, yaw
-scaled into what is left); then outputs = max(sqrt(fraction), idle) on used rotors, 0
-elsewhere. Vehicles never affect each other (an earlier version decided saturation for the
-whole fleet at once, which coupled them).
+Compiled into the inner loop's kernel (:mod:`autopilot_emu.control.inner_loop_kernel`), with the
+allocation of :class:`autopilot_emu.control.mixer.Mixer`. Per vehicle: its thrust fractions first;
+if one of them leaves 0..1 (and none is NaN), the vehicle's outputs are desaturated (roll/pitch kept
+by shifting the collective thrust, yaw scaled into what is left); then outputs = max(sqrt(fraction),
+idle) on used rotors, 0 elsewhere. Vehicles never affect each other (an earlier version decided
+saturation for the whole fleet at once, which coupled them).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from autopilot_emu.nan_scalar import fmax, fmin
 
 
 @numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _fractions_row(
+def fractions_row(
     i: int, torque: np.ndarray, thrust: np.ndarray, matrix: np.ndarray,
     thrust_column: np.ndarray, out: np.ndarray,
 ) -> bool:  # fmt: skip
@@ -44,7 +44,7 @@ def _fractions_row(
 
 
 @numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _desaturate_row(
+def desaturate_row(
     i: int, torque: np.ndarray, thrust: np.ndarray, matrix: np.ndarray,
     thrust_column: np.ndarray, used: np.ndarray, out: np.ndarray,
 ) -> None:  # fmt: skip
@@ -77,25 +77,8 @@ def _desaturate_row(
 
 
 @numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _output_row(i: int, used: np.ndarray, idle_output: float, out: np.ndarray) -> None:
+def output_row(i: int, used: np.ndarray, idle_output: float, out: np.ndarray) -> None:
     """Thrust fractions -> motor outputs (thrust ∝ output²), idle floor, unused outputs 0."""
     for r in range(out.shape[1]):
         used_f = 1.0 if used[i, r] else 0.0
         out[i, r] = fmax(math.sqrt(out[i, r]), idle_output) * used_f
-
-
-@numba.njit(cache=True, error_model="numpy")
-def mix_kernel(
-    torque: np.ndarray,
-    thrust: np.ndarray,
-    matrix: np.ndarray,
-    thrust_column: np.ndarray,
-    used: np.ndarray,
-    idle_output: float,
-    out: np.ndarray,
-) -> None:
-    """Motor outputs (N, MAX_ROTORS) into ``out`` for torque (N, 3) and thrust (N,)."""
-    for i in range(out.shape[0]):
-        if _fractions_row(i, torque, thrust, matrix, thrust_column, out):
-            _desaturate_row(i, torque, thrust, matrix, thrust_column, used, out)
-        _output_row(i, used, idle_output, out)

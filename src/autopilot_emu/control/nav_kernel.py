@@ -1,6 +1,6 @@
 """The fleet's navigation-rate control step as one compiled call: trajectory -> position control.
 
-What :meth:`autopilot_emu.fleet.AutopilotFleet._navigate` runs after the commanders: restart the
+What :meth:`autopilot_emu.control.nav.NavLoop.step` runs after the commanders: restart the
 idle vehicles' controllers, smooth the auto-mode targets with the jerk-limited trajectory, run
 the position controller, and let offboard attitude / thrust setpoints replace its output. Built
 from the row functions of :mod:`trajectory_kernel` and :mod:`position_kernel`.

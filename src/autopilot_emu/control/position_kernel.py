@@ -1,10 +1,16 @@
 """Compiled position -> velocity -> acceleration -> attitude and thrust control, one row each.
 
-The math of :class:`autopilot_emu.control.position.PositionController` (see its module for the
-control law), per vehicle, shared by its ``update`` and by the fleet's fused navigation kernel
-(:mod:`autopilot_emu.control.nav_kernel`). NaN handling is numpy's: NaN propagates through
-``np.maximum`` / ``np.minimum``, a NaN position axis is velocity-controlled, an axis with neither
-position nor velocity is acceleration-controlled (its velocity setpoint follows the vehicle).
+Follows the structure of PX4's multicopter position controller (mc_pos_control): a P loop on
+position produces a velocity setpoint (plus feed-forward), limited per axis and slew-limited by
+MPC_ACC_HOR; a PID loop on velocity produces an acceleration setpoint; the acceleration is turned
+into a body-z direction (tilt-limited by MPC_TILTMAX_AIR) and a collective thrust scaled by the
+hover thrust (the hover-thrust estimate; MPC_THR_HOVER until it is valid). The attitude setpoint
+combines that body-z with the yaw setpoint.
+
+Compiled into the navigation loop's kernel (:mod:`autopilot_emu.control.nav_kernel`). NaN
+handling is numpy's: NaN propagates through ``np.maximum`` / ``np.minimum``, a NaN position axis
+is velocity-controlled, an axis with neither position nor velocity is acceleration-controlled
+(its velocity setpoint follows the vehicle).
 """
 
 from __future__ import annotations
@@ -180,40 +186,3 @@ def attitude_from_body_z_row(
     q_out[i, 1] = math.copysign(x, by2 - bz1)
     q_out[i, 2] = math.copysign(y, bz0 - bx2)
     q_out[i, 3] = math.copysign(z, bx1 - by0)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def position_kernel(
-    sp_pos: np.ndarray,
-    sp_vel: np.ndarray,
-    sp_yaw: np.ndarray,
-    sp_max_xy: np.ndarray,
-    sp_max_up: np.ndarray,
-    sp_max_down: np.ndarray,
-    sp_acc_ff: np.ndarray,
-    smoothed: np.ndarray,
-    pos_p: np.ndarray,
-    vel_p: np.ndarray,
-    vel_i: np.ndarray,
-    vel_d: np.ndarray,
-    hover: np.ndarray,
-    tilt_max_rad: np.ndarray,
-    cos_tilt_max: np.ndarray,
-    acc_hor_max: np.ndarray,
-    position: np.ndarray,
-    velocity: np.ndarray,
-    dt_s: float,
-    active: np.ndarray,
-    vel_int: np.ndarray,
-    vel_sp: np.ndarray,
-    prev_vel: np.ndarray,
-    q_out: np.ndarray,
-    thrust_out: np.ndarray,
-) -> None:
-    """:func:`position_row` for every vehicle."""
-    for i in range(position.shape[0]):
-        position_row(
-            i, sp_pos, sp_vel, sp_yaw, sp_max_xy, sp_max_up, sp_max_down, sp_acc_ff, smoothed,
-            pos_p, vel_p, vel_i, vel_d, hover, tilt_max_rad, cos_tilt_max, acc_hor_max,
-            position, velocity, dt_s, active, vel_int, vel_sp, prev_vel, q_out, thrust_out,
-        )  # fmt: skip

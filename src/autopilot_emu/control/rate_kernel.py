@@ -1,7 +1,6 @@
 """Compiled body-rate PID (PX4 mc_rate_control) on one vehicle's row of the fleet arrays.
 
-Shared by :class:`autopilot_emu.control.rate.RateController` and the fleet's fused
-per-IMU-sample kernel (:mod:`autopilot_emu.control.inner_loop_kernel`).
+Compiled into the inner loop's kernel (:mod:`autopilot_emu.control.inner_loop_kernel`).
 """
 
 from __future__ import annotations
@@ -43,25 +42,3 @@ def rate_pid_row(
         step = (ki[i, a] * dt_s) * err * gate
         integral[i, a] = fmin(fmax(integral[i, a] + step, -lim), lim)
         torque[i, a] = fmin(fmax(t, -1.0), 1.0)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def rate_pid_kernel(
-    rates: np.ndarray,
-    rate_sp: np.ndarray,
-    kp: np.ndarray,
-    ki: np.ndarray,
-    kd: np.ndarray,
-    dt_s: float,
-    integrate: np.ndarray,
-    integrator_limit: float,
-    integral: np.ndarray,
-    prev_rates: np.ndarray,
-    torque: np.ndarray,
-) -> None:
-    """:func:`rate_pid_row` for every vehicle."""
-    for i in range(rates.shape[0]):
-        rate_pid_row(
-            i, rates, rate_sp, kp, ki, kd, dt_s, integrate, integrator_limit, integral,
-            prev_rates, torque,
-        )  # fmt: skip

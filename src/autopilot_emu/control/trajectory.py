@@ -1,4 +1,4 @@
-"""Jerk-limited setpoint trajectory of the auto modes, batched over the fleet.
+"""Jerk-limited setpoint trajectory of the auto modes: the law, and what the navigator asks of it.
 
 What PX4's FlightTaskAuto does with PositionSmoothing / VelocitySmoothing, in its own form: the
 navigator's target (a position, or a velocity on an axis without one) is not handed to the
@@ -14,53 +14,24 @@ follow.
 The position controller tracks the trajectory's position with its velocity and acceleration as
 feed-forward. Offboard setpoints bypass it (PX4's FlightTaskOffboard does not smooth).
 
-Units: SI, local NED; arrays are (N, 3) or (N,).
+The trajectory state of every vehicle is part of the navigation loop's state
+(:class:`~autopilot_emu.control.nav.NavState`), and its step is compiled into that loop
+(``trajectory_kernel.trajectory_row``). Here: the navigator's questions to the same law, the
+braking distance and the hold point.
+
+Units: SI, local NED.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from autopilot_emu.control.trajectory_kernel import hold_point_kernel, trajectory_kernel
+from autopilot_emu.control.trajectory_kernel import hold_point_kernel
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
     """C-contiguous float64 (one compiled signature for the kernel)."""
     return np.ascontiguousarray(a, dtype=np.float64)
-
-
-@dataclass
-class TrajectoryLimits:
-    """Per-vehicle constraints of the trajectory, (N,) arrays."""
-
-    speed_xy_m_s: np.ndarray
-    speed_up_m_s: np.ndarray
-    speed_down_m_s: np.ndarray
-    acc_xy_m_s2: np.ndarray
-    """MPC_ACC_HOR."""
-    acc_up_m_s2: np.ndarray
-    """MPC_ACC_UP_MAX."""
-    acc_down_m_s2: np.ndarray
-    """MPC_ACC_DOWN_MAX."""
-    jerk_m_s3: np.ndarray
-    """MPC_JERK_AUTO."""
-    error_max_m: np.ndarray
-    """MPC_XY_ERR_MAX: horizontal vehicle-to-trajectory distance at which the trajectory stops."""
-
-
-def max_speed_from_distance(
-    distance_m: np.ndarray, acc_m_s2: np.ndarray, jerk_m_s3: np.ndarray
-) -> np.ndarray:
-    """Highest speed from which a jerk-limited stop still fits in ``distance_m``.
-
-    Solves d = (v² + b v) / (2 a) for v, with b = 4 a² / j: the braking distance at constant
-    deceleration a plus the margin PX4 keeps for ramping the acceleration at jerk j
-    (math::trajectory::computeMaxSpeedFromDistance with a final speed of 0).
-    """
-    b = 4.0 * acc_m_s2 * acc_m_s2 / jerk_m_s3
-    return 0.5 * (np.sqrt(b * b + 8.0 * acc_m_s2 * np.maximum(distance_m, 0.0)) - b)
 
 
 def braking_distance(
@@ -112,41 +83,3 @@ def load_hold_point_kernel() -> None:
     """
     zero = np.zeros(3)
     hold_point(zero, zero, zero, 1.0, 1.0, 1.0, 0.01)
-
-
-class JerkLimitedTrajectory:
-    """Trajectory states of N vehicles, each driven towards its target with bounded jerk."""
-
-    def __init__(self, n: int) -> None:
-        self.position_m = np.zeros((n, 3))
-        self.velocity_m_s = np.zeros((n, 3))
-        self.acceleration_m_s2 = np.zeros((n, 3))
-
-    def reset(self, mask: np.ndarray, position: np.ndarray, velocity: np.ndarray) -> None:
-        """Restart the masked trajectories at the vehicles' position and velocity, at rest."""
-        self.position_m[mask] = position[mask]
-        self.velocity_m_s[mask] = velocity[mask]
-        self.acceleration_m_s2[mask] = 0.0
-
-    def update(
-        self,
-        target_position: np.ndarray,
-        target_velocity: np.ndarray,
-        limits: TrajectoryLimits,
-        vehicle_position: np.ndarray,
-        dt_s: float,
-    ) -> None:
-        """Advance all trajectories by ``dt_s`` towards their targets.
-
-        ``target_position`` NaN on an axis means that axis follows ``target_velocity`` instead
-        (the horizontal axes go together: both north and east positions must be finite). The
-        step itself is compiled (``trajectory_kernel``).
-        """
-        lim = limits
-        trajectory_kernel(
-            _f64(target_position), _f64(target_velocity), _f64(lim.speed_xy_m_s),
-            _f64(lim.speed_up_m_s), _f64(lim.speed_down_m_s), _f64(lim.acc_xy_m_s2),
-            _f64(lim.acc_up_m_s2), _f64(lim.acc_down_m_s2), _f64(lim.jerk_m_s3),
-            _f64(lim.error_max_m), _f64(vehicle_position), float(dt_s),
-            self.position_m, self.velocity_m_s, self.acceleration_m_s2,
-        )  # fmt: skip

@@ -1,8 +1,8 @@
 """Compiled jerk-limited trajectory step, one vehicle row at a time.
 
-The math of :meth:`autopilot_emu.control.trajectory.JerkLimitedTrajectory.update` (see its module
-for the law), shared with the fleet's fused navigation kernel
-(:mod:`autopilot_emu.control.nav_kernel`).
+The law of :mod:`autopilot_emu.control.trajectory`, compiled into the navigation loop's kernel
+(:mod:`autopilot_emu.control.nav_kernel`) and run by the navigator's hold-point search
+(:func:`hold_point_kernel`).
 """
 
 from __future__ import annotations
@@ -111,32 +111,6 @@ def trajectory_row(
         pos[i, a] = p + (v * dt + ac * dt2 + j * dt3)
         vel[i, a] = v + (ac * dt + j * dt2)
         acc[i, a] = ac + j * dt
-
-
-@numba.njit(cache=True, error_model="numpy")
-def trajectory_kernel(
-    target_position: np.ndarray,
-    target_velocity: np.ndarray,
-    speed_xy: np.ndarray,
-    speed_up: np.ndarray,
-    speed_down: np.ndarray,
-    acc_xy: np.ndarray,
-    acc_up: np.ndarray,
-    acc_down: np.ndarray,
-    jerk: np.ndarray,
-    error_max: np.ndarray,
-    vehicle_position: np.ndarray,
-    dt_s: float,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    acc: np.ndarray,
-) -> None:
-    """:func:`trajectory_row` for every vehicle."""
-    for i in range(pos.shape[0]):
-        trajectory_row(
-            i, target_position, target_velocity, speed_xy, speed_up, speed_down, acc_xy, acc_up,
-            acc_down, jerk, error_max, vehicle_position, dt_s, pos, vel, acc,
-        )  # fmt: skip
 
 
 @numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)

@@ -1,13 +1,39 @@
-"""Allocation from CA_ROTOR* geometry produces the torques it is asked for, with the right signs."""
+"""Allocation from CA_ROTOR* geometry produces the torques it is asked for, with the right signs.
+
+The allocation is driven through the inner loop the fleet flies (``InnerLoop.step``), its rate
+PID made to command exactly the torque under test: unit P gain, no I or D, no rate limit, the
+torque given as an offboard body-rate setpoint at zero measured rate.
+"""
 
 import numpy as np
 import pytest
 
+from autopilot_emu.control.inner_loop import InnerLoop, InnerLoopGains
 from autopilot_emu.control.mixer import MAX_ROTORS, TYPHOON_H480_ROTORS, Mixer, RotorGeometry
 from autopilot_emu.params import ParamStore
 
 # PX4 Quad X output order: 1 front right CCW, 2 rear left CCW, 3 front left CW, 4 rear right CW.
 QUAD_X = ((0.15, 0.15, 0.05), (-0.15, -0.15, 0.05), (0.15, -0.15, -0.05), (-0.15, 0.15, -0.05))
+
+
+def mix(mixer: Mixer, torque: np.ndarray, thrust: np.ndarray) -> np.ndarray:
+    """Motor outputs (N, MAX_ROTORS) of one inner-loop tick commanding ``torque`` (N, 3)."""
+    n = len(thrust)
+    zero, one = np.zeros((n, 3)), np.ones((n, 3))
+    gains = InnerLoopGains(zero, np.full((n, 3), np.inf), one, zero, zero)
+    loop = InnerLoop(gains, mixer)
+    loop.step(
+        q=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
+        rates_rad_s=np.zeros((n, 3)),
+        q_sp=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
+        thrust=np.asarray(thrust, dtype=float),
+        overridden=np.ones(n, dtype=bool),
+        rate_target_rad_s=np.asarray(torque, dtype=float),
+        dt_s=0.004,
+        active=np.ones(n, dtype=bool),
+        armed=np.ones(n, dtype=bool),
+    )
+    return loop.state.outputs.copy()
 
 
 def _wrench(outputs, rows=TYPHOON_H480_ROTORS):
@@ -18,7 +44,7 @@ def _wrench(outputs, rows=TYPHOON_H480_ROTORS):
 
 
 def test_pure_thrust_is_symmetric():
-    out = Mixer().mix(np.zeros((1, 3)), np.array([0.4]))[0]
+    out = mix(Mixer(), np.zeros((1, 3)), np.array([0.4]))[0]
     np.testing.assert_allclose(out[:6], np.sqrt(0.4), rtol=2e-3)
     np.testing.assert_array_equal(out[6:], 0.0)
     np.testing.assert_allclose(_wrench(out)[:3], 0.0, atol=1e-12)
@@ -29,7 +55,7 @@ def test_each_axis_torque_has_the_commanded_sign_and_no_cross_coupling():
     for axis in range(3):
         torque = np.zeros((1, 3))
         torque[0, axis] = 0.1
-        w = _wrench(mixer.mix(torque, np.array([0.4]))[0])
+        w = _wrench(mix(mixer, torque, np.array([0.4]))[0])
         assert w[axis] > 0
         others = [k for k in range(3) if k != axis]
         assert np.all(np.abs(w[others]) < 1e-9)
@@ -40,12 +66,12 @@ def test_quad_x_torques_drive_the_motors_physics_asks_for():
     """Roll right: left motors up; pitch up: front motors up; yaw right: CCW motors up."""
     mixer = Mixer([RotorGeometry.from_rows(QUAD_X), RotorGeometry.from_rows(TYPHOON_H480_ROTORS)])
     np.testing.assert_array_equal(mixer.rotor_counts, [4, 6])
-    hover = mixer.mix(np.zeros((2, 3)), np.full(2, 0.4))
+    hover = mix(mixer, np.zeros((2, 3)), np.full(2, 0.4))
     expect_up = {0: [1, 2], 1: [0, 2], 2: [0, 1]}
     for axis, up in expect_up.items():
         torque = np.zeros((2, 3))
         torque[:, axis] = 0.1
-        out = mixer.mix(torque, np.full(2, 0.4))
+        out = mix(mixer, torque, np.full(2, 0.4))
         delta = out[0, :4] - hover[0, :4]
         down = [k for k in range(4) if k not in up]
         assert np.all(delta[up] > 0.01) and np.all(delta[down] < -0.01), (axis, delta)
@@ -57,7 +83,7 @@ def test_quad_x_torques_drive_the_motors_physics_asks_for():
 
 def test_saturation_keeps_roll_and_pitch_and_outputs_in_range():
     mixer = Mixer([RotorGeometry.from_rows(TYPHOON_H480_ROTORS), RotorGeometry.from_rows(QUAD_X)])
-    out = mixer.mix(np.array([[1.0, 0.0, 1.0], [1.0, 0.0, 1.0]]), np.array([0.9, 0.9]))
+    out = mix(mixer, np.array([[1.0, 0.0, 1.0], [1.0, 0.0, 1.0]]), np.array([0.9, 0.9]))
     assert np.all((out >= 0) & (out <= 1))
     assert _wrench(out[0])[0] > 0
     assert _wrench(out[1], QUAD_X)[0] > 0
@@ -65,7 +91,7 @@ def test_saturation_keeps_roll_and_pitch_and_outputs_in_range():
 
 def test_idle_output_when_no_thrust():
     mixer = Mixer([RotorGeometry.from_rows(QUAD_X)] * 2, idle_output=0.15)
-    out = mixer.mix(np.zeros((2, 3)), np.zeros(2))
+    out = mix(mixer, np.zeros((2, 3)), np.zeros(2))
     np.testing.assert_allclose(out[:, :4], 0.15)
     np.testing.assert_array_equal(out[:, 4:], 0.0)
     assert out.shape == (2, MAX_ROTORS)
@@ -106,7 +132,7 @@ def test_fleet_builds_each_vehicles_mixer_from_its_params_and_rebuilds_on_change
         return [msg, msg]
 
     out = fleet.handle_sensors(sensors(4000))
-    assert list(fleet.mixer.rotor_counts) == [6, 6]
+    assert list(fleet.inner_loop.mixer.rotor_counts) == [6, 6]
     params[1].set("CA_ROTOR_COUNT", 4)
     for i, (x, y, km) in enumerate(QUAD_X):
         params[1].set(f"CA_ROTOR{i}_PX", x)
@@ -116,7 +142,7 @@ def test_fleet_builds_each_vehicles_mixer_from_its_params_and_rebuilds_on_change
     fleet.sync_commands(0)
     fleet.sync_commands(1)
     out = fleet.handle_sensors(sensors(8000))
-    assert list(fleet.mixer.rotor_counts) == [6, 4]
+    assert list(fleet.inner_loop.mixer.rotor_counts) == [6, 4]
     hexa, quad = (np.array(m.controls) for m in out)
     assert np.all(hexa[:6] > 0) and np.all(hexa[6:] == 0)  # armed idle on six motors
     assert np.all(quad[:4] > 0) and np.all(quad[4:] == 0)
@@ -132,9 +158,9 @@ def test_one_vehicles_saturation_leaves_the_others_outputs_alone():
     geometry = [RotorGeometry.from_rows(TYPHOON_H480_ROTORS)] * 2
     torque = np.array([[0.0, 0.0, 0.0], [-0.02497803, -0.03995277, -0.00233834]])
     thrust = np.array([0.4, 0.05115775])
-    calm = Mixer(geometry).mix(torque, thrust)
-    alone = Mixer(geometry[:1]).mix(torque[1:], thrust[1:])
+    calm = mix(Mixer(geometry), torque, thrust)
+    alone = mix(Mixer(geometry[:1]), torque[1:], thrust[1:])
     np.testing.assert_array_equal(alone[0], calm[1])
     torque[0], thrust[0] = (1.0, 0.0, 1.0), 0.95  # vehicle 0 saturates
-    stormy = Mixer(geometry).mix(torque, thrust)
+    stormy = mix(Mixer(geometry), torque, thrust)
     np.testing.assert_array_equal(stormy[1], calm[1])

@@ -1,52 +1,81 @@
-"""The auto-mode trajectory respects its speed, acceleration and jerk limits and stops on target."""
+"""The auto-mode trajectory respects its speed, acceleration and jerk limits and stops on target.
+
+The trajectory is stepped by the navigation loop the fleet flies (``NavLoop.step`` with the
+commander asking for smoothing), the vehicle kept on the trajectory unless said otherwise.
+"""
 
 import subprocess
 import sys
 
 import numpy as np
 import pytest
+from nav_support import DT, Nav
 
-from autopilot_emu.control.trajectory import (
-    JerkLimitedTrajectory,
-    TrajectoryLimits,
-    braking_distance,
-    hold_point,
-)
+from autopilot_emu.control.trajectory import braking_distance, hold_point
 
 pytestmark = pytest.mark.process
 
-DT = 0.02
+
+class Smoothed(Nav):
+    """A NavLoop whose vehicles all track their trajectory towards ``target`` (N, 3)."""
+
+    def __init__(self, target, cruise=5.0, up=3.0, down=1.5, acc=3.0, jerk=4.0, err=2.0):
+        n = len(target)
+        super().__init__(n, acc_hor_max_m_s2=acc, jerk_m_s3=jerk, error_max_m=err)
+        self.sp.position_ned_m[:] = target
+        self.sp.max_speed_xy_m_s[:] = cruise
+        self.sp.max_speed_up_m_s[:] = up
+        self.sp.max_speed_down_m_s[:] = down
+        self.smooth[:] = True
+        self.state.smoothing[:] = True  # a trajectory under way: its state is as set
+
+    def tick(self, vehicle=None):
+        """One step with the vehicle at ``vehicle`` (default: on the trajectory)."""
+        s = self.state
+        self.position[:] = s.trajectory_position_m if vehicle is None else vehicle
+        self.run()
+        return tuple(
+            a.copy()
+            for a in (
+                s.trajectory_position_m,
+                s.trajectory_velocity_m_s,
+                s.trajectory_acceleration_m_s2,
+            )
+        )
 
 
-def _limits(n, cruise=5.0, up=3.0, down=1.5, acc=3.0, jerk=4.0, err=2.0):
-    f = lambda v: np.full(n, float(v))  # noqa: E731
-    return TrajectoryLimits(f(cruise), f(up), f(down), f(acc), f(4.0), f(3.0), f(jerk), f(err))
-
-
-def _fly(target, limits, seconds, start=None, vehicle=None, velocity=None, acceleration=None):
+def _fly(target, seconds, start=None, vehicle=None, velocity=None, acceleration=None, **limits):
     """Position, velocity and acceleration logs of trajectories from ``start`` (and
     ``velocity``, ``acceleration``: default at rest) towards ``target``."""
-    n = len(target)
-    traj = JerkLimitedTrajectory(n)
-    if start is not None:
-        traj.reset(np.ones(n, dtype=bool), start, np.zeros((n, 3)))
-    if velocity is not None:
-        traj.velocity_m_s[:] = velocity
-    if acceleration is not None:
-        traj.acceleration_m_s2[:] = acceleration
-    log = []
-    for _ in range(int(seconds / DT)):
-        here = traj.position_m.copy() if vehicle is None else vehicle
-        traj.update(target, np.zeros((n, 3)), limits, here, DT)
-        state = (traj.position_m, traj.velocity_m_s, traj.acceleration_m_s2)
-        log.append(tuple(s.copy() for s in state))
+    nav = Smoothed(target, **limits)
+    s = nav.state
+    for state, value in (
+        (s.trajectory_position_m, start),
+        (s.trajectory_velocity_m_s, velocity),
+        (s.trajectory_acceleration_m_s2, acceleration),
+    ):
+        if value is not None:
+            state[:] = value
+    log = [nav.tick(vehicle) for _ in range(int(seconds / DT))]
     return [np.array(x) for x in zip(*log, strict=True)]
+
+
+def test_a_vehicle_that_starts_smoothing_starts_the_trajectory_where_it_is():
+    """From the vehicle's position and velocity, at rest in acceleration: no jump."""
+    nav = Smoothed(np.array([[50.0, 1.0, -5.0]]))
+    nav.state.smoothing[:] = False
+    nav.state.trajectory_acceleration_m_s2[:] = 9.0  # stale
+    nav.velocity[0] = [2.0, 0.0, 0.0]
+    pos, vel, acc = nav.tick(vehicle=np.array([[3.0, 1.0, -5.0]]))
+    np.testing.assert_allclose(pos[0], [3.0 + 2.0 * DT, 1.0, -5.0], atol=1e-3)
+    np.testing.assert_allclose(vel[0, 1:], 0.0, atol=1e-9)
+    assert abs(vel[0, 0] - 2.0) < 0.1 and np.abs(acc[0]).max() <= 4.0 * DT + 1e-12
 
 
 @pytest.mark.parametrize("cruise", [5.0, 10.0])
 def test_long_leg_cruises_at_the_limit_and_stops_on_target_without_overshoot(cruise):
     target = np.array([[80.0, 0.0, 0.0], [0.0, -80.0, 0.0]])
-    pos, vel, acc = _fly(target, _limits(2, cruise=cruise), 40.0)
+    pos, vel, acc = _fly(target, 40.0, cruise=cruise)
     speed = np.hypot(vel[..., 0], vel[..., 1])
     assert speed.max() == pytest.approx(cruise, rel=1e-3)
     along = np.stack((pos[:, 0, 0], -pos[:, 1, 1]), axis=1)
@@ -60,7 +89,7 @@ def test_long_leg_cruises_at_the_limit_and_stops_on_target_without_overshoot(cru
 
 def test_vertical_limits_are_asymmetric():
     target = np.array([[0.0, 0.0, -30.0], [0.0, 0.0, 30.0]])
-    pos, vel, acc = _fly(target, _limits(2, up=3.0, down=1.5), 40.0)
+    pos, vel, acc = _fly(target, 40.0, up=3.0, down=1.5)
     assert vel[:, 0, 2].min() == pytest.approx(-3.0, rel=1e-3)
     assert vel[:, 1, 2].max() == pytest.approx(1.5, rel=1e-3)
     assert acc[:, 0, 2].min() >= -4.0 - 1e-9  # MPC_ACC_UP_MAX
@@ -70,7 +99,7 @@ def test_vertical_limits_are_asymmetric():
 
 def test_short_hop_never_overshoots():
     target = np.array([[1.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
-    pos, _, _ = _fly(target, _limits(2, cruise=12.0), 20.0)
+    pos, _, _ = _fly(target, 20.0, cruise=12.0)
     assert pos[:, 0, 0].max() <= 1.0 + 1e-3 and pos[:, 1, 0].max() <= 3.0 + 1e-3
     np.testing.assert_allclose(pos[-1], target, atol=0.01)
 
@@ -78,30 +107,27 @@ def test_short_hop_never_overshoots():
 def test_trajectory_waits_for_a_vehicle_that_lags_behind():
     """MPC_XY_ERR_MAX: with the vehicle stuck at the start, the trajectory stops 2 m ahead."""
     target = np.array([[50.0, 0.0, 0.0]])
-    pos, _, _ = _fly(target, _limits(1, err=2.0), 20.0, vehicle=np.zeros((1, 3)))
+    pos, _, _ = _fly(target, 20.0, vehicle=np.zeros((1, 3)), err=2.0)
     assert 1.0 < pos[-1, 0, 0] <= 2.0
 
 
 def test_braking_distance_stops_a_cruising_trajectory():
     """A Hold target at the navigator's braking distance is overshot by less than 0.5 m."""
-    traj = JerkLimitedTrajectory(1)
-    limits = _limits(1, cruise=5.0)
-    far = np.array([[1000.0, 0.0, 0.0]])
+    nav = Smoothed(np.array([[1000.0, 0.0, 0.0]]), cruise=5.0)
     for _ in range(int(5.0 / DT)):
-        traj.update(far, np.zeros((1, 3)), limits, traj.position_m.copy(), DT)
-    assert traj.velocity_m_s[0, 0] == pytest.approx(5.0, rel=1e-3)
-    stop = traj.position_m[0, 0] + braking_distance(5.0, 3.0, 4.0)
-    peak = 0.0
-    for _ in range(int(10.0 / DT)):
-        traj.update(np.array([[stop, 0, 0]]), np.zeros((1, 3)), limits, traj.position_m.copy(), DT)
-        peak = max(peak, traj.position_m[0, 0])
+        nav.tick()
+    s = nav.state
+    assert s.trajectory_velocity_m_s[0, 0] == pytest.approx(5.0, rel=1e-3)
+    stop = s.trajectory_position_m[0, 0] + braking_distance(5.0, 3.0, 4.0)
+    nav.sp.position_ned_m[0] = [stop, 0.0, 0.0]
+    peak = max(nav.tick()[0][0, 0] for _ in range(int(10.0 / DT)))
     assert peak <= stop + 0.5
 
 
 def _run_to_rest(target_xy, pos, vel, acc, seconds=15.0):
     """North-east track of one trajectory from a state towards a horizontal target."""
     target = np.array([[target_xy[0], target_xy[1], pos[2]]])
-    track, _, _ = _fly(target, _limits(1), seconds, start=pos[None], velocity=vel, acceleration=acc)
+    track, _, _ = _fly(target, seconds, start=pos[None], velocity=vel, acceleration=acc)
     return track[:, 0, :2]
 
 
