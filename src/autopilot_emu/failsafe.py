@@ -6,14 +6,21 @@ loss of the global position (GPS), and a geofence breach (GF_ACTION). :class:`Fa
 is pure: it turns the tick's inputs into the texts to announce and the most severe action that
 became due; the commander carries the action out. An action is taken when its condition
 starts (or the battery level worsens); the pilot may take over afterwards, as in PX4.
+:func:`outside_fence` is the geofence test itself.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import IntEnum
 
+import numpy as np
+
+from autopilot_emu import geodesy
+from autopilot_emu.mission.geofence import Fence
+from autopilot_emu.modes.nav_types import NavInput, origin_lla
 from autopilot_emu.params import ParamStore
 
 SEVERITY_CRITICAL, SEVERITY_WARNING, SEVERITY_INFO = 2, 4, 6
@@ -191,3 +198,22 @@ class FailsafeMonitor:
         if not (inp.armed and inp.in_air):
             return Action.NONE
         return GF_ACTIONS.get(int(self.params.get("GF_ACTION")), Action.NONE)
+
+
+def outside_fence(
+    nav: NavInput, home_ned_m: np.ndarray, fence: Fence, p: Mapping[str, float]
+) -> bool:
+    """Outside the geofence areas, or beyond GF_MAX_HOR_DIST / GF_MAX_VER_DIST of home.
+
+    ``p``: the parameters as floats; a distance limit of 0 is off.
+    """
+    offset = nav.position_ned_m - home_ned_m
+    max_hor = p["GF_MAX_HOR_DIST"]
+    max_ver = p["GF_MAX_VER_DIST"]
+    if 0 < max_hor < float(np.hypot(offset[0], offset[1])) or 0 < max_ver < -offset[2]:
+        return True
+    origin = origin_lla(nav)
+    if fence.empty or origin is None:
+        return False
+    lat, lon, _ = geodesy.ned_to_geodetic(nav.position_ned_m, origin)
+    return not fence.contains(float(lat), float(lon))

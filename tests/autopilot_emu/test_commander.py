@@ -9,13 +9,13 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu.commander import (
     ACCEPTED,
     DENIED,
-    MIN_TAKEOFF_HEIGHT_M,
     TEMPORARILY_REJECTED,
     Commander,
     NavInput,
 )
 from autopilot_emu.mission.items import MissionItem, MissionState, MissionType
 from autopilot_emu.modes import AutoSubMode, LandedState, MainMode
+from autopilot_emu.modes.takeoff import MIN_TAKEOFF_HEIGHT_M
 from autopilot_emu.params import ParamStore
 
 

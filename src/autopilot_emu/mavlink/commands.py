@@ -130,7 +130,7 @@ class CommandRequest:
 
 
 class CommandServices(Protocol):
-    """What the dispatcher needs from the endpoint itself (messages and streams)."""
+    """What the dispatcher needs from its link (messages and streams): the link's CommandHandler."""
 
     def request_message(self, msg_id: int) -> int:
         """Queue one ``msg_id`` after the ACK; return the MAV_RESULT."""

@@ -61,6 +61,14 @@ def message_target(msg: mavlink2.MAVLink_message) -> tuple[int, int]:
     return getattr(msg, "target_system", 0), getattr(msg, "target_component", 0)
 
 
+def addressed_to(target_system: int, target_component: int, sysid: int, compid: int) -> bool:
+    """Whether a message with these target fields is for component ``sysid``/``compid``.
+
+    0 in a target field addresses every system or component.
+    """
+    return target_system in (0, sysid) and target_component in (0, compid)
+
+
 def should_forward(msg: mavlink2.MAVLink_message, sysid: int, compid: int) -> bool:
     """Whether a frame received by the autopilot ``sysid``/``compid`` goes to its other links."""
     if msg.get_msgId() == mavlink2.MAVLINK_MSG_ID_SETUP_SIGNING:

@@ -167,7 +167,7 @@ class FtpServer:
     # --- requests ----------------------------------------------------------------------------
 
     def handle(self, msg: mavlink2.MAVLink_message) -> None:
-        """A FILE_TRANSFER_PROTOCOL addressed to us (the endpoint checked the target)."""
+        """A FILE_TRANSFER_PROTOCOL addressed to us (the link's handler checked the target)."""
         self.handle_payload(bytes(msg.payload), (msg.get_srcSystem(), msg.get_srcComponent()))
 
     def handle_payload(self, raw: bytes, source: Peer) -> None:

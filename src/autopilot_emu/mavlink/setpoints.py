@@ -3,8 +3,8 @@
 The wire side of offboard control: which fields a type_mask enables, which frames PX4 accepts,
 and what makes a setpoint unusable. A message that cannot be flown (an unsupported frame, a
 force setpoint, a type_mask that ignores everything, a NaN in a used field, a zero quaternion)
-raises :class:`SetpointError`; the endpoint drops it and logs the reason once. Ignored fields
-may hold anything, NaN included.
+raises :class:`SetpointError`; :class:`SetpointReceiver` drops it and logs the reason once.
+Ignored fields may hold anything, NaN included.
 
 type_mask bits (POSITION_TARGET_TYPEMASK): 0-2 ignore x, y, z; 3-5 ignore vx, vy, vz; 6-8
 ignore ax, ay, az; 9 accelerations are forces; 10 ignore yaw; 11 ignore yaw rate. Bits 12 and
@@ -16,17 +16,23 @@ not carry; ``thrust`` is always the collective thrust.)
 
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
+from autopilot_emu.mavlink.endpoint_config import EndpointStats
+from autopilot_emu.mavlink.forwarding import addressed_to
+from autopilot_emu.mavlink.vehicle_port import VehiclePort
 from autopilot_emu.modes.offboard import (
     GLOBAL_FRAMES,
     GlobalSetpoint,
     LocalFrame,
     OffboardSetpoint,
 )
+
+logger = logging.getLogger(__name__)
 
 _POS_BITS = (1, 2, 4)
 _VEL_BITS = (8, 16, 32)
@@ -154,3 +160,53 @@ def decode_attitude(msg: mavlink2.MAVLink_set_attitude_target_message) -> Offboa
     if attitude is None and rates is None and not math.isfinite(thrust):
         raise SetpointError("type_mask ignores attitude, rates and thrust")
     return OffboardSetpoint(attitude_wxyz=attitude, body_rates_rad_s=rates, thrust=thrust)
+
+
+_SET_ATTITUDE_TARGET = mavlink2.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET
+_SET_POSITION_TARGET_LOCAL_NED = mavlink2.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED
+
+
+class SetpointReceiver:
+    """Passes one link's offboard setpoints addressed to the autopilot to the vehicle.
+
+    Args:
+        vehicle: takes the decoded setpoints.
+        sysid: our system id.
+        compid: our component id.
+        stats: the link's counters (setpoints received and ignored).
+    """
+
+    def __init__(self, vehicle: VehiclePort, sysid: int, compid: int, stats: EndpointStats) -> None:
+        self._vehicle = vehicle
+        self._sysid = sysid
+        self._compid = compid
+        self._stats = stats
+        self._problems: set[str] = set()
+        """Reasons already logged (each once)."""
+
+    def handle(self, msg: mavlink2.MAVLink_message) -> None:
+        """SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT, SET_ATTITUDE_TARGET -> the vehicle."""
+        if not addressed_to(msg.target_system, msg.target_component, self._sysid, self._compid):
+            return
+        vehicle = self._vehicle
+        try:
+            msg_id = msg.get_msgId()
+            if msg_id == _SET_ATTITUDE_TARGET:
+                taken = vehicle.offboard_setpoint(decode_attitude(msg), LocalFrame.LOCAL_NED)
+                reason = "a thrust alone without an attitude or rate setpoint"
+            elif msg_id == _SET_POSITION_TARGET_LOCAL_NED:
+                taken = vehicle.offboard_setpoint(*decode_local(msg))
+                reason = ""
+            else:
+                taken = vehicle.offboard_setpoint_global(decode_global(msg))
+                reason = "no global origin or home yet"
+        except SetpointError as exc:
+            taken, reason = False, str(exc)
+        if taken:
+            self._stats.setpoints_received += 1
+            return
+        self._stats.setpoints_ignored += 1
+        key = f"{msg.get_type()}: {reason}"
+        if key not in self._problems:
+            self._problems.add(key)
+            logger.warning("ignoring %s (type_mask 0x%04x)", key, int(msg.type_mask))

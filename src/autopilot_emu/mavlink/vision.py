@@ -18,17 +18,24 @@ An FRD local frame is passed on as if its x axis pointed north: this estimator h
 the rotation between a vision frame and NED (PX4 learns it unless vision yaw is fused).
 
 A message that cannot be used (non-finite position, unsupported frame or estimator type, a
-non-finite or negative variance where the covariance is given) raises :class:`VisionError`; the
-endpoint drops it and logs the reason once.
+non-finite or negative variance where the covariance is given) raises :class:`VisionError`;
+:class:`VisionReceiver` drops it and logs the reason once.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
+
+from autopilot_emu.mavlink.endpoint_config import EndpointStats
+from autopilot_emu.mavlink.link_clock import LinkClock
+from autopilot_emu.mavlink.vehicle_port import VehiclePort
+
+logger = logging.getLogger(__name__)
 
 _POS_VAR = (0, 6, 11)
 _YAW_VAR = 20
@@ -156,3 +163,51 @@ def decode_odometry(msg: mavlink2.MAVLink_message) -> VisionMeasurement:
         yaw_var_rad2=yaw_var if math.isfinite(yaw) else math.nan,
         velocity_ned_m_s=velocity_ned,
     )
+
+
+_ODOMETRY = mavlink2.MAVLINK_MSG_ID_ODOMETRY
+
+
+class VisionReceiver:
+    """Passes one link's external-vision messages to the vehicle's estimator.
+
+    Args:
+        vehicle: takes the measurements.
+        clock: simulation time of the poll (the samples' time stamp).
+        stats: the link's counters (vision samples received and ignored).
+    """
+
+    def __init__(self, vehicle: VehiclePort, clock: LinkClock, stats: EndpointStats) -> None:
+        self._vehicle = vehicle
+        self._clock = clock
+        self._stats = stats
+        self._problems: set[str] = set()
+        """Reasons already logged (each once)."""
+
+    def handle(self, msg: mavlink2.MAVLink_message) -> None:
+        """VISION_POSITION_ESTIMATE / ODOMETRY -> the vehicle's external-vision input.
+
+        Stamped with the arrival time: without a converged timesync offset PX4 stamps such
+        samples with their arrival too (``sync_stamp``); EKF2_EV_DELAY covers the latency.
+        """
+        try:
+            if msg.get_msgId() == _ODOMETRY:
+                m = decode_odometry(msg)
+            else:
+                m = decode_vision_position_estimate(msg)
+        except VisionError as exc:
+            self._stats.vision_ignored += 1
+            key = f"{msg.get_type()}: {exc}"
+            if key not in self._problems:
+                self._problems.add(key)
+                logger.warning("ignoring %s", key)
+            return
+        self._vehicle.vision_measurement(
+            self._clock.now_us,
+            m.position_ned_m,
+            m.position_var_m2,
+            m.yaw_rad,
+            m.yaw_var_rad2,
+            m.velocity_ned_m_s,
+        )
+        self._stats.vision_received += 1

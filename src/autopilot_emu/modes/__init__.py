@@ -1,4 +1,10 @@
-"""PX4 flight modes as they appear in HEARTBEAT.custom_mode and MAV_CMD_DO_SET_MODE."""
+"""PX4 flight modes as they appear in HEARTBEAT.custom_mode and MAV_CMD_DO_SET_MODE.
+
+Each mode's setpoint logic is a module of this package: :mod:`.takeoff`, :mod:`.land`, :mod:`.rtl`,
+:mod:`.hold` (Hold and Reposition), :mod:`.mission` and :mod:`.offboard`; they read a
+:class:`~.nav_types.NavInput` and write a :class:`~.nav_types.NavOutput`. Which mode runs, and
+when the vehicle may switch, is the commander's (:mod:`autopilot_emu.commander`).
+"""
 
 from __future__ import annotations
 

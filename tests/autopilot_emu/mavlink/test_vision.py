@@ -144,7 +144,7 @@ def test_endpoint_passes_vision_to_the_vehicle_and_counts_rejects(
     np.testing.assert_allclose(position, [1.0, -2.0, -3.0])
     np.testing.assert_allclose(variance, [0.01, 0.02, 0.03], rtol=1e-6)
     assert yaw == pytest.approx(0.5) and yaw_var == pytest.approx(0.004) and velocity is None
-    with caplog.at_level(logging.WARNING, logger="autopilot_emu.mavlink.endpoint"):
+    with caplog.at_level(logging.WARNING, logger="autopilot_emu.mavlink.vision"):
         for k in range(3):
             client.send(endpoint, _vpe(x=math.nan))
             client.send(endpoint, _odometry(frame=mavlink2.MAV_FRAME_GLOBAL))
