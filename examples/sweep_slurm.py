@@ -25,9 +25,9 @@ from dask_jobqueue import SLURMCluster
 from distributed import Client
 from rich.console import Console
 
+from harness.commands.sweep import exit_status
 from harness.sweep.runner import run_sweep, worker_environment
 from harness.sweep.spec import SweepError, plan_sweep
-from harness.sweep_cli import exit_status
 
 
 def main() -> int:

@@ -144,3 +144,22 @@ def role_output(log_path: Path, proc: subprocess.Popen) -> dict[str, Any]:
         if isinstance(value, dict):
             return value
     return {"error": lines[-1] if lines else "no output", "exit_code": proc.returncode}
+
+
+def write_net_env(
+    net: NetRun, path: Path, speed: float, wall_origin_s: float, clock_file: Path
+) -> None:
+    """``net.env`` of ``swarmsitl up --net``: what a user's node program sources, and say so."""
+    path.write_text(
+        f"# source this, then set SWARMSITL_NODE (one of: "
+        f"{', '.join(n.node_id for n in net.nodes)})\n"
+        f"export SWARMSITL_SPEED={speed:g}\nexport SWARMSITL_CLOCK_ORIGIN={wall_origin_s!r}\n"
+        f"export SWARMSITL_CLOCK_FILE={clock_file}\n"
+        f"export SWARMSITL_NET={net.net_path}\n"
+        f"export SWARMSITL_NET_RECORDS={net.records_dir}\n"
+    )
+    env = f"SWARMSITL_SPEED={speed:g} SWARMSITL_CLOCK_ORIGIN={wall_origin_s!r}"
+    console.print(
+        f"companion programs: {env} SWARMSITL_NET={net.net_path} SWARMSITL_NODE=<node> "
+        f"python your_program.py   (records: SWARMSITL_NET_RECORDS={net.records_dir})"
+    )

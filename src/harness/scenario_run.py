@@ -42,15 +42,16 @@ from harness.flight_checks import (
     stayed_inside,
 )
 from harness.flight_log import FlightLog
-from harness.lockstep import LOCKSTEP, ClockAcks, GatedLink, LockstepGate, gated_links
+from harness.lockstep import LOCKSTEP, GatedLink, LockstepGate, gated_links
 from harness.net_plan import NetPlan, NetRun
-from harness.net_roles import attach, role_process, stop_processes
+from harness.net_roles import attach, role_process
 from harness.net_roles import write_report as write_net_report
 from harness.run_manifest import RunManifest, write_manifest
 from harness.run_ports import RunPorts, free_tcp_ports
 from harness.run_report import write_run_report
 from harness.run_totals import fleet_totals, metric_checks, versions
 from harness.scenario import Scenario
+from harness.session import RunSession
 from harness.sim_clock import ClockFile
 from harness.simulation import PortPlan, Simulation, SimulationConfig
 from harness.world_setup import WorldSetup, world_config
@@ -149,7 +150,9 @@ class ScenarioRun:
         self.run_dir = options.out_dir.absolute()  # companions start in other directories
         self.vehicles = scenario.vehicles
         self.companions: list[Companion] = []
-        self.net_procs: dict[str, subprocess.Popen] = {}
+        self.session: RunSession | None = None
+        """The run's lifecycle (simulation, clock file, acknowledgements, the cloud and bridge
+        processes); the companions' process groups are this runner's to stop."""
         self.stop_reason = "duration"
         self.stop_requested = False
         self.wall_start = time.monotonic()
@@ -320,9 +323,10 @@ class ScenarioRun:
                 "--mavlink", f"udpout:{ports.bind_addr}:{ports.listen_port(i)}",
             ]  # fmt: skip
             with (out / "mocap_bridge.log").open("w") as log:
-                self.net_procs[f"mocap_bridge{i + 1}"] = subprocess.Popen(
+                bridge = subprocess.Popen(
                     argv, stdout=log, stderr=subprocess.STDOUT, start_new_session=True
                 )
+            self.session.adopt_process(f"mocap_bridge{i + 1}", bridge)
 
     # ---- running -----------------------------------------------------------------------------
 
@@ -457,31 +461,34 @@ class ScenarioRun:
                 self.sim.on_frames(self._sample_frames)
             if self.net_run is not None:
                 attach(self.net_run, self.sim)
-            self._clock = ClockFile(self.run_dir / "clock")
-            if self.options.speed is None:
+            # The signals are the caller's (``swarmsitl run`` calls request_stop).
+            session = RunSession(
+                self.sim, self.run_dir, speed=self.options.speed, handle_signals=False
+            )
+            self.session, self._clock = session, session.clock
+            if session.acks is not None:
                 self._gate = LockstepGate(
-                    LOCKSTEP, ClockAcks(self._clock.path), self._gated_links, self._live_groups
+                    LOCKSTEP, session.acks, self._gated_links, self._live_groups
                 )
-            self.wall_start = time.monotonic()
+            self.wall_start = session.wall_start_s
             if self.net_run is not None and spec.cloud:
-                self.net_procs["cloud"] = role_process(
+                cloud = role_process(
                     self.net_run, "cloud", spec.duration_s, self.options.speed or 1.0,
                     self.wall_start, self.run_dir / "cloud.log", clock_file=self._clock.path,
                 )  # fmt: skip
+                session.adopt_process("cloud", cloud)
             self._start_bridges()
             self._start_companions()
             self._loop(on_progress)
         finally:
-            self._stop_processes()
-            if self.sim is not None:
-                self.sim.close()  # tlogs, truth.csv
-            if self._clock is not None:
-                self._clock.close()
-            if self._gate is not None:
-                self._gate.close()
+            self._stop_companions()
+            if self.session is not None:
+                self.session.close()  # the cloud, tlogs, truth.csv, the clock, the acks
+            elif self.sim is not None:
+                self.sim.close()
         return self._finish()
 
-    def _stop_processes(self) -> None:
+    def _stop_companions(self) -> None:
         """SIGTERM every companion's process group (its mavsdk_server too), kill after grace."""
         now = self.sim.time_s if self.sim is not None else 0.0
         live = [c for c in self.companions if c.poll(now)]
@@ -501,7 +508,6 @@ class ScenarioRun:
         for c in self.companions:  # a companion's leftover children (mavsdk_server)
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 os.killpg(c.process.pid, signal.SIGKILL)
-        stop_processes(self.net_procs)
 
     # ---- report ------------------------------------------------------------------------------
 

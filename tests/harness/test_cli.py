@@ -130,7 +130,7 @@ def test_ctrl_c_during_shutdown_does_not_cut_the_recordings(tmp_path, monkeypatc
 
 def test_stream_rate_options_parse_per_link():
     from autopilot_emu.mavlink.streams import StreamProfile
-    from harness.cli import parse_stream_rates
+    from harness.commands.up_options import parse_stream_rates
 
     rates = parse_stream_rates(["ATTITUDE=20", "gcs:attitude=2", "HIGHRES_IMU=0"])
     assert rates == {
@@ -178,7 +178,7 @@ def test_up_with_mocap_announces_where_the_poses_go(tmp_path):
 
 def test_gps_outage_options_parse_to_windows():
     """START:END for every vehicle, START:END:SYSID for one (window vehicle index = sysid - 1)."""
-    from harness.cli import parse_gps_outages
+    from harness.commands.up_options import parse_gps_outages
     from sitl.sensors.gps import GpsOutageWindow
 
     assert parse_gps_outages(["30:40", "5.5:6:2"]) == (

@@ -4,7 +4,8 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from harness.cli import app, camera_override
+from harness.cli import app
+from harness.commands.up_options import camera_override
 from harness.run_ports import free_port_block
 from sitl.vehicles.multirotor import load_airframe
 

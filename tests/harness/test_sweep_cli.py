@@ -7,15 +7,15 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.sweep.runner import SweepOutcome
-from harness.sweep.table import RESULTS_FILE
-from harness.sweep_cli import (
+from harness.commands.sweep import (
     EXIT_BAD_INPUT,
     EXIT_CHECKS_FAILED,
     EXIT_ERRORED,
     EXIT_OK,
     exit_status,
 )
+from harness.sweep.runner import SweepOutcome
+from harness.sweep.table import RESULTS_FILE
 
 pytestmark = pytest.mark.heavy
 

@@ -10,10 +10,10 @@ from distributed import Client
 from typer.testing import CliRunner
 
 from harness.cli import app
+from harness.commands.sweep import EXIT_CHECKS_FAILED
 from harness.sweep.runner import run_sweep
 from harness.sweep.spec import plan_sweep
 from harness.sweep.table import RESULTS_FILE
-from harness.sweep_cli import EXIT_CHECKS_FAILED
 
 pytestmark = pytest.mark.heavy
 

@@ -8,23 +8,22 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
 import time
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from harness.launch import StopFlag, console, open_simulation, run_dir_of
+from harness.launch import console, open_simulation, run_dir_of
 from harness.net_plan import NetPlan, NetRun
 from harness.net_roles import (
     attach,
     node_table,
     role_output,
     role_process,
-    stop_processes,
     write_report,
 )
+from harness.session import RunSession
 
 LANDING_S = 60.0
 """Simulated seconds the demo keeps running after the roles stop, for the vehicles to land."""
@@ -123,55 +122,46 @@ def net_demo(
     sim = open_simulation(cfg)
     attach(net, sim)
     console.print(node_table(net))
-    flag = StopFlag()
-    old = {s: signal.signal(s, flag) for s in (signal.SIGINT, signal.SIGTERM)}
-    procs: dict[str, subprocess.Popen] = {}
     messaging_s = 0.0
-    t0 = time.monotonic()
-    try:
-        origin = time.monotonic()
+    # Leaving the session stops the roles and closes while signals only set the flag: the
+    # records and tlogs stay whole.
+    with RunSession(sim, run_dir, speed=speed) as session:
+        procs = session.processes
+        t0 = session.wall_start_s
         for node in net.nodes:
             extra = ["--seed", str(seed)]
             if fly and node.vehicle is not None:
                 extra += ["--mavlink", f"udpin:127.0.0.1:{sdk_port + node.vehicle}"]
             # The roles run until told to stop: the window is measured in simulation time here.
-            procs[node.node_id] = role_process(
-                net, node.node_id, 1e9, speed, origin, run_dir / f"{node.node_id}.log", extra
+            log_path = run_dir / f"{node.node_id}.log"
+            session.adopt_process(
+                node.node_id,
+                role_process(net, node.node_id, 1e9, speed, t0, log_path, extra),
             )
 
         def gave_up() -> bool:
             return (
-                flag.stop
+                session.stopped
                 or time.monotonic() - t0 > timeout
                 or any(p.poll() is not None for p in procs.values())
             )
 
         def all_ended() -> bool:
             return (
-                flag.stop
+                session.stopped
                 or time.monotonic() - t0 > timeout
                 or all(p.poll() is not None for p in procs.values())
             )
 
         with console.status(f"messaging for {duration:g} simulated s at {speed:g}x ..."):
-            sim.run_paced(speed, gave_up, max_duration_s=duration, wall_origin_s=origin)
+            session.advance(duration, gave_up)
             messaging_s = sim.time_s
             for proc in procs.values():  # each writes its records, then lands its vehicle
                 if proc.poll() is None:
                     proc.send_signal(signal.SIGTERM)
-            if not flag.stop:
-                sim.run_paced(
-                    speed,
-                    all_ended,
-                    max_duration_s=LANDING_S,
-                    wall_origin_s=origin + messaging_s / speed,
-                )
-    finally:
-        # Stop and close while signals only set the flag: the records and tlogs stay whole.
-        stop_processes(procs)
-        sim.close()
-        for s, h in old.items():
-            signal.signal(s, h)
+            if not session.stopped:
+                session.advance(LANDING_S, all_ended)
+    interrupted = session.stopped
     outputs = {n: role_output(run_dir / f"{n}.log", proc) for n, proc in procs.items()}
     write_report(
         net,
@@ -184,11 +174,11 @@ def net_demo(
             "sim_time_s": sim.time_s,
             "achieved_speed": sim.time_s / max(time.monotonic() - t0, 1e-9),
             "roles": outputs,
-            "interrupted": flag.stop,
+            "interrupted": interrupted,
         },
         traffic_s=messaging_s if messaging_s > 0 else None,
     )
-    if flag.stop:
+    if interrupted:
         console.print("[yellow]interrupted: the report covers the run so far[/yellow]")
         raise typer.Exit(130)
     failed = [n for n, p in procs.items() if p.returncode not in (0, -signal.SIGTERM)]
