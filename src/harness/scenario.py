@@ -27,7 +27,7 @@ import worlds
 from autopilot_emu.params import ParamStore
 from harness.companion_args import DeclarationError, check_args, declared_params, program_module
 from harness.link_models import check_link_model, links_config
-from harness.net_plan import VEHICLE_ROLES
+from harness.net.plan import VEHICLE_ROLES
 from harness.suggest import did_you_mean
 from sitl.power.loads import LOAD_PRESETS
 from sitl.vehicles.multirotor import airframe_yaml_path

@@ -43,9 +43,9 @@ from harness.flight_checks import (
 )
 from harness.flight_log import FlightLog
 from harness.lockstep import LOCKSTEP, GatedLink, LockstepGate, gated_links
-from harness.net_plan import NetPlan, NetRun
-from harness.net_roles import attach, role_process
-from harness.net_roles import write_report as write_net_report
+from harness.net.plan import NetPlan, NetRun
+from harness.net.roles import attach, role_process
+from harness.net.roles import write_report as write_net_report
 from harness.run_manifest import RunManifest, write_manifest
 from harness.run_ports import RunPorts, free_tcp_ports
 from harness.run_report import write_run_report

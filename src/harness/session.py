@@ -28,7 +28,7 @@ from pathlib import Path
 from types import FrameType, TracebackType
 
 from harness.lockstep import ClockAcks, fleet_gate, run_gated
-from harness.net_roles import stop_processes
+from harness.net.roles import stop_processes
 from harness.sim_clock import ClockFile
 from harness.simulation import Simulation
 

@@ -6,7 +6,7 @@ import pytest
 
 from companion.net import NetConfig
 from companion.roles.cluster import clusters
-from harness.net_plan import NetPlan, parse_roles
+from harness.net.plan import NetPlan, parse_roles
 from harness.run_ports import free_ports
 
 NET = free_ports(vehicles=8)

@@ -8,8 +8,8 @@ import pytest
 
 from companion.net import NetConfig, Node, UdpTransport
 from harness.link_models import links_config
-from harness.net_plan import NetPlan, NetRun
-from harness.net_roles import attach
+from harness.net.plan import NetPlan, NetRun
+from harness.net.roles import attach
 from harness.run_ports import free_ports
 from harness.simulation import Simulation, SimulationConfig
 from sitl.links.inprocess import InProcessPort

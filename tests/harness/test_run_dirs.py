@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from harness.launch import default_run_dir, run_dir_of
-from harness.net_plan import NetPlan, NetRun
+from harness.net.plan import NetPlan, NetRun
 from harness.run_ports import free_ports
 from harness.scenario import load_scenario
 from harness.sim_clock import ClockFile

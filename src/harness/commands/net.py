@@ -1,7 +1,7 @@
 """The messaging network on the command line: ``swarmsitl cloud`` and ``swarmsitl net-demo``.
 
 The role processes, the node table and the report they share with ``swarmsitl up --net`` and
-``swarmsitl run`` are in :mod:`harness.net_roles`.
+``swarmsitl run`` are in :mod:`harness.net.roles`.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from typing import Annotated
 import typer
 
 from harness.launch import console, open_simulation, run_dir_of
-from harness.net_plan import NetPlan, NetRun
-from harness.net_roles import (
+from harness.net.plan import NetPlan, NetRun
+from harness.net.roles import (
     attach,
     node_table,
     role_output,

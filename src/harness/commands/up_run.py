@@ -31,9 +31,9 @@ from harness.commands.up_options import (
 from harness.launch import console, open_simulation, run_dir_of
 from harness.link_models import NO_LINK
 from harness.lockstep import LOCKSTEP
-from harness.net_plan import NetPlan, NetRun, parse_roles
-from harness.net_roles import attach, node_table, role_process, write_net_env
-from harness.net_roles import write_report as write_net_report
+from harness.net.plan import NetPlan, NetRun, parse_roles
+from harness.net.roles import attach, node_table, role_process, write_net_env
+from harness.net.roles import write_report as write_net_report
 from harness.param_options import CLIENT_PARAMS_FILE, ParamsLoad
 from harness.session import RunSession
 from harness.signing_options import (

@@ -21,8 +21,8 @@ from typing import Any
 from rich.table import Table
 
 from harness.launch import console
-from harness.net_plan import NetRun
-from harness.net_report import energy_table, link_table
+from harness.net.plan import NetRun
+from harness.net.report import energy_table, link_table
 from harness.simulation import Simulation
 
 
