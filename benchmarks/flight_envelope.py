@@ -30,7 +30,7 @@ import numpy as np
 
 from autopilot_emu.modes import MainMode
 from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 from sitl.power.battery import endurance_s
 
 TILT_LIMIT_DEG = 35.0

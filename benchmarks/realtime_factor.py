@@ -38,7 +38,7 @@ import pymap3d
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.world import WorldConfig
 
 TAKEOFF_AT_S = 3.0
@@ -52,7 +52,7 @@ PYFLYT_MAX_VEHICLES = 10
 STARTUP_SCRIPT = """
 import time
 t0 = time.perf_counter()
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 t1 = time.perf_counter()
 with Simulation(SimulationConfig(n_vehicles=1, mavlink=False, record_hz=0.0, mocap_port=0)) as sim:
     t2 = time.perf_counter()

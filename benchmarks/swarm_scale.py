@@ -34,9 +34,9 @@ import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from harness.scenario import Scenario, parse_scenario
 from harness.scenarios import scenario_path
-from harness.swarm_run import run_swarm
+from harness.scenarios.spec import Scenario, parse_scenario
+from harness.swarm.run import run_swarm
 from harness.sweep.runner import open_client
 from realtime_factor import machine
 

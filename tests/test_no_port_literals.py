@@ -2,8 +2,8 @@
 
 Fixed ports collide: two pytest-xdist workers (or two CI jobs) pick the same one, or a port in
 Linux's ephemeral range (32768-60999) goes to some process's outgoing connection before the
-test binds it. Tests take ports from :func:`harness.run_ports.free_ports` /
-:func:`harness.run_ports.free_port_block` (this worker's own slice of 20000-32767) or let the OS
+test binds it. Tests take ports from :func:`harness.run.ports.free_ports` /
+:func:`harness.run.ports.free_port_block` (this worker's own slice of 20000-32767) or let the OS
 choose (port 0). This lint reads every ``tests/**/*.py`` with :mod:`tokenize` and flags, on a
 line about ports (:data:`PORT_WORDS`), an integer literal in 1024-65535, a string that is such a
 number (``"--sdk-port", "45150"``) or a string with one after a ``:`` (``"127.0.0.1:47110"``,
@@ -111,7 +111,7 @@ def test_no_test_hard_codes_a_port():
     offenders = [o for path in paths for o in port_literals(path)]
     if offenders:
         pytest.fail(
-            "port literals in tests (take ports from harness.run_ports.free_port_block or "
+            "port literals in tests (take ports from harness.run.ports.free_port_block or "
             "free_ports, or port 0; a default compared without binding gets "
             "'# port-literal: <why>'):\n" + "\n".join(str(o) for o in offenders),
             pytrace=False,

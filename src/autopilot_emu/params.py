@@ -57,7 +57,8 @@ ParamValue = int | float
 def unknown_param_message(name: str, names: Iterable[str]) -> str:
     """``unknown parameter 'X'; did you mean Y or Z?`` with the close names among ``names``.
 
-    ``difflib`` with ``harness.suggest``'s settings (the autopilot cannot import the harness);
+    ``difflib`` with ``harness.options.suggest``'s settings (the autopilot cannot import the
+    harness);
     with no close name it says where the table is.
     """
     near = difflib.get_close_matches(name, list(names), n=3, cutoff=0.5)

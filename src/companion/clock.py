@@ -17,7 +17,7 @@ In lockstep the process is also a participant: when the clock file has an acknow
 folder beside it (``<clock file>.acks/``, made by the harness), importing this module starts a
 daemon thread that copies the simulation time it reads into ``<folder>/<pid>`` every
 ACK_PERIOD_WALL_S. The simulation never runs more than its documented lead ahead of the
-slowest acknowledgement of a live process (``harness.lockstep``), so a process that is stopped
+slowest acknowledgement of a live process (``harness.run.lockstep``), so a process that is stopped
 (SIGSTOP, a debugger) or starved of CPU pauses the simulation instead of missing its time.
 """
 

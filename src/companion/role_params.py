@@ -31,7 +31,7 @@ class UnknownParamsError(ValueError):
         """The keys not known, sorted."""
         self.known = known
         """Every key the dataclass takes, sorted."""
-        # difflib as harness.suggest does (companion code cannot import the harness).
+        # difflib as harness.options.suggest does (companion code cannot import the harness).
         near = difflib.get_close_matches(unknown[0], known, n=3, cutoff=0.5)
         hint = f"; did you mean {' or '.join(near)}?" if near else ""
         super().__init__(f"PARAMS: unknown key(s) {unknown}{hint}; known: {known}")

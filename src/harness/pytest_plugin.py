@@ -38,11 +38,11 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from harness.run_ports import RunPorts, free_ports
-from harness.sim_clock import read_time_s
+from harness.run.ports import RunPorts, free_ports
+from harness.run.sim_clock import read_time_s
 
 if TYPE_CHECKING:
-    from harness.flight_log import FlightLog
+    from harness.report.flight_log import FlightLog
 
 RUN_TIMEOUT_WALL_S = 900.0
 """Default wall-clock limit of one ``swarmsitl run`` in a test (a hung run fails, never hangs)."""
@@ -136,13 +136,13 @@ def _port_options(ports: RunPorts) -> list[object]:
 
 
 def _checks() -> Any:
-    from harness import flight_checks
+    from harness.report import flight_checks
 
     return flight_checks
 
 
 def _load_log(run_dir: Path) -> FlightLog:
-    from harness.flight_log import FlightLog
+    from harness.report.flight_log import FlightLog
 
     return FlightLog.load(run_dir)
 
@@ -208,7 +208,7 @@ class RunResult(_Checks):
 
     def metric(self, name: str) -> Any:
         """A report value by dotted name, e.g. ``vehicles.vehicle1.max_tilt_deg``."""
-        from harness.run_totals import lookup
+        from harness.report.totals import lookup
 
         return lookup(self.report, name)
 
@@ -340,7 +340,7 @@ class Fleet(_Checks):
 def swarmsitl_ports() -> RunPorts:
     """Free port bases for this test, from this xdist worker's own slice of ports.
 
-    Two tests on two workers never get the same ports (:func:`harness.run_ports.free_ports`).
+    Two tests on two workers never get the same ports (:func:`harness.run.ports.free_ports`).
     """
     return free_ports()
 

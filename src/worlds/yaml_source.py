@@ -1,6 +1,7 @@
 """Validating a YAML file against a pydantic model, with errors that name file, line and field.
 
-Worlds (``worlds.schema``) and scenarios (``harness.scenario``) are YAML files a person writes;
+Worlds (``worlds.schema``) and scenarios (``harness.scenarios.spec``) are YAML files a person
+writes;
 a mistake must be reported where it is (``offshore.yaml:12: spill_count: unknown key``) before
 anything starts. YAML would silently keep the last of two equal keys: that is an error too.
 """

@@ -47,7 +47,7 @@ def test_now_counts_from_the_simulation_origin(monkeypatch):
 
 def test_clock_file_gives_the_simulation_time(monkeypatch, tmp_path):
     """An unpaced run publishes its time in SWARMSITL_CLOCK_FILE; now_s reads it, not wall time."""
-    from harness.sim_clock import ClockFile
+    from harness.run.sim_clock import ClockFile
 
     clock_file = ClockFile(tmp_path / "clock")
     monkeypatch.setenv("SWARMSITL_CLOCK_FILE", str(clock_file.path))
@@ -63,7 +63,7 @@ def test_clock_file_gives_the_simulation_time(monkeypatch, tmp_path):
 
 def test_sleep_on_the_clock_file_waits_for_simulated_time(monkeypatch, tmp_path):
     """clock.sleep(2) returns only once the published simulation time advanced by 2 s."""
-    from harness.sim_clock import ClockFile
+    from harness.run.sim_clock import ClockFile
 
     clock_file = ClockFile(tmp_path / "clock")
     monkeypatch.setenv("SWARMSITL_CLOCK_FILE", str(clock_file.path))

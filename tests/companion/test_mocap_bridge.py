@@ -13,8 +13,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from companion import mocap_wire
 from companion.scripts import mocap_bridge
-from harness.mocap_publisher import MocapPublisher
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
+from harness.sim.mocap_publisher import MocapPublisher
 from sitl.sensors.mocap import MocapSample
 
 pytestmark = pytest.mark.sockets

@@ -18,7 +18,7 @@ its watchdog (ten times the simulated limit at :data:`SPEED`, at least 120 s) be
 pytest-timeout's limit per test.
 
 Each test module gets its own block of ports from :func:`module_ports`, drawn from the one port
-allocator of the suite (:func:`harness.run_ports.free_port_block`: this xdist worker's slice of
+allocator of the suite (:func:`harness.run.ports.free_port_block`: this xdist worker's slice of
 20000-32767, never a block handed out before in this process), so modules never collide with
 each other, with the other worker, nor with a developer's ``swarmsitl up`` on the default ports.
 """
@@ -43,10 +43,10 @@ import pytest
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
-from harness.lockstep import ClockAcks, fleet_gate, run_gated
 from harness.pytest_plugin import WaitTimeout, sim_time_s, wait_until
-from harness.run_ports import free_port_block
-from harness.sim_clock import ClockFile
+from harness.run.lockstep import ClockAcks, fleet_gate, run_gated
+from harness.run.ports import free_port_block
+from harness.run.sim_clock import ClockFile
 
 E2E_DIR = Path(__file__).resolve().parent
 CLIENTS_DIR = E2E_DIR / "clients"
@@ -114,7 +114,7 @@ class Ports:
 def module_ports() -> Ports:
     """A fresh block of ports for one test module (called once, at import, by each module).
 
-    The block comes from :func:`harness.run_ports.free_port_block`, the suite's one allocator:
+    The block comes from :func:`harness.run.ports.free_port_block`, the suite's one allocator:
     free for UDP and TCP when chosen, inside this xdist worker's own slice, and never handed out
     again by this process, so a module imported early still owns its block when it runs.
     """
@@ -356,7 +356,7 @@ def lockstep_clock(path: Path) -> Iterator[tuple[ClockFile, ClockAcks]]:
 def run_lockstep(
     sim, clock: ClockFile, acks: ClockAcks, done: Callable[[], bool], max_duration_sim_s: float
 ) -> None:
-    """Run an in-process ``harness.simulation.Simulation`` (built with
+    """Run an in-process ``harness.sim.simulation.Simulation`` (built with
     ``ping_period_s=LOCKSTEP.ping_period_s``) in lockstep with its clients, at most
     :data:`SPEED`, until ``done()`` or ``max_duration_sim_s``, publishing its time in ``clock``
     as ``swarmsitl up --lockstep --max-speed SPEED`` does (:func:`lockstep_clock`)."""

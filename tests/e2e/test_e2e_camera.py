@@ -4,7 +4,7 @@ The simulation runs in this process in lockstep with the client, at most
 :data:`e2e_support.SPEED` (its time published in a clock file, as ``swarmsitl up --lockstep``
 does); the client runs in its own process with its own
 mavsdk_server. Each test's UDP and gRPC ports are a block of the suite's allocator
-(:func:`harness.run_ports.free_port_block`).
+(:func:`harness.run.ports.free_port_block`).
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ from e2e_support import (
     start_client,
 )
 
-from harness.lockstep import LOCKSTEP
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.lockstep import LOCKSTEP
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 from sitl.world import WorldConfig
 

@@ -5,7 +5,7 @@ One vehicle with its camera streaming, in lockstep with the companion (at most
 as ``swarmsitl run`` would start it: its own process, told everything by ``SWARMSITL_*``
 variables, a small rectangle at 8 m so the flight takes about a simulated minute.
 Its ports come from the suite's allocator (:func:`e2e_support.module_ports`,
-:func:`harness.run_ports.free_port_block`).
+:func:`harness.run.ports.free_port_block`).
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ from e2e_support import (
 )
 from pymavlink import mavutil
 
-from harness.lockstep import LOCKSTEP
-from harness.run_ports import free_port_block
+from harness.run.lockstep import LOCKSTEP
+from harness.run.ports import free_port_block
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.e2e
@@ -186,7 +186,7 @@ def test_the_coverage_companion_counts_dark_patches_where_they_lie(tmp_path):
     """Two spill-coloured slabs in the rectangle (simulation in this process, in lockstep): the
     camera thread finds exactly two spills, each within 3 m of a slab's centre (frames, poses, the
     attitude quaternion and the camera model agree)."""
-    from harness.simulation import PortPlan, Simulation, SimulationConfig
+    from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
     from sitl.physics.obstacles import BoxObstacle
 
     b = free_port_block(6)

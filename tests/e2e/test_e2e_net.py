@@ -27,7 +27,7 @@ from e2e_support import (
     wait_sim,
 )
 
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 
 pytestmark = pytest.mark.e2e
 

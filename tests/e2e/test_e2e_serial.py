@@ -23,7 +23,7 @@ from e2e_support import (
 )
 from pymavlink import mavutil
 
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 
 pytestmark = pytest.mark.e2e
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.flight_log import FlightLog
+from harness.report.flight_log import FlightLog
 
 pytestmark = pytest.mark.e2e
 

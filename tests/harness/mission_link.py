@@ -13,8 +13,8 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 
 HOME_LAT, HOME_LON = 47.397742, 8.545594
 

@@ -6,7 +6,7 @@ import json
 import subprocess
 import sys
 
-from harness.simulation import Simulation
+from harness.sim.simulation import Simulation
 
 READER = """
 import json, sys, cv2

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
-from harness.recorder import COLUMNS
+from harness.sim.recorder import COLUMNS
 
 EPOCH_S = 1_790_000_000.0
 """Unix time the synthetic tlogs put at simulation t = 0."""

@@ -11,7 +11,7 @@ import pytest
 from autopilot_emu import quaternion as quat
 from autopilot_emu.modes import AutoSubMode, MainMode
 from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 
 STEP_DEG = 10.0
 OVERSHOOT_BOUND = 0.20

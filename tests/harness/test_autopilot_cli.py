@@ -6,9 +6,9 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan
+from harness.run.ports import free_port_block
+from harness.sim.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
+from harness.sim.simulation import PortPlan
 
 pytestmark = pytest.mark.sockets
 

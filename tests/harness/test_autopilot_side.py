@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from harness.autopilot_side import FleetSide, HilSide, Readings
+from harness.sim.autopilot_side import FleetSide, HilSide, Readings
 
 READINGS = Readings(sensors=["imu"], gps=["fix"], battery=["pack"], ranges=["range"])
 

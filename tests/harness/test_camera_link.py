@@ -19,8 +19,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 from stream_reader import read_while_running
 from udp_client import UdpClient
 
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 from sitl.world import WorldConfig
 

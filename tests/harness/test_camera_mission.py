@@ -13,8 +13,8 @@ from mission_link import SimLink, free_udp_port, mission_cmd, offset_deg, waypoi
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.modes import AutoSubMode
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets

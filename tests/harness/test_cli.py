@@ -108,7 +108,7 @@ def test_ctrl_c_during_shutdown_does_not_cut_the_recordings(tmp_path, monkeypatc
     import os
     import signal
 
-    from harness.simulation import Simulation
+    from harness.sim.simulation import Simulation
 
     close = Simulation.close
 

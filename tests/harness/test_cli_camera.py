@@ -6,7 +6,7 @@ from typer.testing import CliRunner
 
 from harness.cli import app
 from harness.commands.up_options import camera_override
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 from sitl.vehicles.multirotor import load_airframe
 
 pytestmark = pytest.mark.sockets

@@ -5,7 +5,7 @@ import typer
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.sim_options import parse_frames
+from harness.options.world import parse_frames
 
 pytestmark = pytest.mark.sockets
 

@@ -6,7 +6,7 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.signing_options import is_loopback, signing_key, unauthenticated_warning
+from harness.options.signing import is_loopback, signing_key, unauthenticated_warning
 
 pytestmark = pytest.mark.sockets
 

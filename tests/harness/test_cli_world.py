@@ -6,7 +6,7 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.run_ports import RunPorts, free_ports
+from harness.run.ports import RunPorts, free_ports
 from worlds.examples import example_path
 
 pytestmark = pytest.mark.sockets

@@ -19,8 +19,8 @@ from udp_client import UdpClient
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.modes import AutoSubMode, MainMode, custom_mode
 from autopilot_emu.params import encode_param_value
-from harness.client_links import UdpOut, parse_udp_out, serial_link_path
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.sim.client_links import UdpOut, parse_udp_out, serial_link_path
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 
 pytestmark = pytest.mark.sockets
 

@@ -22,14 +22,14 @@ from companion.planning.coverage_role import CoverageParams
 from companion.scripts.indoor_search import SearchParams
 from harness import scenario_run
 from harness.cli import app
-from harness.companion_args import (
+from harness.run.companion_args import (
     ArgsProblem,
     DeclarationError,
     check_args,
     declared_params,
     program_module,
 )
-from harness.scenario import ScenarioError, load_scenario
+from harness.scenarios.spec import ScenarioError, load_scenario
 
 SCENARIO = """\
 name: misspelt

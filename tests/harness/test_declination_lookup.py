@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from autopilot_emu import magnetic_declination, quaternion
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 from sitl.world import WorldConfig
 
 SYDNEY = {"origin_lat_deg": -33.9, "origin_lon_deg": 151.2, "origin_alt_amsl_m": 30.0}

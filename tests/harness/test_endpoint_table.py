@@ -3,8 +3,8 @@
 import pytest
 from rich.console import Console
 
-from harness.endpoint_table import VehicleEndpoints, endpoint_table
-from harness.simulation import PortPlan
+from harness.run.endpoint_table import VehicleEndpoints, endpoint_table
+from harness.sim.simulation import PortPlan
 
 PORTS = PortPlan()
 

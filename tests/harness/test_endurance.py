@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 from sitl.physics.earth import GRAVITY_M_S2
 from sitl.power.battery import endurance_s
 

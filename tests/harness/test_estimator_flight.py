@@ -19,7 +19,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu import quaternion as quat
 from autopilot_emu.mavlink import messages
 from autopilot_emu.modes import AutoSubMode, MainMode
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 
 SEED = 8
 SAMPLE_EVERY_STEPS = 50

@@ -17,9 +17,9 @@ import pytest
 
 from autopilot_emu.fleet import AutopilotFleet
 from autopilot_emu.simulator_link import SimulatorLinkConfig
-from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
-from harness.run_ports import free_port_block
-from harness.simulation import EXTERNAL, PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
+from harness.sim.simulation import EXTERNAL, PortPlan, Simulation, SimulationConfig
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from autopilot_emu.mavlink.vehicle_port import TelemetrySnapshot
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 
 FIELDS = [f.name for f in dataclasses.fields(TelemetrySnapshot)]
 

@@ -9,7 +9,7 @@ from synthetic_run import IN_AIR, two_vehicle_run
 
 from autopilot_emu.failsafe import FailsafeInput, FailsafeMonitor
 from autopilot_emu.params import ParamStore
-from harness.flight_checks import (
+from harness.report.flight_checks import (
     FAILSAFE_TEXTS,
     assert_landed_and_disarmed,
     assert_max_tilt,
@@ -28,7 +28,7 @@ from harness.flight_checks import (
     stayed_inside,
     waypoints_reached,
 )
-from harness.flight_log import FlightLog, StateChange
+from harness.report.flight_log import FlightLog, StateChange
 
 # Vehicle 0 flies (0,0) -> up 10 m -> (20,0) -> (20,20) -> lands; vehicle 1 the same 6 m east.
 ROUTE = [(0.0, 0.0, 10.0), (20.0, 0.0, 10.0), (20.0, 20.0, 10.0), (20.0, 20.0, 0.0)]

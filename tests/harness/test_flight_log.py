@@ -16,7 +16,7 @@ from synthetic_run import (
     vehicle_tlog,
 )
 
-from harness.flight_log import FlightLog
+from harness.report.flight_log import FlightLog
 
 pytestmark = pytest.mark.sockets
 
@@ -191,7 +191,7 @@ def test_tlog_without_timed_messages_falls_back_to_its_own_stamps(run):
 
 def test_a_real_lockstep_run_reads_back(tmp_path):
     """The simulator's own recorder and tlog writer: the events line up with the truth."""
-    from harness.simulation import PortPlan, Simulation, SimulationConfig
+    from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sink:
         sink.bind(("127.0.0.1", 0))

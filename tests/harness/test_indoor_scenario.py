@@ -11,9 +11,9 @@ def test_the_shipped_scenario_splits_the_plant_among_its_vehicles() -> None:
     """The indoor scenario's companions, planning as they would: all rooms, no room twice."""
     from companion.planning.indoor_route import IndoorPlanner, RouteSpec
     from companion.scripts.indoor_search import plan_route, room_arcs
-    from harness.scenario import load_scenario
     from harness.scenarios import scenario_path
-    from harness.world_setup import world_setup
+    from harness.scenarios.spec import load_scenario
+    from harness.sim.world_setup import world_setup
 
     scenario = load_scenario(scenario_path("indoor"))
     spec, world = scenario.spec, scenario.world

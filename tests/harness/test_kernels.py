@@ -92,7 +92,7 @@ FLIGHTS = textwrap.dedent(
     """
     from autopilot_emu.modes import AutoSubMode, MainMode
     from harness.kernels import compile_all, forbid_compiles
-    from harness.simulation import Simulation, SimulationConfig
+    from harness.sim.simulation import Simulation, SimulationConfig
     from sitl.physics.wind import WindConfig
 
     compile_all()

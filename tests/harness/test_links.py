@@ -16,7 +16,7 @@ import pytest
 from mavlink_listener import MavlinkListener
 from pymavlink.dialects.v20 import common as mavlink2
 
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets

@@ -13,7 +13,7 @@ import time
 import pytest
 
 from autopilot_emu.mavlink.presence import PeerPresence
-from harness.lockstep import (
+from harness.run.lockstep import (
     CAP_LOOK_WALL_S,
     KEEP_ALIVE_LOOK_WALL_S,
     ClockAcks,
@@ -24,7 +24,7 @@ from harness.lockstep import (
     process_state,
     run_gated,
 )
-from harness.sim_clock import ClockFile
+from harness.run.sim_clock import ClockFile
 
 pytestmark = pytest.mark.process
 

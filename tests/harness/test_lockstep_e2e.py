@@ -19,9 +19,9 @@ from pathlib import Path
 
 import pytest
 
-from harness.lockstep import LOCKSTEP
 from harness.pytest_plugin import _cli, _port_options
-from harness.scenario_run import CHECK_EVERY_S
+from harness.run.lockstep import LOCKSTEP
+from harness.scenarios.runner import CHECK_EVERY_S
 
 pytestmark = pytest.mark.e2e
 

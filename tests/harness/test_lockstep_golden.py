@@ -40,7 +40,7 @@ import numpy as np
 import pymap3d
 import pytest
 
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 from sitl.physics.wind import WindConfig
 from sitl.world import WorldConfig
 

@@ -18,13 +18,13 @@ from typer.testing import CliRunner
 
 from autopilot_emu.mavlink.streams import StreamProfile
 from harness.cli import app
-from harness.link_models import (
+from harness.sim.link_models import (
     datarate_bytes_s,
     link_models,
     links_config,
     mavlink_shaper,
 )
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.devices.link_router import LinkRouter, RouterNode
 
 pytestmark = pytest.mark.sockets

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from companion import mocap_wire
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 from sitl import frames
 from sitl.world import WorldConfig
 

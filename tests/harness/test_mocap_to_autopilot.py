@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from companion.scripts import mocap_bridge
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl import frames
 from sitl.world import WorldConfig
 

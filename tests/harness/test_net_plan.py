@@ -7,7 +7,7 @@ import pytest
 from companion.net import NetConfig
 from companion.roles.cluster import clusters
 from harness.net.plan import NetPlan, parse_roles
-from harness.run_ports import free_ports
+from harness.run.ports import free_ports
 
 NET = free_ports(vehicles=8)
 """Node and router port bases of the plans (from the suite's allocator, though nothing binds)."""

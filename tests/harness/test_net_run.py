@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from companion.net import NetConfig, Node, UdpTransport
-from harness.link_models import links_config
 from harness.net.plan import NetPlan, NetRun
 from harness.net.roles import attach
-from harness.run_ports import free_ports
-from harness.simulation import Simulation, SimulationConfig
+from harness.run.ports import free_ports
+from harness.sim.link_models import links_config
+from harness.sim.simulation import Simulation, SimulationConfig
 from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork
 

@@ -17,9 +17,9 @@ from typer.testing import CliRunner
 from autopilot_emu.param_file import parse_param_file, read_param_file
 from autopilot_emu.params import MAV_PARAM_TYPE_REAL32, decode_param_value, encode_param_value
 from harness.cli import app
-from harness.param_options import CLIENT_PARAMS_FILE, load_params_options
-from harness.run_ports import free_port_block
-from harness.simulation import Simulation, SimulationConfig
+from harness.options.params import CLIENT_PARAMS_FILE, load_params_options
+from harness.run.ports import free_port_block
+from harness.sim.simulation import Simulation, SimulationConfig
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets

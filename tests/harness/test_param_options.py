@@ -8,7 +8,7 @@ import pytest
 
 from autopilot_emu.param_file import ParamFileError, parse_param_file
 from autopilot_emu.params import ParamStore
-from harness.param_options import (
+from harness.options.params import (
     CLIENT_PARAMS_FILE,
     load_params_options,
     parse_params_option,

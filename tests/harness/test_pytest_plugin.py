@@ -8,9 +8,9 @@ from importlib import metadata
 
 import pytest
 
-from harness import run_ports
 from harness.pytest_plugin import RunResult, free_ports
-from harness.run_ports import PORTS_HIGH, PORTS_LOW, free_port_block, worker_slice
+from harness.run import ports as run_ports
+from harness.run.ports import PORTS_HIGH, PORTS_LOW, free_port_block, worker_slice
 
 pytestmark = pytest.mark.sockets
 
@@ -109,7 +109,7 @@ def test_a_run_without_a_report_says_so_with_its_output(tmp_path):
 
 def test_a_taken_grpc_port_is_skipped_for_the_next_free_one():
     """A leftover mavsdk_server on a companion's port would hang it: the runner skips the port."""
-    from harness.run_ports import free_tcp_ports
+    from harness.run.ports import free_tcp_ports
 
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as held:
         held.bind(("127.0.0.1", 0))

@@ -2,8 +2,8 @@
 
 import csv
 
-from harness.recorder import COLUMNS, STREAM_EVERY_S
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.recorder import COLUMNS, STREAM_EVERY_S
+from harness.sim.simulation import Simulation, SimulationConfig
 
 
 def read(path):

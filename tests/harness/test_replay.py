@@ -11,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.replay import (
+from harness.report.replay import (
     ReplayScene,
     TruthTrack,
     frame_times,
@@ -20,8 +20,8 @@ from harness.replay import (
     overview_camera,
     paint_ground,
 )
-from harness.run_manifest import RunManifest, write_manifest
-from harness.simulation import Simulation, SimulationConfig
+from harness.run.manifest import RunManifest, write_manifest
+from harness.sim.simulation import Simulation, SimulationConfig
 
 SIZE = "160x96"
 
@@ -269,7 +269,7 @@ def test_window_plays_to_the_last_pose_and_ends_when_closed(run_dir, monkeypatch
     recorded sample at --speed and returns once the window is gone."""
     import pybullet
 
-    import harness.replay as replay_module
+    import harness.report.replay as replay_module
 
     checks = {"n": 0}
     poses: dict[int, list[float]] = {}

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from harness.report import demo_metrics, plot_trajectory
+from harness.report.demo import demo_metrics, plot_trajectory
 
 
 def _track():

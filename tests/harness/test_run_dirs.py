@@ -6,12 +6,12 @@ from pathlib import Path
 
 import pytest
 
-from harness.launch import default_run_dir, run_dir_of
 from harness.net.plan import NetPlan, NetRun
-from harness.run_ports import free_ports
-from harness.scenario import load_scenario
-from harness.sim_clock import ClockFile
-from harness.simulation import SimulationConfig
+from harness.run.launch import default_run_dir, run_dir_of
+from harness.run.ports import free_ports
+from harness.run.sim_clock import ClockFile
+from harness.scenarios.spec import load_scenario
+from harness.sim.simulation import SimulationConfig
 
 pytestmark = pytest.mark.sockets
 

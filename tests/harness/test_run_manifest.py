@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from harness.run_manifest import (
+from harness.run.manifest import (
     FORMAT_VERSION,
     MANIFEST_FILE,
     ManifestError,
@@ -16,7 +16,7 @@ from harness.run_manifest import (
     read_manifest,
     write_manifest,
 )
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 
 
 def _manifest(**changes) -> RunManifest:

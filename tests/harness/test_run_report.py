@@ -8,7 +8,7 @@ from rich.console import Console
 from synthetic_run import two_vehicle_run
 
 import worlds
-from harness.run_report import TIMESERIES_COLUMNS, summary_table, write_run_report
+from harness.report.run_report import TIMESERIES_COLUMNS, summary_table, write_run_report
 from worlds.examples import example_path
 
 EXTRA = {"seed": 7, "complete": True, "config_hash": "abc"}
@@ -181,7 +181,7 @@ def test_a_run_without_truth_writes_a_report_saying_so(tmp_path):
 
 
 def test_a_failing_plot_does_not_cost_the_report(run, monkeypatch):
-    import harness.run_report as run_report
+    import harness.report.run_report as run_report
 
     def broken(*args):
         raise RuntimeError("no fonts")
@@ -206,8 +206,8 @@ def test_summary_table_shows_vehicles_and_fleet(run):
 
 def _drawn_map(run_dir, world, seed):
     """The map's axes after drawing (limits settled by the equal aspect)."""
-    from harness.flight_log import FlightLog
-    from harness.run_report import _figure, draw_map
+    from harness.report.flight_log import FlightLog
+    from harness.report.run_report import _figure, draw_map
 
     fig, (ax,) = _figure((10.5, 8.0))
     draw_map(ax, FlightLog.load(run_dir, require_tlogs=False), world, seed)
@@ -230,7 +230,7 @@ def test_the_map_frames_a_small_flight_not_the_whole_world(run):
 
 
 def test_the_map_title_carries_the_runs_seed_not_the_worlds(run, monkeypatch):
-    import harness.run_report as run_report
+    import harness.report.run_report as run_report
 
     run_dir, _ = run
     world = worlds.build(worlds.load_world(example_path("city")))
@@ -244,7 +244,7 @@ def test_the_map_title_carries_the_runs_seed_not_the_worlds(run, monkeypatch):
 
 
 def test_a_swarm_map_frames_its_tracks(tmp_path, offshore, monkeypatch):
-    import harness.run_report as run_report
+    import harness.report.run_report as run_report
 
     # Three vehicles flying 30 m east, 5 m apart, 100 samples: (T, N, 3).
     t = np.linspace(0.0, 1.0, 100)[:, None]

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.scenario import DEFAULT_PARAMS, ScenarioError, load_scenario, parse_scenario
+from harness.scenarios.spec import DEFAULT_PARAMS, ScenarioError, load_scenario, parse_scenario
 
 pytestmark = pytest.mark.sockets
 
@@ -185,8 +185,8 @@ def test_script_paths_resolve_against_the_scenario(tmp_path):
 
 def test_each_vehicle_gets_its_roles_autopilot_parameters(tmp_path):
     """The runner's SimulationConfig carries DEFAULT_PARAMS + the role's, per vehicle."""
-    from harness.scenario_run import RunOptions, ScenarioRun
-    from harness.simulation import Simulation
+    from harness.scenarios.runner import RunOptions, ScenarioRun
+    from harness.sim.simulation import Simulation
 
     text = GOOD.replace("  spare: {}\n", "  spare: {params: {NAV_DLL_ACT: 0}}\n")
     run = ScenarioRun(load_scenario(write(tmp_path, text)), RunOptions(tmp_path / "run"))

@@ -6,8 +6,8 @@ import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.run_totals import fleet_totals, lookup, metric_checks
-from harness.scenario_run import traceback_in
+from harness.report.totals import fleet_totals, lookup, metric_checks
+from harness.scenarios.runner import traceback_in
 
 pytestmark = pytest.mark.sockets
 
@@ -120,8 +120,8 @@ def test_a_run_without_companions_runs_its_duration_and_reports(tmp_path):
 
 
 def test_groups_start_in_their_own_launch_areas_and_a_full_area_is_refused(tmp_path):
-    from harness.scenario import load_scenario
-    from harness.scenario_run import RunOptions, ScenarioRun
+    from harness.scenarios.runner import RunOptions, ScenarioRun
+    from harness.scenarios.spec import load_scenario
 
     scenario = tmp_path / "two_starts.yaml"
     scenario.write_text(

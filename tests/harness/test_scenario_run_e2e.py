@@ -115,7 +115,7 @@ def test_ctrl_c_leaves_readable_tlogs_and_a_report_marked_incomplete(swarmsitl_p
     report = json.loads((out / "report.json").read_text())
     assert report["complete"] is False and report["stop_reason"] == "interrupted"
     assert json.loads((out / "manifest.json").read_text())["complete"] is False
-    from harness.flight_log import FlightLog
+    from harness.report.flight_log import FlightLog
 
     log = FlightLog.load(out)
     assert log.end_s > 1.0 and not log.warnings, log.warnings
@@ -181,7 +181,7 @@ def test_a_lockstep_fleet_for_your_own_client(swarmsitl_fleet):
         proc.wait()
     assert proc.returncode == 0, client_log.read_text()
     log = fleet.stop()
-    from harness.flight_checks import assert_reached_altitude
+    from harness.report.flight_checks import assert_reached_altitude
 
     assert_reached_altitude(log, 0, 4.5, relative_to_start=True)
     assert "lockstep" in fleet.output

@@ -8,9 +8,9 @@ import sys
 
 import pytest
 
-from harness.session import RunSession
-from harness.sim_clock import read_time_s
-from harness.simulation import Simulation, SimulationConfig
+from harness.run.session import RunSession
+from harness.run.sim_clock import read_time_s
+from harness.sim.simulation import Simulation, SimulationConfig
 
 pytestmark = pytest.mark.sockets
 PY = sys.executable

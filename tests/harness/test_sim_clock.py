@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from harness.sim_clock import ClockFile, read_time_s
+from harness.run.sim_clock import ClockFile, read_time_s
 
 
 def test_a_published_time_reads_back(tmp_path):

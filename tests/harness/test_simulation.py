@@ -8,8 +8,8 @@ import numpy as np
 import pymap3d
 import pytest
 
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig, check_params
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig, check_params
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets
@@ -204,7 +204,7 @@ def test_stream_rate_overrides_reach_the_onboard_link():
     from pymavlink.dialects.v20 import common as mavlink2
 
     from autopilot_emu.mavlink.streams import StreamProfile
-    from harness.simulation import PortPlan, Simulation, SimulationConfig
+    from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
         client.bind(("127.0.0.1", 0))

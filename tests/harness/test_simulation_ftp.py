@@ -9,8 +9,8 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
 from autopilot_emu.mavlink.ftp_codec import FtpPayload, Opcode, decode
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 
 pytestmark = pytest.mark.sockets
 

@@ -12,8 +12,8 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 from udp_client import UdpClient
 
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.world import WorldConfig
 
 pytestmark = pytest.mark.sockets

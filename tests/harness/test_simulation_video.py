@@ -9,8 +9,8 @@ import urllib.request
 import pytest
 from stream_reader import read_while_running
 
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 from sitl.physics.obstacles import BoxObstacle
 from sitl.sensors.camera import CameraSpec, with_mount
 from sitl.world import WorldConfig

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 
 pytestmark = pytest.mark.sockets
 

@@ -1,6 +1,6 @@
 """ "Did you mean ...?": the close known names, else every known name (or a pointer to them)."""
 
-from harness.suggest import close_matches, did_you_mean
+from harness.options.suggest import close_matches, did_you_mean
 
 
 def test_close_names_are_suggested_best_first():

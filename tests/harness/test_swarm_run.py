@@ -11,10 +11,10 @@ import yaml
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.scenario import ScenarioError, parse_scenario
 from harness.scenarios import scenario_path
-from harness.swarm_engine import poisson_events
-from harness.swarm_run import run_swarm
+from harness.scenarios.spec import ScenarioError, parse_scenario
+from harness.swarm.engine import poisson_events
+from harness.swarm.run import run_swarm
 
 WALL_KEYS = ("wall", "wall_time_s", "real_time_factor", "run_dir")
 
@@ -89,7 +89,7 @@ def test_poisson_events_have_the_rate_and_stay_inside() -> None:
 
 
 def test_neighbour_tables_list_the_nearest_within_radio_range() -> None:
-    from harness.swarm_engine import SwarmEngine
+    from harness.swarm.engine import SwarmEngine
     from sitl.kinematic_fleet import KinematicFleet
     from sitl.vehicles.kinematics import load_kinematic_limits
 

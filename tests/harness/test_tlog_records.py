@@ -5,7 +5,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 from synthetic_run import TlogWriter, heartbeat, statustext, system_time
 
-from harness.tlog_records import scan_tlog
+from harness.report.tlog_records import scan_tlog
 
 
 def _tlog(path, seconds=60):

@@ -20,7 +20,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes import AutoSubMode, MainMode
 from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 
 LEG_M = 80.0
 SPEED_TOLERANCE = 0.10

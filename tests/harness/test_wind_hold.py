@@ -15,8 +15,8 @@ import math
 import numpy as np
 import pytest
 
-from harness.recorder import COLUMNS
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.recorder import COLUMNS
+from harness.sim.simulation import Simulation, SimulationConfig
 from sitl.physics.wind import TURBULENCE_W20_M_S, WindConfig
 from sitl.vehicles.multirotor import load_airframe
 

@@ -7,7 +7,7 @@ import typer
 from typer.testing import CliRunner
 
 from harness.cli import app
-from harness.wind_options import parse_gusts, parse_turbulence, parse_wind, wind_config
+from harness.options.wind import parse_gusts, parse_turbulence, parse_wind, wind_config
 from sitl.physics.wind import TURBULENCE_W20_M_S
 
 

@@ -1,4 +1,4 @@
-"""harness.world_setup: a world's launch area, wind, mocap and parameters for a simulation run."""
+"""harness.sim.world_setup: a world's launch area, wind, mocap and parameters for a run."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import worlds
-from harness.simulation import Simulation, SimulationConfig
-from harness.world_setup import (
+from harness.sim.simulation import Simulation, SimulationConfig
+from harness.sim.world_setup import (
     GPS_DENIED_MOCAP_HZ,
     WorldSetup,
     wind_config,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import csv
 import hashlib
 
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 
 
 def truth_csv_hash(tmp_path, seed: int, frames: tuple[str, ...]) -> str:

@@ -4,7 +4,7 @@ Opt-in (``python -m pytest -m stress``; docs/testing.md): runs the end-to-end mo
 tests/e2e and tests/conformance, the scenario-run modules of tests/harness) in a child pytest on
 two workers, module beside module, while two busy processes load both cores and, every 3 to 6
 wall seconds, one companion process, e2e client or ``mavsdk_server`` of the child's runs is
-stopped (SIGSTOP) for 1 to 2 wall seconds. The lockstep (``harness.lockstep``) must turn every
+stopped (SIGSTOP) for 1 to 2 wall seconds. The lockstep (``harness.run.lockstep``) must turn every
 pause into wall time, never into simulated time: the child's tests, whose waits and checks are
 in simulated time, must pass.
 Repeat it (``for i in 1 2 3 4 5; do python -m pytest -m stress; done``) for a pass rate.
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.lockstep import process_state, process_table
+from harness.run.lockstep import process_state, process_table
 
 pytestmark = pytest.mark.stress
 

@@ -83,7 +83,7 @@ class EndpointConfig:
     """Send a PING request (target 0/0, ``time_usec`` = simulation time) this often, simulated
     s, and note the peers' echoes in :attr:`MavlinkEndpoint.presence`; 0: none. PX4 has a PING
     stream of its own; a lockstep run asks for a fast one to learn how far each companion has
-    read (``harness.lockstep``)."""
+    read (``harness.run.lockstep``)."""
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255 or not 1 <= self.compid <= 255:

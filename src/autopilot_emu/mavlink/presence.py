@@ -4,7 +4,7 @@ A MAVLink link sees two signs of a live peer. A PING request (target 0/0) that t
 carries the simulation time in ``time_usec``; a peer that answers it (MAVSDK's ``mavsdk_server``
 does, as PX4 answers ours) echoes that time back, which says the peer has read everything the
 link sent up to then. A ground station's HEARTBEAT says it is there (PX4's data-link-loss check
-counts only those, :mod:`autopilot_emu.failsafe`). A lockstep simulation (``harness.lockstep``)
+counts only those, :mod:`autopilot_emu.failsafe`). A lockstep simulation (``harness.run.lockstep``)
 reads both to never run away from a companion computer that is slower than the simulation.
 :class:`PresenceHandler` sends a link's PING requests and handles the HEARTBEAT, PING and TIMESYNC
 it receives.

@@ -19,9 +19,9 @@ from rich.table import Table
 from autopilot_emu.params import ParamError
 from autopilot_emu.simulator_link import SimulatorLinkConfig
 from harness.commands.params import load_params_or_exit
-from harness.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
-from harness.launch import StopFlag, console
-from harness.simulation import EXTERNAL, PortPlan, Simulation
+from harness.run.launch import StopFlag, console
+from harness.sim.external_autopilot import ExternalAutopilot, ExternalAutopilotConfig
+from harness.sim.simulation import EXTERNAL, PortPlan, Simulation
 from sitl.hil_serial import parse_serial
 from sitl.hil_server import HIL_PORT_BASE
 

@@ -12,9 +12,9 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from harness.launch import console, open_simulation, run_dir_of
-from harness.session import RunSession
-from harness.simulation import PortPlan, SimulationConfig
+from harness.run.launch import console, open_simulation, run_dir_of
+from harness.run.session import RunSession
+from harness.sim.simulation import PortPlan, SimulationConfig
 
 
 def first_flight(
@@ -35,7 +35,7 @@ def first_flight(
 
     Example:  swarmsitl first-flight --out runs/first --speed 4
     """
-    from harness.report import demo_metrics, plot_trajectory, write_report
+    from harness.report.demo import demo_metrics, plot_trajectory, write_report
 
     run_dir = run_dir_of(out)
     ports = PortPlan(sdk_base=sdk_port, listen_base=listen_port, gcs_port=0)

@@ -14,7 +14,6 @@ from typing import Annotated
 
 import typer
 
-from harness.launch import console, open_simulation, run_dir_of
 from harness.net.plan import NetPlan, NetRun
 from harness.net.roles import (
     attach,
@@ -23,7 +22,8 @@ from harness.net.roles import (
     role_process,
     write_report,
 )
-from harness.session import RunSession
+from harness.run.launch import console, open_simulation, run_dir_of
+from harness.run.session import RunSession
 
 LANDING_S = 60.0
 """Simulated seconds the demo keeps running after the roles stop, for the vehicles to land."""
@@ -95,7 +95,7 @@ def net_demo(
 
     Example:  swarmsitl net-demo --duration 60 --out runs/net
     """
-    from harness.simulation import PortPlan, SimulationConfig
+    from harness.sim.simulation import PortPlan, SimulationConfig
 
     if not duration > 0 or not speed > 0:
         raise typer.BadParameter("--duration and --speed must be > 0")

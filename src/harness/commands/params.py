@@ -10,11 +10,11 @@ import typer
 from rich.markup import escape
 
 from autopilot_emu.param_file import format_param_file, store_rows
-from harness.launch import console
-from harness.param_options import PARAMS_HELP, ParamsLoad, load_params_options
-from harness.sim_options import parse_frames, world_options
-from harness.simulation import Simulation, SimulationConfig
-from harness.world_setup import world_config
+from harness.options.params import PARAMS_HELP, ParamsLoad, load_params_options
+from harness.options.world import parse_frames, world_options
+from harness.run.launch import console
+from harness.sim.simulation import Simulation, SimulationConfig
+from harness.sim.world_setup import world_config
 
 params_app = typer.Typer(
     no_args_is_help=True,

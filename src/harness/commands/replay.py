@@ -8,8 +8,7 @@ from typing import Annotated
 import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-from harness.launch import console
-from harness.replay import (
+from harness.report.replay import (
     VIDEO_FPS,
     VIDEO_SIZE_PX,
     ReplayError,
@@ -18,6 +17,7 @@ from harness.replay import (
     play_gui,
     render_video,
 )
+from harness.run.launch import console
 
 VIDEO_FILE = "replay.mp4"
 """Where a headless replay without --video goes, in the run directory."""

@@ -11,11 +11,11 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from autopilot_emu.mavlink.endpoint import PortInUseError
-from harness.launch import console, run_dir_of
-from harness.scenario import Scenario, ScenarioError, load_scenario
-from harness.scenario_run import RunOptions, RunPorts, ScenarioRun
+from harness.run.launch import console, run_dir_of
 from harness.scenarios import scenario_path
-from harness.swarm_run import run_swarm
+from harness.scenarios.runner import RunOptions, RunPorts, ScenarioRun
+from harness.scenarios.spec import Scenario, ScenarioError, load_scenario
+from harness.swarm.run import run_swarm
 
 SdkPort = Annotated[int, typer.Option(help="vehicle i's onboard link sends to this +i")]
 ListenPort = Annotated[int, typer.Option(help="vehicle i's onboard link listens here +i")]

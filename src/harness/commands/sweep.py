@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.markup import escape
 
-from harness.launch import console
+from harness.run.launch import console
 from harness.sweep.spec import SweepError, SweepPlan, plan_sweep
 
 if TYPE_CHECKING:

@@ -13,18 +13,18 @@ from harness.commands.autopilot import (
     HIL_SERIAL_HELP,
 )
 from harness.commands.up_run import UpFlags, plan_up, serve
-from harness.link_models import NO_LINK
-from harness.param_options import PARAMS_HELP
-from harness.signing_options import (
+from harness.options.params import PARAMS_HELP
+from harness.options.signing import (
     SIGNING_KEY_HELP,
     SIGNING_PASSPHRASE_HELP,
 )
-from harness.simulation import INTERNAL
-from harness.wind_options import (
+from harness.options.wind import (
     GUSTS_HELP,
     TURBULENCE_HELP,
     WIND_HELP,
 )
+from harness.sim.link_models import NO_LINK
+from harness.sim.simulation import INTERNAL
 from sitl.hil_server import HIL_PORT_BASE
 
 

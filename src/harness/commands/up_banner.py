@@ -11,11 +11,11 @@ from harness.commands.autopilot import (
     print_external_table,
 )
 from harness.commands.params import ParamsLoad, print_params_load
-from harness.endpoint_table import VehicleEndpoints, endpoint_table
-from harness.launch import console
-from harness.link_models import NO_LINK, describe, links_config
-from harness.simulation import Simulation, SimulationConfig
-from harness.world_setup import WorldSetup
+from harness.run.endpoint_table import VehicleEndpoints, endpoint_table
+from harness.run.launch import console
+from harness.sim.link_models import NO_LINK, describe, links_config
+from harness.sim.simulation import Simulation, SimulationConfig
+from harness.sim.world_setup import WorldSetup
 from sitl.sensors.camera import RENDER_S_PER_PIXEL
 
 

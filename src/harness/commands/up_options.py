@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
-from harness.link_models import check_link_model, links_config
+from harness.sim.link_models import check_link_model, links_config
 from sitl.sensors.camera import CameraSpec, with_mount
 from sitl.sensors.gps import GpsOutageWindow
 from sitl.vehicles.multirotor import load_airframe

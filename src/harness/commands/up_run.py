@@ -13,7 +13,6 @@ from pathlib import Path
 import typer
 from rich.markup import escape
 
-from harness.client_links import parse_udp_out
 from harness.commands.autopilot import (
     check_hil_serial,
     external_status,
@@ -28,27 +27,28 @@ from harness.commands.up_options import (
     parse_link_model,
     parse_stream_rates,
 )
-from harness.launch import console, open_simulation, run_dir_of
-from harness.link_models import NO_LINK
-from harness.lockstep import LOCKSTEP
 from harness.net.plan import NetPlan, NetRun, parse_roles
 from harness.net.roles import attach, node_table, role_process, write_net_env
 from harness.net.roles import write_report as write_net_report
-from harness.param_options import CLIENT_PARAMS_FILE, ParamsLoad
-from harness.session import RunSession
-from harness.signing_options import (
+from harness.options.params import CLIENT_PARAMS_FILE, ParamsLoad
+from harness.options.signing import (
     signing_key,
     unauthenticated_warning,
 )
-from harness.sim_options import parse_frames, world_options
-from harness.simulation import EXTERNAL, INTERNAL, PortPlan, SimulationConfig
-from harness.wind_options import (
+from harness.options.wind import (
     parse_gusts,
     parse_turbulence,
     parse_wind,
     wind_config,
 )
-from harness.world_setup import WorldSetup, world_config
+from harness.options.world import parse_frames, world_options
+from harness.run.launch import console, open_simulation, run_dir_of
+from harness.run.lockstep import LOCKSTEP
+from harness.run.session import RunSession
+from harness.sim.client_links import parse_udp_out
+from harness.sim.link_models import NO_LINK
+from harness.sim.simulation import EXTERNAL, INTERNAL, PortPlan, SimulationConfig
+from harness.sim.world_setup import WorldSetup, world_config
 from sitl.sensors.camera import MOUNT_PITCH_DEG
 from sitl.sensors.gps import GpsOutages
 

@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from harness.link_models import links_config
 from harness.net.report import net_report, task_intervals
+from harness.sim.link_models import links_config
 from sitl.devices.link_router import LinkRouter, RouterNode
 from sitl.links.network import LinkNetwork
 from sitl.power.energy import EnergyLedger

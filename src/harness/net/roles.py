@@ -20,10 +20,10 @@ from typing import Any
 
 from rich.table import Table
 
-from harness.launch import console
 from harness.net.plan import NetRun
 from harness.net.report import energy_table, link_table
-from harness.simulation import Simulation
+from harness.run.launch import console
+from harness.sim.simulation import Simulation
 
 
 def _json_safe(value: Any) -> Any:

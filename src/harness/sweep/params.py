@@ -16,8 +16,8 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from harness.scenario import ScenarioSpec
-from harness.suggest import did_you_mean
+from harness.options.suggest import did_you_mean
+from harness.scenarios.spec import ScenarioSpec
 
 
 class ParameterError(ValueError):

@@ -19,8 +19,8 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from harness.scenario import ScenarioError
 from harness.scenarios import scenario_path
+from harness.scenarios.spec import ScenarioError
 from harness.sweep.params import ParameterError, apply_parameters, set_parameter
 from harness.sweep.trial import Trial, build_scenario
 from worlds.examples import EXAMPLE_PREFIX

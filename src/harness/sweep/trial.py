@@ -2,7 +2,7 @@
 
 ``run_trial`` runs on a Dask worker (or in-process). It builds the trial's scenario from the
 scenario text with the parameters applied and the seed set, runs it at the scenario's fidelity
-(``swarm``: ``harness.swarm_run.run_swarm`` in-process; ``full``: a lockstep ``ScenarioRun``
+(``swarm``: ``harness.swarm.run.run_swarm`` in-process; ``full``: a lockstep ``ScenarioRun``
 with free ports in the trial's run directory), and flattens the report into numeric columns
 named as ``checks.metrics`` names them (``fleet.min_separation``,
 ``fleet.companions.spills_seen``). Every exception becomes a failed row with its traceback: one
@@ -25,7 +25,7 @@ from typing import Any
 
 import yaml
 
-from harness.scenario import Scenario, parse_scenario
+from harness.scenarios.spec import Scenario, parse_scenario
 from harness.sweep.params import apply_parameters
 
 Execute = Callable[[Scenario, int, "Path | None", "float | None"], dict[str, Any]]
@@ -82,11 +82,11 @@ def execute_scenario(
     writes ``run_dir`` (a temporary directory when None), as ``swarmsitl run`` does.
     """
     if scenario.spec.fidelity == "swarm":
-        from harness.swarm_run import run_swarm
+        from harness.swarm.run import run_swarm
 
         return run_swarm(scenario, seed, None)
-    from harness.run_ports import free_ports
-    from harness.scenario_run import RunOptions, ScenarioRun
+    from harness.run.ports import free_ports
+    from harness.scenarios.runner import RunOptions, ScenarioRun
 
     if run_dir is None:
         with tempfile.TemporaryDirectory(prefix="swarmsitl-trial-") as tmp:
@@ -127,7 +127,7 @@ def flatten_metrics(report: dict[str, Any]) -> dict[str, float]:
     """Every numeric ``fleet`` metric of a report as ``{"fleet.NAME": value}``.
 
     A ``{"value": v, ...}`` entry gives ``v`` under its dotted path, the name
-    ``harness.run_totals.lookup`` (and so ``checks.metrics``) resolves; plain numbers count
+    ``harness.report.totals.lookup`` (and so ``checks.metrics``) resolves; plain numbers count
     too; lists and texts are left out. Booleans become 0/1 so that their mean is a share.
     """
     out: dict[str, float] = {}

@@ -10,7 +10,7 @@ so j sees it come from i's route and a reply to the source address goes back thr
 Nothing here knows the link models: ``submit(now_s, src, dst, payload_bytes) -> (arrival_s |
 None, Drop | None)`` is injected (a ``LinkNetwork``'s, or a stand-in), so the same router runs
 any network. Time is whatever the driver passes to :meth:`LinkRouter.poll`: the simulation clock
-(``harness.simulation.Simulation`` polls it with the MAVLink links) or wall time x speed
+(``harness.sim.simulation.Simulation`` polls it with the MAVLink links) or wall time x speed
 (:class:`RouterThread`, a standalone run without physics).
 
 A datagram from an address that is no node's is counted and dropped; one above the link's

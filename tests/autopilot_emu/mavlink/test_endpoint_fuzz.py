@@ -1,6 +1,6 @@
 """Protocol fuzz of a flying vehicle's MAVLink endpoint (hypothesis, real in-process stack).
 
-One :class:`harness.simulation.Simulation` runs in lockstep with a UDP endpoint; a raw pymavlink
+One :class:`harness.sim.simulation.Simulation` runs in lockstep with a UDP endpoint; a raw pymavlink
 socket (sysid 245, compid 190, as MAVSDK) arms it and takes off, then throws at it: random bytes,
 truncated frames, frames with a bad CRC, and well-formed MAVLink 2 frames of every message of the
 common dialect filled with random values of the right types (targets biased to the vehicle, 1/1,
@@ -40,8 +40,8 @@ from hypothesis import strategies as st
 from mavlink_fakes import INT_RANGES
 from pymavlink.dialects.v20 import common as mavlink2
 
-from harness.run_ports import free_port_block
-from harness.simulation import PortPlan, Simulation, SimulationConfig
+from harness.run.ports import free_port_block
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
 
 pytestmark = pytest.mark.sockets
 

@@ -117,7 +117,7 @@ def test_requested_interval_is_clamped_to_the_max_stream_rate(requested_us):
 
 def test_max_stream_rate_is_within_the_default_poll_rate():
     """The cap is PX4's fastest onboard stream and the endpoint poll can serve it."""
-    from harness.simulation import SimulationConfig
+    from harness.sim.simulation import SimulationConfig
 
     assert SimulationConfig().mavlink_poll_hz >= MAX_STREAM_RATE_HZ
     for profile in StreamProfile:

@@ -30,7 +30,7 @@ from companion.imaging.relay import (
     write_csv,
 )
 from companion.net import NetConfig, Node, PortTransport
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 from sitl.links.config import LinksConfig
 from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork

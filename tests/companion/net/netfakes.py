@@ -6,7 +6,7 @@ from collections import defaultdict
 from collections.abc import Callable
 
 from companion.net import NetConfig, Node, PortTransport
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 
 BASE = free_port_block(4)
 """Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""

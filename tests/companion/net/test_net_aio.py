@@ -15,7 +15,7 @@ from netfakes import CONFIG, FakePort
 
 from companion import clock
 from companion.net import AsyncNode, NetConfig, Node, PortTransport, RequestTimeout, UdpTransport
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 
 pytestmark = pytest.mark.process
 

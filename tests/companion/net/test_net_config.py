@@ -7,7 +7,7 @@ import copy
 import pytest
 
 from companion.net.config import NetConfig, NetConfigError, link_class
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 
 BASE = free_port_block(5)
 """Ports of the nodes below, from the suite's allocator (this xdist worker's own slice)."""

@@ -9,7 +9,7 @@ import pytest
 from netfakes import FakePort
 
 from companion.net import NetConfig, Node, PortTransport, Transport, UdpTransport
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 
 pytestmark = pytest.mark.sockets
 

@@ -13,7 +13,7 @@ from companion.imaging.jpeg_codec import jpeg_codec
 from companion.net import NetConfig, Node
 from companion.net.transport import UdpTransport
 from companion.roles import __main__ as roles_main
-from harness.run_ports import free_ports
+from harness.run.ports import free_ports
 
 pytestmark = pytest.mark.sockets
 

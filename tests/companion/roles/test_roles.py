@@ -16,7 +16,7 @@ from companion.imaging.image_source import SyntheticImages
 from companion.imaging.relay import project_codec
 from companion.net import NetConfig, NetConfigError
 from companion.roles.cluster import clusters, coordinator_of, nodes_with_role
-from harness.run_ports import free_port_block, free_ports
+from harness.run.ports import free_port_block, free_ports
 
 pytestmark = pytest.mark.heavy
 

@@ -19,7 +19,7 @@ from companion.planning.coverage_role import (
 )
 from companion.scenario_env import ScenarioEnv, ScenarioEnvError
 from companion.scripts.coverage import PARAMS, Track, _metrics, scenario_env
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 from worlds.examples import example_path
 
 BASE = free_port_block(3)

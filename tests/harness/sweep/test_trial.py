@@ -3,7 +3,7 @@
 import math
 from pathlib import Path
 
-from harness.run_totals import lookup
+from harness.report.totals import lookup
 from harness.sweep.trial import (
     UNITS_KEY,
     Trial,

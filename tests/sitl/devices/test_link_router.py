@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 from sitl.devices.link_router import (
     OVERSIZE,
     REFUSED,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.run_ports import free_port_block
+from harness.run.ports import free_port_block
 from sitl.links.channel import LinkChannel
 from sitl.links.params import LinkParams, LossParams
 from sitl.links.shaper import OVERSIZE, MavlinkLinkShaper

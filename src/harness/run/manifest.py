@@ -23,7 +23,7 @@ from pathlib import Path, PurePath
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from harness.simulation import Simulation
+    from harness.sim.simulation import Simulation
 
 MANIFEST_FILE = "manifest.json"
 """Name of the manifest in a run directory."""

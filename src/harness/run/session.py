@@ -27,10 +27,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import FrameType, TracebackType
 
-from harness.lockstep import ClockAcks, fleet_gate, run_gated
 from harness.net.roles import stop_processes
-from harness.sim_clock import ClockFile
-from harness.simulation import Simulation
+from harness.run.lockstep import ClockAcks, fleet_gate, run_gated
+from harness.run.sim_clock import ClockFile
+from harness.sim.simulation import Simulation
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -169,7 +169,7 @@ class RunSession:
 
         Paced: simulated time follows the wall clock from the session's start at ``speed``
         (a later call continues the same timeline, so the processes' clocks stay right).
-        Lockstep: as fast as the CPU and the participants allow (``harness.lockstep``), at most
+        Lockstep: as fast as the CPU and the participants allow (``harness.run.lockstep``), at most
         ``max_speed``. The clock file is published at every check of ``should_stop``.
         """
         sim, clock = self.sim, self.clock

@@ -24,7 +24,7 @@ def read_time_s(path: Path) -> float:
 def ack_dir(clock: Path) -> Path:
     """Where the processes reading ``clock`` acknowledge the time they have seen.
 
-    The name ``companion.clock.ack_dir`` gives it; ``harness.lockstep`` reads them.
+    The name ``companion.clock.ack_dir`` gives it; ``harness.run.lockstep`` reads them.
     """
     return clock.with_name(clock.name + ".acks")
 

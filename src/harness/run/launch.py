@@ -10,7 +10,7 @@ import typer
 from rich.console import Console
 
 from autopilot_emu.mavlink.endpoint import PortInUseError
-from harness.simulation import Simulation, SimulationConfig
+from harness.sim.simulation import Simulation, SimulationConfig
 
 console = Console(width=max(Console().width, 140))
 """The terminal every command prints to (wide: the endpoint tables hold whole addresses)."""

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from companion.role_params import PARAMS_ATTRIBUTE, UnknownParamsError, params_from_mapping
-from harness.suggest import did_you_mean
+from harness.options.suggest import did_you_mean
 
 PYTHON_PLACEHOLDER = "{python}"
 """What a role's ``command`` writes for the interpreter running swarmsitl."""

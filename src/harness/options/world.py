@@ -12,8 +12,8 @@ import typer
 from rich.markup import escape
 
 import worlds
-from harness.launch import console
-from harness.world_setup import WorldSetup, world_setup
+from harness.run.launch import console
+from harness.sim.world_setup import WorldSetup, world_setup
 from sitl.vehicles.multirotor import airframe_yaml_path
 from worlds.examples import world_path
 

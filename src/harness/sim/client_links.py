@@ -35,10 +35,10 @@ from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.mavlink.transport import PtyTransport
-from harness.link_models import SERIAL, datarate_bytes_s, links_config, mavlink_shaper
+from harness.sim.link_models import SERIAL, datarate_bytes_s, links_config, mavlink_shaper
 
 if TYPE_CHECKING:
-    from harness.simulation import Simulation
+    from harness.sim.simulation import Simulation
 
 SERIAL_LINK_MODEL = "uart"
 """Link model of every serial port: PX4's TELEM2 at 921600 baud (``sitl/links/presets.yaml``)."""

@@ -1,9 +1,9 @@
 """What a simulation is asked for: vehicles, airframes, world, ports, links, parameters.
 
 :class:`SimulationConfig` (and its :class:`PortPlan`) is everything a
-``harness.simulation.Simulation`` is built from, checked when it is made; the parameter helpers
+``harness.sim.simulation.Simulation`` is built from, checked when it is made; the parameter helpers
 here are how the simulation writes an airframe's and the user's parameters into each autopilot.
-``harness.simulation`` re-exports these names.
+``harness.sim.simulation`` re-exports these names.
 """
 
 from __future__ import annotations
@@ -16,13 +16,13 @@ from typing import Any
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.params import MAV_PARAM_TYPE_INT32, ParamError, ParamStore
 from autopilot_emu.rangefinder import ROTATION_DOWNWARD
-from harness.client_links import UdpOut
-from harness.link_models import (
+from harness.options.suggest import did_you_mean
+from harness.sim.client_links import UdpOut
+from harness.sim.link_models import (
     NO_LINK,
     check_link_model,
     links_config,
 )
-from harness.suggest import did_you_mean
 from sitl.devices.link_router import LinkRouter
 from sitl.hil_server import HIL_PORT_BASE
 from sitl.physics.wind import WindConfig
@@ -160,7 +160,7 @@ class SimulationConfig:
     make large swarms faster (PX4: ``mavlink stream -r``)."""
     onboard_link: str = NO_LINK
     """Link model of every companion <-> autopilot (onboard) link: a preset of the link file
-    (``uart``: 921600 baud, see ``harness.link_models``); ``none``: plain UDP."""
+    (``uart``: 921600 baud, see ``harness.sim.link_models``); ``none``: plain UDP."""
     gcs_link: str = NO_LINK
     """Link model of every ground-station link (``sik``: a 57600-baud telemetry radio)."""
     link_datarate_bytes_s: float | None = None
@@ -172,15 +172,15 @@ class SimulationConfig:
     None: the shipped presets."""
     params: dict[str, float] = field(default_factory=dict)
     """Autopilot parameters set on every vehicle after its airframe's (e.g. a GPS-denied world's
-    EKF2_EV_CTRL, ``harness.world_setup``); an unknown name raises ValueError naming it."""
+    EKF2_EV_CTRL, ``harness.sim.world_setup``); an unknown name raises ValueError naming it."""
     vehicle_params: tuple[dict[str, float], ...] = ()
     """Autopilot parameters per vehicle (one dict per vehicle, in vehicle order), set after
-    ``params`` (a scenario's roles: ``harness.scenario``); empty: none."""
+    ``params`` (a scenario's roles: ``harness.scenarios.spec``); empty: none."""
     serial: bool = False
     """Give every vehicle a serial port too (a pty behind ``<out_dir>/vehicle<N>.serial``,
-    PX4's TELEM2 to a companion; ``harness.client_links``)."""
+    PX4's TELEM2 to a companion; ``harness.sim.client_links``)."""
     udp_outs: tuple[UdpOut, ...] = ()
-    """Extra UDP links of every vehicle (``up --udp-out``; ``harness.client_links``)."""
+    """Extra UDP links of every vehicle (``up --udp-out``; ``harness.sim.client_links``)."""
     router: LinkRouter | Callable[[], LinkRouter] | None = None
     """The paced UDP router of node messaging, or a factory of it, polled with the MAVLink
     links on the simulation clock (the simulation closes it); None: no router."""
@@ -200,7 +200,7 @@ class SimulationConfig:
     cameras sign too); None: no signing."""
     ping_period_s: float = 0.0
     """Simulated seconds between the PING requests every onboard and ground-station link sends
-    (their echoes tell a lockstep run how far each companion has read: ``harness.lockstep``);
+    (their echoes tell a lockstep run how far each companion has read: ``harness.run.lockstep``);
     0: none."""
 
     def __post_init__(self) -> None:

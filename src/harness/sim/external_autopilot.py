@@ -27,8 +27,8 @@ from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.params import ParamStore
 from autopilot_emu.simulator_link import SimulatorLink, SimulatorLinkConfig
-from harness.param_options import save_client_params
-from harness.simulation import PortPlan, apply_airframe_params, apply_rangefinder_params
+from harness.options.params import save_client_params
+from harness.sim.simulation import PortPlan, apply_airframe_params, apply_rangefinder_params
 from sitl.vehicles.multirotor import load_airframe
 from sitl.world import WorldConfig
 

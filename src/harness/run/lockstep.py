@@ -41,10 +41,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 from autopilot_emu.mavlink.presence import PeerPresence
-from harness.sim_clock import CLOCK_FORMAT, ack_dir
+from harness.run.sim_clock import CLOCK_FORMAT, ack_dir
 
 if TYPE_CHECKING:
-    from harness.simulation import Simulation
+    from harness.sim.simulation import Simulation
 
 STOPPED_STATES = frozenset("Tt")
 """/proc/<pid>/stat states of a stopped process: by a signal (T) or a tracer (t)."""

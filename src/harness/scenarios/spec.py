@@ -4,8 +4,9 @@
 types and missing fields are errors naming file, line and field, as for world files), then checks
 what the schema alone cannot: that every group's role has a program, that the world file exists
 and is valid, that airframes, launch areas, link presets and autopilot parameters are known, and
-that each role's ``args`` are what its program declares it takes (``harness.companion_args``).
-A misspelt name is reported with the close known ones ("did you mean ...?", ``harness.suggest``).
+that each role's ``args`` are what its program declares it takes (``harness.run.companion_args``).
+A misspelt name is reported with the close known ones ("did you mean ...?",
+``harness.options.suggest``).
 Nothing starts before all of that passed. ``docs/scenarios.md`` describes every key.
 """
 
@@ -25,10 +26,10 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 import worlds
 from autopilot_emu.params import ParamStore
-from harness.companion_args import DeclarationError, check_args, declared_params, program_module
-from harness.link_models import check_link_model, links_config
 from harness.net.plan import VEHICLE_ROLES
-from harness.suggest import did_you_mean
+from harness.options.suggest import did_you_mean
+from harness.run.companion_args import DeclarationError, check_args, declared_params, program_module
+from harness.sim.link_models import check_link_model, links_config
 from sitl.power.loads import LOAD_PRESETS
 from sitl.vehicles.multirotor import airframe_yaml_path
 from worlds.examples import EXAMPLE_PREFIX, world_path

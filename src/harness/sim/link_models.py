@@ -16,7 +16,7 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from harness.suggest import did_you_mean
+from harness.options.suggest import did_you_mean
 from sitl.links.config import LinksConfig
 from sitl.links.network import mavlink_channels
 from sitl.links.shaper import MavlinkLinkShaper

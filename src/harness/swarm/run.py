@@ -28,12 +28,12 @@ from companion.net.config import NetConfig, NodeSpec
 from companion.net.node import Node
 from companion.net.transport import PortTransport
 from companion.scenario_env import ScenarioEnv
-from harness.fleet_spawn import fleet_spawn
-from harness.link_models import links_config
-from harness.run_report import plot_tracks, quantity
-from harness.run_totals import fleet_totals, metric_checks, versions
-from harness.scenario import Scenario, ScenarioError
-from harness.swarm_engine import SwarmEngine, Target, poisson_events
+from harness.report.run_report import plot_tracks, quantity
+from harness.report.totals import fleet_totals, metric_checks, versions
+from harness.scenarios.fleet_spawn import fleet_spawn
+from harness.scenarios.spec import Scenario, ScenarioError
+from harness.sim.link_models import links_config
+from harness.swarm.engine import SwarmEngine, Target, poisson_events
 from sitl.kinematic_fleet import KinematicFleet
 from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork

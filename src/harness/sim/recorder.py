@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from harness.simulation import Simulation
+    from harness.sim.simulation import Simulation
 
 COLUMNS = (
     "time_s",

@@ -1,6 +1,7 @@
 """The report of a run directory: metrics with units, per-vehicle time series and plots.
 
-:func:`write_run_report` reads the run back with :class:`~harness.flight_log.FlightLog` and writes
+:func:`write_run_report` reads the run back with
+:class:`~harness.report.flight_log.FlightLog` and writes
 ``report.json`` (every number as ``{"value": v, "unit": u}``, non-finite numbers as null),
 ``timeseries/vehicleN.csv`` and ``plots/{map,errors,battery}.png``. It works on a partial run
 (truth cut short, a tlog missing, no truth at all): what can be computed is, the rest is listed
@@ -22,9 +23,9 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from harness.flight_checks import closest_approach, failsafe_texts, landed_and_disarmed
-from harness.flight_log import FlightLog, Track, VehicleLog
-from harness.report import electrical_energy_j
+from harness.report.demo import electrical_energy_j
+from harness.report.flight_checks import closest_approach, failsafe_texts, landed_and_disarmed
+from harness.report.flight_log import FlightLog, Track, VehicleLog
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -1,7 +1,7 @@
 """Replay a finished run in 3-D from its ground truth: a PyBullet window, or a video file.
 
 A run directory (DESIGN.md) holds ``truth.csv`` (every vehicle's pose at ``record_hz``), and
-``manifest.json`` (``harness.run_manifest``: airframes, world file). The replay rebuilds the scene
+``manifest.json`` (``harness.run.manifest``: airframes, world file). The replay rebuilds the scene
 with the simulation's own code (``worlds.load_world`` + ``worlds.build``, the solids through
 ``sitl.physics.obstacles.add_solids`` and ``MovingSolids``, each vehicle's URDF from its airframe
 spec), then poses the bodies at each instant; nothing is simulated again.
@@ -38,7 +38,7 @@ import cv2
 import numpy as np
 
 import worlds
-from harness.run_manifest import MANIFEST_FILE, ManifestError, RunManifest, read_manifest
+from harness.run.manifest import MANIFEST_FILE, ManifestError, RunManifest, read_manifest
 from sitl.physics.bullet_import import pybullet as p
 from sitl.physics.moving_solids import MovingSolids
 from sitl.physics.obstacles import add_solids

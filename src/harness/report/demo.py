@@ -1,7 +1,8 @@
 """Metrics of a demo flight, computed from the recorded ground truth and the client's event log.
 
 Every number here comes from what happened in the simulation: the true trajectory recorded by
-:class:`~harness.recorder.FlightRecorder`, with the phases delimited by the companion's own event
+:class:`~harness.sim.recorder.FlightRecorder`, with the phases delimited by the companion's own
+event
 log. Events carry the vehicle's own time (``vehicle_time_s``, the autopilot's time since boot,
 which is the simulation clock), so the windows are in simulation time however fast the simulation
 actually ran; events without it (older clients) are mapped from their wall-clock stamps through

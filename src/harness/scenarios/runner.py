@@ -10,7 +10,7 @@ vehicle's autopilot runs PX4's data-link-loss failsafe).
 
 Time: the simulation's clock is published to the companions in ``SWARMSITL_CLOCK_FILE``
 (``companion.clock``), paced or not. A lockstep run goes as fast as its slowest live
-participant allows once every companion has reached its vehicle (:mod:`harness.lockstep`: the
+participant allows once every companion has reached its vehicle (:mod:`harness.run.lockstep`: the
 companions' clock acknowledgements, their ``mavsdk_server``'s PING echoes and heartbeats, their
 processes' stops); until then it runs at real time, so that a program starting up (MAVSDK's
 server takes a wall second or two) does not miss the first simulated minute.
@@ -33,28 +33,28 @@ from pathlib import Path
 from typing import Any
 
 from companion.scenario_env import ScenarioEnv
-from harness.fleet_spawn import fleet_spawn
-from harness.flight_checks import (
+from harness.net.plan import NetPlan, NetRun
+from harness.net.roles import attach, role_process
+from harness.net.roles import write_report as write_net_report
+from harness.report.flight_checks import (
     landed_and_disarmed,
     max_tilt,
     min_separation,
     no_failsafe,
     stayed_inside,
 )
-from harness.flight_log import FlightLog
-from harness.lockstep import LOCKSTEP, GatedLink, LockstepGate, gated_links
-from harness.net.plan import NetPlan, NetRun
-from harness.net.roles import attach, role_process
-from harness.net.roles import write_report as write_net_report
-from harness.run_manifest import RunManifest, write_manifest
-from harness.run_ports import RunPorts, free_tcp_ports
-from harness.run_report import write_run_report
-from harness.run_totals import fleet_totals, metric_checks, versions
-from harness.scenario import Scenario
-from harness.session import RunSession
-from harness.sim_clock import ClockFile
-from harness.simulation import PortPlan, Simulation, SimulationConfig
-from harness.world_setup import WorldSetup, world_config
+from harness.report.flight_log import FlightLog
+from harness.report.run_report import write_run_report
+from harness.report.totals import fleet_totals, metric_checks, versions
+from harness.run.lockstep import LOCKSTEP, GatedLink, LockstepGate, gated_links
+from harness.run.manifest import RunManifest, write_manifest
+from harness.run.ports import RunPorts, free_tcp_ports
+from harness.run.session import RunSession
+from harness.run.sim_clock import ClockFile
+from harness.scenarios.fleet_spawn import fleet_spawn
+from harness.scenarios.spec import Scenario
+from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
+from harness.sim.world_setup import WorldSetup, world_config
 from sitl.sensors.camera import CameraFrame, with_mount
 from sitl.vehicles.multirotor import load_airframe
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.scenario import Scenario
-from harness.world_setup import WorldSetup, world_setup
+from harness.scenarios.spec import Scenario
+from harness.sim.world_setup import WorldSetup, world_setup
 from worlds.launch import default_area, spawn_points
 
 

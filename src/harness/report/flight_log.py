@@ -1,10 +1,10 @@
 """A finished (or interrupted) run directory read back: truth tracks and the vehicles' events.
 
-:meth:`FlightLog.load` reads ``truth.csv`` (columns of :data:`harness.recorder.COLUMNS`, vehicle
+:meth:`FlightLog.load` reads ``truth.csv`` (columns of :data:`harness.sim.recorder.COLUMNS`, vehicle
 column 0-based) into one :class:`Track` of numpy arrays per vehicle, and from each
 ``vehicleN.tlog`` (the onboard link of vehicle N, N = sysid = index + 1) the events that matter:
 STATUSTEXT, HEARTBEAT armed/mode transitions and COMMAND_ACK results of that vehicle's autopilot
-(frames decoded by pymavlink; records walked by :func:`harness.tlog_records.scan_tlog`, which
+(frames decoded by pymavlink; records walked by :func:`harness.report.tlog_records.scan_tlog`, which
 survives cut and corrupt files).
 
 Times are simulation seconds everywhere. Untimed messages (HEARTBEAT, STATUSTEXT, COMMAND_ACK)
@@ -29,8 +29,8 @@ import numpy as np
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import common as mavlink2
 
-from harness.recorder import COLUMNS
-from harness.tlog_records import scan_tlog
+from harness.report.tlog_records import scan_tlog
+from harness.sim.recorder import COLUMNS
 
 TRUTH_FILE = "truth.csv"
 REQUIRED_COLUMNS = ("time_s", "vehicle", "east_m", "north_m", "up_m")

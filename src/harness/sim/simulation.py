@@ -28,20 +28,10 @@ from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import STREAMABLE, StreamProfile
 from autopilot_emu.params import ParamStore
-from harness.autopilot_side import AutopilotSide, FleetSide, HilSide, Readings
-from harness.client_links import client_links
-from harness.link_models import (
-    GCS,
-    NO_LINK,
-    ONBOARD,
-    datarate_bytes_s,
-    links_config,
-    mavlink_shaper,
-)
-from harness.mocap_publisher import MocapPublisher
-from harness.param_options import save_client_params
-from harness.recorder import FlightRecorder
-from harness.simulation_config import (
+from harness.options.params import save_client_params
+from harness.sim.autopilot_side import AutopilotSide, FleetSide, HilSide, Readings
+from harness.sim.client_links import client_links
+from harness.sim.config import (
     EXTERNAL,
     INTERNAL,
     PortPlan,
@@ -50,6 +40,16 @@ from harness.simulation_config import (
     apply_rangefinder_params,
     check_params,
 )
+from harness.sim.link_models import (
+    GCS,
+    NO_LINK,
+    ONBOARD,
+    datarate_bytes_s,
+    links_config,
+    mavlink_shaper,
+)
+from harness.sim.mocap_publisher import MocapPublisher
+from harness.sim.recorder import FlightRecorder
 from sitl.devices.camera_manager import CameraManager, CameraProtocol, JpegStore
 from sitl.devices.link_router import LinkRouter
 from sitl.devices.mjpeg_server import MjpegServer
@@ -68,7 +68,7 @@ __all__ = [
     "apply_rangefinder_params",
     "check_params",
 ]
-"""``SimulationConfig`` and its parts live in ``harness.simulation_config``; importing them
+"""``SimulationConfig`` and its parts live in ``harness.sim.config``; importing them
 from here works as it always did."""
 
 log = logging.getLogger(__name__)

@@ -1,4 +1,4 @@
-"""Assertion helpers over a :class:`~harness.flight_log.FlightLog`, for pytest tests of flights.
+"""Assertion helpers over a :class:`~harness.report.flight_log.FlightLog`, for tests of flights.
 
 Each check is a pure function returning a :class:`CheckResult` (``ok``, the measured ``value`` with
 its ``unit``, and a ``message`` a person understands: which vehicle, when, how far); each has an
@@ -21,7 +21,7 @@ import shapely
 from numpy.typing import ArrayLike
 from shapely.geometry import Polygon
 
-from harness.flight_log import ON_GROUND, FlightLog, StatusText, VehicleLog
+from harness.report.flight_log import ON_GROUND, FlightLog, StatusText, VehicleLog
 
 FAILSAFE_TEXTS: dict[str, str] = {
     "failsafe_action": "Failsafe activated: switching to",

@@ -1,0 +1,1 @@
+"""Command-line flags that need parsing: airframes and worlds, parameters, signing, wind."""

@@ -1,0 +1,1 @@
+"""Reading a run afterwards: flight logs, checks, the run report, replays."""

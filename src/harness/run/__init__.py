@@ -1,0 +1,1 @@
+"""Running a simulation with processes around it: lifecycle, lockstep, clock, ports."""

@@ -1,0 +1,1 @@
+"""The kinematic swarm engine: large fleets without physics or autopilots."""
