@@ -7,7 +7,8 @@ and land_detector. Here each flight mode computes its own setpoint in :mod:`auto
 :mod:`autopilot_emu.failsafe`; the commander owns the state they share (armed, the mode, the
 landed state, home, the current target) and dispatches to the active mode at each tick. It is
 pure logic: it reads the estimate and parameters, and writes position setpoints for the batched
-controllers.
+controllers. The parameters are read as :class:`~autopilot_emu.commander_params.CommanderParams`,
+rebuilt from the vehicle's store whenever the store's version changes.
 
 Results are MAV_RESULT values: 0 accepted, 1 temporarily rejected, 2 denied.
 """
@@ -19,6 +20,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.failsafe import (
     ACTION_NAMES,
     Action,
@@ -84,6 +86,9 @@ class Commander:
 
     def __init__(self, params: ParamStore) -> None:
         self.params = params
+        """The vehicle's parameter store (read through :meth:`_settings`)."""
+        self._settings_cache = CommanderParams.from_params(params)
+        self._settings_version = params.version
         self.armed = False
         self.main_mode = MainMode.AUTO
         self.sub_mode = AutoSubMode.LOITER
@@ -108,7 +113,7 @@ class Commander:
         """Commands for the vehicle's other components (mission camera items), not yet sent."""
         self.fence = Fence()
         self.fence_breached = False
-        self.failsafe = FailsafeMonitor(params)
+        self.failsafe = FailsafeMonitor(self._settings_cache)
         self._gcs_heard_s: float | None = None
         self.offboard = OffboardControl()
         self._rtl = Rtl(self._say)
@@ -119,6 +124,14 @@ class Commander:
         setpoint stream comes back (PX4's mode fallback clears with its condition)."""
 
     # -- helpers ------------------------------------------------------------------------------
+    def _settings(self) -> CommanderParams:
+        """The store's current values, rebuilt (also for the failsafe monitor) when it changed."""
+        store = self.params
+        if store.version != self._settings_version:
+            self._settings_cache = self.failsafe.params = CommanderParams.from_params(store)
+            self._settings_version = store.version
+        return self._settings_cache
+
     def _say(self, severity: int, text: str) -> None:
         self.status_texts.append((severity, text))
 
@@ -127,18 +140,18 @@ class Commander:
         """True from takeoff detection until landing is detected."""
         return self.landed_state != _ON_GROUND
 
-    def _hover_thrust(self) -> float:
+    def _hover_thrust(self, p: CommanderParams) -> float:
         """The hover thrust in use: the estimate the fleet passes in, else MPC_THR_HOVER."""
         if self._last is not None and math.isfinite(self._last.hover_thrust):
             return self._last.hover_thrust
-        return float(self.params.get("MPC_THR_HOVER"))
+        return p.hover_thrust
 
-    def _cruise_m_s(self) -> float:
+    def _cruise_m_s(self, p: CommanderParams) -> float:
         """Horizontal speed of the auto modes: the speed override, else MPC_XY_CRUISE."""
         cruise = self._speed_override_m_s
         if not math.isfinite(cruise):
-            cruise = float(self.params.get("MPC_XY_CRUISE"))
-        return min(cruise, float(self.params.get("MPC_XY_VEL_MAX")))
+            cruise = p.cruise_speed_m_s
+        return min(cruise, p.max_speed_xy_m_s)
 
     def _now(self) -> float:
         return self._last.time_s if self._last else 0.0
@@ -155,8 +168,9 @@ class Commander:
         """Hold (AUTO_LOITER) where the vehicle can stop (:func:`modes.hold.braking_point`)."""
         nav = self._last
         if nav is not None and self.in_air:
+            p = self._settings()
             self._target = braking_point(
-                nav, self.params, self.trajectory_state, self._cruise_m_s(), self._dt_s
+                nav, p, self.trajectory_state, self._cruise_m_s(p), self._dt_s
             )
         else:
             self._target = self._position()
@@ -184,7 +198,9 @@ class Commander:
             return DENIED
         # Arming never takes off: only modes that stay on the ground are kept (MAVSDK's arm()
         # itself switches Mission and RTL to Hold first).
-        keep_offboard = self.main_mode == MainMode.OFFBOARD and self._offboard_fresh()
+        keep_offboard = self.main_mode == MainMode.OFFBOARD and self._offboard_fresh(
+            self._settings()
+        )
         if not keep_offboard and (
             self.main_mode != MainMode.AUTO
             or self.sub_mode not in (AutoSubMode.LOITER, AutoSubMode.LAND)
@@ -231,7 +247,9 @@ class Commander:
         if nav is None or not nav.position_ok or self.home is None:
             return TEMPORARILY_REJECTED
         in_air = self.in_air
-        self._target = takeoff_target(nav, self.home, self.params, in_air, alt_amsl_m, self._say)
+        self._target = takeoff_target(
+            nav, self.home, self._settings(), in_air, alt_amsl_m, self._say
+        )
         self._yaw_sp = nav.yaw_rad
         self._set_mode(MainMode.AUTO, AutoSubMode.TAKEOFF)
         if not in_air:
@@ -257,7 +275,7 @@ class Commander:
         self._target, text = self._rtl.start(
             nav,
             self.home,
-            float(self.params.get("RTL_RETURN_ALT")),
+            self._settings().rtl_return_alt_m,
             self.missions.items(MissionType.RALLY),
             origin_lla(nav),
         )
@@ -333,12 +351,12 @@ class Commander:
         """
         return self.offboard.receive(setpoint, self._now())
 
-    def _offboard_fresh(self) -> bool:
-        return self.offboard.fresh(self._now(), self.params.floats()["COM_OF_LOSS_T"])
+    def _offboard_fresh(self, p: CommanderParams) -> bool:
+        return self.offboard.fresh(self._now(), p.offboard_loss_timeout_s)
 
     def _start_offboard(self) -> int:
         """Enter Offboard: only with a fresh setpoint stream and what its setpoints need."""
-        if not self._offboard_fresh():
+        if not self._offboard_fresh(self._settings()):
             self._say(SEVERITY_CRITICAL, "Switching to Offboard denied: no offboard setpoints")
             return DENIED
         setpoint = self.offboard.setpoint
@@ -350,14 +368,14 @@ class Commander:
         self._offboard_fallback = None
         return ACCEPTED
 
-    def _check_offboard_signal(self) -> None:
+    def _check_offboard_signal(self, p: CommanderParams) -> None:
         """Offboard-loss failsafe (COM_OF_LOSS_T, COM_OBL_RC_ACT) and its recovery."""
         if not self.armed:
             self._offboard_fallback = None
             return
-        fresh = self._offboard_fresh()
+        fresh = self._offboard_fresh(p)
         if self.main_mode == MainMode.OFFBOARD and not fresh:
-            action = loss_action(int(self.params.get("COM_OBL_RC_ACT")))
+            action = loss_action(p.offboard_loss_action)
             self._say(
                 SEVERITY_CRITICAL,
                 f"Offboard signal lost: switching to {ACTION_NAMES[action]}",
@@ -430,7 +448,7 @@ class Commander:
             self.home,
             origin_lla(self._last),
             self.fence,
-            self.params,
+            self._settings(),
             self._say,
         )
 
@@ -451,8 +469,10 @@ class Commander:
     @property
     def fence_enabled(self) -> bool:
         """A geofence is configured (areas, or a maximum distance or height)."""
-        p = self.params.floats()
-        return not self.fence.empty or p["GF_MAX_HOR_DIST"] > 0 or p["GF_MAX_VER_DIST"] > 0
+        return self._fence_enabled(self._settings())
+
+    def _fence_enabled(self, p: CommanderParams) -> bool:
+        return not self.fence.empty or p.fence_max_hor_dist_m > 0 or p.fence_max_ver_dist_m > 0
 
     # -- the 50 Hz tick --------------------------------------------------------------------------
     def update(self, nav: NavInput) -> NavOutput:
@@ -461,7 +481,7 @@ class Commander:
         if dt_s > 0.0:
             self._dt_s = dt_s
         self._last = nav
-        p = self.params.floats()
+        p = self._settings()
         if self.home is None and nav.position_ok:
             self.set_home_here()
         descending = self._descending
@@ -470,61 +490,61 @@ class Commander:
         )
         if self.landed_state == _LANDING and not descending:
             self.landed_state = _IN_AIR  # Land (or RTL's descent) was left in the air
-        self._check_failsafes(nav, descending)
-        self._check_offboard_signal()
+        self._check_failsafes(nav, descending, p)
+        self._check_offboard_signal(p)
         out = NavOutput(yaw_rad=self._yaw_sp)
-        out.max_speed_xy_m_s = self._cruise_m_s()
-        out.max_speed_up_m_s = p["MPC_Z_V_AUTO_UP"]
-        out.max_speed_down_m_s = p["MPC_Z_V_AUTO_DN"]
+        out.max_speed_xy_m_s = self._cruise_m_s(p)
+        out.max_speed_up_m_s = p.auto_climb_speed_m_s
+        out.max_speed_down_m_s = p.auto_descent_speed_m_s
         if not self.armed:
             return out
         offboard = self.main_mode == _OFFBOARD
         if offboard and self.landed_state in (_ON_GROUND, _TAKING_OFF):
             # Offboard takes off when its setpoint lifts the vehicle, and gives up if it stops.
-            climb = self.offboard.wants_climb(nav.position_ned_m, self._hover_thrust())
+            climb = self.offboard.wants_climb(nav.position_ned_m, self._hover_thrust(p))
             self.landed_state = _TAKING_OFF if climb else _ON_GROUND
         grounded = self.landed_state == _ON_GROUND
         if grounded and self.sub_mode != _SUB_TAKEOFF:
             if self.sub_mode == _SUB_MISSION and self.mission.landing:
-                self._mission_setpoint(nav, NavOutput())  # the landing item is complete
-            self._check_preflight_disarm(nav)
+                self._mission_setpoint(nav, NavOutput(), p)  # the landing item is complete
+            self._check_preflight_disarm(nav, p)
             return out
         out.active = True
         out.smooth = not offboard
         out.position_ned_m = self._target.copy()
         sub = self.sub_mode
         if offboard:
-            self.offboard.output(nav, out, dt_s, self._hover_thrust(), p)
+            self.offboard.output(nav, out, dt_s, self._hover_thrust(p), p)
             self._target = self._position()
             self._yaw_sp = out.yaw_rad if math.isfinite(out.yaw_rad) else nav.yaw_rad
         elif sub == _SUB_TAKEOFF:
-            out.max_speed_up_m_s = p["MPC_TKO_SPEED"]
+            out.max_speed_up_m_s = p.takeoff_speed_m_s
             if takeoff_reached(nav, self._target) and self.in_air:
                 self._set_mode(MainMode.AUTO, AutoSubMode.LOITER)
                 self._say(SEVERITY_INFO, "Takeoff complete, holding")
         elif sub == _SUB_LAND:
-            self._land_setpoint(nav, out)
+            self._land_setpoint(nav, out, p)
         elif sub == _SUB_RTL:
             if self._rtl.phase is _RTL_LAND:
-                self._land_setpoint(nav, out)
+                self._land_setpoint(nav, out, p)
             else:
-                self._target = self._rtl.step(nav, self._target, p["NAV_ACC_RAD"])
+                self._target = self._rtl.step(nav, self._target, p.acceptance_radius_m)
         elif sub == _SUB_MISSION:
-            self._mission_setpoint(nav, out)
+            self._mission_setpoint(nav, out, p)
         if self.landed_state == _TAKING_OFF and not offboard:
             self._takeoff_ramp.apply(nav, out, p)
         else:
             self._takeoff_ramp.start_s = None
         return out
 
-    def _mission_setpoint(self, nav: NavInput, out: NavOutput) -> None:
+    def _mission_setpoint(self, nav: NavInput, out: NavOutput, p: CommanderParams) -> None:
         """One tick of the mission: the executor's leg becomes the controller setpoint."""
         home = self.home
         origin = origin_lla(self._last)
         if home is None or origin is None:
             return
         mission = self.mission
-        leg = mission_leg(mission, nav, self.landed_state == _ON_GROUND, home, origin, self.params)
+        leg = mission_leg(mission, nav, self.landed_state == _ON_GROUND, home, origin, p)
         speed_m_s = take_events(mission, self.mission_reached, self.component_commands, self._say)
         if speed_m_s is not None:
             self.change_speed(speed_m_s)
@@ -538,14 +558,14 @@ class Commander:
             self._yaw_sp = leg.yaw_rad
             out.yaw_rad = leg.yaw_rad
         out.position_ned_m = target.copy()
-        if leg.kind == LegKind.LAND and over_landing_point(target, nav, self.params):
-            self._land_setpoint(nav, out)  # over the landing point at the leg's altitude
+        if leg.kind == LegKind.LAND and over_landing_point(target, nav, p):
+            self._land_setpoint(nav, out, p)  # over the landing point at the leg's altitude
 
-    def _land_setpoint(self, nav: NavInput, out: NavOutput) -> None:
+    def _land_setpoint(self, nav: NavInput, out: NavOutput, p: CommanderParams) -> None:
         """Land's descent (Land, RTL's last phase, a mission landing); the landed state follows."""
         home = self.home
         height_m = float(home.position_ned_m[2] - nav.position_ned_m[2]) if home else 0.0
-        descend(out, height_m, self.params.floats())
+        descend(out, height_m, p)
         if self.landed_state == _IN_AIR:
             self.landed_state = _LANDING
 
@@ -560,9 +580,9 @@ class Commander:
         )
 
     # -- failsafes, auto-disarm ------------------------------------------------------------------
-    def _check_failsafes(self, nav: NavInput, descending: bool) -> None:
+    def _check_failsafes(self, nav: NavInput, descending: bool, p: CommanderParams) -> None:
         """Geofence breach, data link, battery and position: announce, then act."""
-        self.fence_breached = self._breaching_fence(nav)
+        self.fence_breached = self._breaching_fence(nav, p)
         monitor = self.failsafe
         action = monitor.update(
             FailsafeInput(
@@ -600,20 +620,18 @@ class Commander:
         elif action == Action.TERMINATE:
             self.terminate()
 
-    def _breaching_fence(self, nav: NavInput) -> bool:
+    def _breaching_fence(self, nav: NavInput, p: CommanderParams) -> bool:
         """A geofence is configured and the vehicle is outside it (:func:`outside_fence`)."""
-        if not (self.fence_enabled and nav.position_ok and self.home is not None):
+        if not (self._fence_enabled(p) and nav.position_ok and self.home is not None):
             return False
-        return outside_fence(nav, self.home.position_ned_m, self.fence, self.params.floats())
+        return outside_fence(nav, self.home.position_ned_m, self.fence, p)
 
-    def _check_preflight_disarm(self, nav: NavInput) -> None:
+    def _check_preflight_disarm(self, nav: NavInput, p: CommanderParams) -> None:
         """Auto-disarm on the ground: COM_DISARM_LAND after a landing, else COM_DISARM_PRFLT."""
         ground_since = self._land_detector.ground_since_s
         since = ground_since if ground_since is not None else self._arm_time_s
         since = max(since, self._arm_time_s)
         landed_after_flight = ground_since is not None and ground_since >= self._arm_time_s
-        limit = self.params.floats()[
-            "COM_DISARM_LAND" if landed_after_flight else "COM_DISARM_PRFLT"
-        ]
+        limit = p.disarm_land_s if landed_after_flight else p.disarm_preflight_s
         if limit > 0 and nav.time_s - since >= limit:
             self._disarm("Disarmed by landing" if landed_after_flight else "Disarmed: no takeoff")

@@ -12,16 +12,15 @@ starts (or the battery level worsens); the pilot may take over afterwards, as in
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import IntEnum
 
 import numpy as np
 
 from autopilot_emu import geodesy
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.mission.geofence import Fence
 from autopilot_emu.modes.nav_types import NavInput, origin_lla
-from autopilot_emu.params import ParamStore
 
 SEVERITY_CRITICAL, SEVERITY_WARNING, SEVERITY_INFO = 2, 4, 6
 
@@ -94,13 +93,6 @@ BATTERY_TEXTS = {
 }
 
 
-_BATTERY_THRESHOLDS = (
-    ("BAT_LOW_THR", BatteryLevel.LOW),
-    ("BAT_CRIT_THR", BatteryLevel.CRITICAL),
-    ("BAT_EMERGEN_THR", BatteryLevel.EMERGENCY),
-)
-
-
 @dataclass
 class FailsafeInput:
     """One tick's view of the conditions."""
@@ -122,7 +114,8 @@ class FailsafeInput:
 class FailsafeMonitor:
     """Edge detection of the failsafe conditions of one vehicle."""
 
-    params: ParamStore
+    params: CommanderParams
+    """The vehicle's parameters; its commander replaces them when the store changes."""
     texts: list[tuple[int, str]] = field(default_factory=list)
     datalink_lost: bool = False
     battery_level: BatteryLevel = BatteryLevel.OK
@@ -141,8 +134,7 @@ class FailsafeMonitor:
     def _datalink(self, inp: FailsafeInput) -> Action:
         if inp.gcs_heard_s is None:
             return Action.NONE
-        timeout = self.params.floats()["COM_DL_LOSS_T"]
-        lost = inp.time_s - inp.gcs_heard_s > timeout
+        lost = inp.time_s - inp.gcs_heard_s > self.params.datalink_loss_timeout_s
         if lost == self.datalink_lost:
             return Action.NONE
         self.datalink_lost = lost
@@ -152,18 +144,22 @@ class FailsafeMonitor:
         self.texts.append((SEVERITY_CRITICAL, "Connection to ground station lost"))
         if not (inp.armed and inp.in_air) or inp.landing:
             return Action.NONE
-        return DLL_ACTIONS.get(int(self.params.get("NAV_DLL_ACT")), Action.NONE)
+        return DLL_ACTIONS.get(self.params.datalink_loss_action, Action.NONE)
 
     def _battery(self, inp: FailsafeInput) -> Action:
         remaining = inp.battery_remaining
         if not math.isfinite(remaining):
             return Action.NONE
         p = self.params
-        thresholds = p.floats()
-        level = BatteryLevel.OK
-        for threshold, candidate in _BATTERY_THRESHOLDS:
-            if remaining <= thresholds[threshold]:
-                level = candidate
+        # The most severe level whose threshold (BAT_EMERGEN_THR, BAT_CRIT_THR, BAT_LOW_THR) is met.
+        if remaining <= p.battery_emergency:
+            level = BatteryLevel.EMERGENCY
+        elif remaining <= p.battery_critical:
+            level = BatteryLevel.CRITICAL
+        elif remaining <= p.battery_low:
+            level = BatteryLevel.LOW
+        else:
+            level = BatteryLevel.OK
         if level <= self.battery_level:
             if level == BatteryLevel.OK:
                 self.battery_level = level  # recharged / new battery
@@ -172,7 +168,7 @@ class FailsafeMonitor:
         self.texts.append(BATTERY_TEXTS[level])
         if not (inp.armed and inp.in_air):
             return Action.NONE
-        return battery_action(level, int(p.get("COM_LOW_BAT_ACT")))
+        return battery_action(level, p.low_battery_action)
 
     def _position(self, inp: FailsafeInput) -> Action:
         lost = inp.armed and inp.in_air and not inp.position_ok
@@ -197,19 +193,19 @@ class FailsafeMonitor:
         self.texts.append((SEVERITY_CRITICAL, "Geofence violation"))
         if not (inp.armed and inp.in_air):
             return Action.NONE
-        return GF_ACTIONS.get(int(self.params.get("GF_ACTION")), Action.NONE)
+        return GF_ACTIONS.get(self.params.fence_action, Action.NONE)
 
 
 def outside_fence(
-    nav: NavInput, home_ned_m: np.ndarray, fence: Fence, p: Mapping[str, float]
+    nav: NavInput, home_ned_m: np.ndarray, fence: Fence, params: CommanderParams
 ) -> bool:
     """Outside the geofence areas, or beyond GF_MAX_HOR_DIST / GF_MAX_VER_DIST of home.
 
-    ``p``: the parameters as floats; a distance limit of 0 is off.
+    A distance limit of 0 is off.
     """
     offset = nav.position_ned_m - home_ned_m
-    max_hor = p["GF_MAX_HOR_DIST"]
-    max_ver = p["GF_MAX_VER_DIST"]
+    max_hor = params.fence_max_hor_dist_m
+    max_ver = params.fence_max_ver_dist_m
     if 0 < max_hor < float(np.hypot(offset[0], offset[1])) or 0 < max_ver < -offset[2]:
         return True
     origin = origin_lla(nav)

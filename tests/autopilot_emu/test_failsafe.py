@@ -4,6 +4,7 @@ import math
 
 import pytest
 
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.failsafe import Action, BatteryLevel, FailsafeInput, FailsafeMonitor
 from autopilot_emu.params import ParamStore
 
@@ -22,7 +23,7 @@ def inp(
 
 
 def monitor(**params):
-    return FailsafeMonitor(ParamStore(params))
+    return FailsafeMonitor(CommanderParams.from_params(ParamStore(params)))
 
 
 def texts(m):

@@ -7,6 +7,7 @@ import pytest
 from shapely.geometry import Polygon
 from synthetic_run import IN_AIR, two_vehicle_run
 
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.failsafe import FailsafeInput, FailsafeMonitor
 from autopilot_emu.params import ParamStore
 from harness.report.flight_checks import (
@@ -227,7 +228,8 @@ def test_a_quiet_flight_has_no_failsafe(log):
 def test_the_table_knows_every_failsafe_text_the_emulator_sends():
     """Drive the emulator's FailsafeMonitor through every condition: each warning or critical
     text it announces is in FAILSAFE_TEXTS, each recovery text is not."""
-    m = FailsafeMonitor(ParamStore({"NAV_DLL_ACT": 2, "COM_LOW_BAT_ACT": 3, "GF_ACTION": 3}))
+    store = ParamStore({"NAV_DLL_ACT": 2, "COM_LOW_BAT_ACT": 3, "GF_ACTION": 3})
+    m = FailsafeMonitor(CommanderParams.from_params(store))
 
     def tick(t, battery=0.9, position_ok=True, fence=False, gcs=0.0):
         m.update(FailsafeInput(t, True, True, False, battery, position_ok, fence, gcs))

@@ -11,14 +11,14 @@ from collections.abc import Callable
 
 import numpy as np
 
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.control.trajectory import braking_distance, hold_point
 from autopilot_emu.modes.nav_types import NavInput, TrajectoryState
-from autopilot_emu.params import ParamStore
 
 
 def braking_point(
     nav: NavInput,
-    params: ParamStore,
+    params: CommanderParams,
     trajectory_state: Callable[[], TrajectoryState | None] | None,
     cruise_m_s: float,
     dt_s: float,
@@ -38,8 +38,8 @@ def braking_point(
     speed = float(np.hypot(vel[0], vel[1]))
     if speed <= 1e-6:
         return target
-    acc = float(params.get("MPC_ACC_HOR"))
-    jerk = float(params.get("MPC_JERK_AUTO"))
+    acc = params.acc_hor_m_s2
+    jerk = params.jerk_auto_m_s3
     target[:2] += vel * (float(braking_distance(speed, acc, jerk)) / speed)
     state = trajectory_state() if trajectory_state is not None else None
     if state is not None:

@@ -7,10 +7,9 @@ descent ends RTL and a mission's landing item; the land detector ends it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import numpy as np
 
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.modes.nav_types import NavOutput
 
 SLOW_BELOW_M = 10.0
@@ -24,8 +23,8 @@ def land_target(position_ned_m: np.ndarray) -> np.ndarray:
     return target
 
 
-def descend(out: NavOutput, height_m: float, p: Mapping[str, float]) -> None:
-    """Make ``out`` a descent at ``height_m`` above home (``p``: the parameters as floats)."""
+def descend(out: NavOutput, height_m: float, params: CommanderParams) -> None:
+    """Make ``out`` a descent at ``height_m`` above home."""
     out.position_ned_m[2] = np.nan
-    speed = p["MPC_Z_V_AUTO_DN"] if height_m > SLOW_BELOW_M else p["MPC_LAND_SPEED"]
+    speed = params.auto_descent_speed_m_s if height_m > SLOW_BELOW_M else params.land_speed_m_s
     out.velocity_ff_m_s = np.array([0.0, 0.0, speed])

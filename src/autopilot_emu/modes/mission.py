@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from autopilot_emu import geodesy
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.mission.camera_items import ComponentCommand
 from autopilot_emu.mission.executor import Leg, MissionExecutor, StepInput, Tolerances
 from autopilot_emu.mission.feasibility import PlanContext, mission_feasibility
@@ -24,7 +25,6 @@ from autopilot_emu.modes.nav_types import (
     Say,
 )
 from autopilot_emu.modes.takeoff import takeoff_height_m
-from autopilot_emu.params import ParamStore
 
 
 def mission_leg(
@@ -33,7 +33,7 @@ def mission_leg(
     landed: bool,
     home: Home,
     origin: np.ndarray,
-    params: ParamStore,
+    params: CommanderParams,
 ) -> Leg:
     """Advance the executor by one tick; its leg (``origin``: NED origin, lat, lon, alt AMSL)."""
 
@@ -48,8 +48,8 @@ def mission_leg(
             landed=landed,
             home_alt_amsl_m=home.alt_amsl_m,
             tolerances=Tolerances(
-                acceptance_radius_m=float(params.get("NAV_ACC_RAD")),
-                altitude_radius_m=float(params.get("NAV_MC_ALT_RAD")),
+                acceptance_radius_m=params.acceptance_radius_m,
+                altitude_radius_m=params.altitude_radius_m,
                 takeoff_alt_m=takeoff_height_m(params),
             ),
             to_ned=to_ned,
@@ -78,10 +78,10 @@ def take_events(
     return speed_m_s
 
 
-def over_landing_point(target: np.ndarray, nav: NavInput, params: ParamStore) -> bool:
+def over_landing_point(target: np.ndarray, nav: NavInput, params: CommanderParams) -> bool:
     """A landing leg may descend: the vehicle is within NAV_ACC_RAD of the landing point."""
     offset = float(np.hypot(*(target[:2] - nav.position_ned_m[:2])))
-    return offset <= float(params.get("NAV_ACC_RAD"))
+    return offset <= params.acceptance_radius_m
 
 
 def mission_feasible(
@@ -89,7 +89,7 @@ def mission_feasible(
     home: Home | None,
     origin: np.ndarray | None,
     fence: Fence,
-    params: ParamStore,
+    params: CommanderParams,
     say: Say,
 ) -> bool:
     """PX4's feasibility check of a stored mission; announces why it is refused."""
@@ -104,9 +104,9 @@ def mission_feasible(
         PlanContext(
             home_lat_lon_alt=home_lla,
             fence=fence,
-            max_hor_dist_m=float(params.get("GF_MAX_HOR_DIST")),
-            max_ver_dist_m=float(params.get("GF_MAX_VER_DIST")),
-            dist_1wp_m=float(params.get("MIS_DIST_1WP")),
+            max_hor_dist_m=params.fence_max_hor_dist_m,
+            max_ver_dist_m=params.fence_max_ver_dist_m,
+            dist_1wp_m=params.dist_1wp_m,
         ),
     )
     for warning in result.warnings:

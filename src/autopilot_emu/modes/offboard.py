@@ -14,12 +14,12 @@ Units: SI, NED, radians; NaN marks a component that is not controlled.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum, IntEnum
 
 import numpy as np
 
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.failsafe import Action
 from autopilot_emu.modes.nav_types import NavInput, NavOutput
 
@@ -293,12 +293,12 @@ class OffboardControl:
         out: NavOutput,
         dt_s: float,
         hover_thrust: float,
-        p: Mapping[str, float],
+        params: CommanderParams,
     ) -> None:
         """Write this tick's :meth:`target` into ``out``, with the offboard speed limits.
 
-        ``p``: the parameters as floats (MPC_XY_VEL_MAX, MPC_Z_VEL_MAX_UP / _DN: offboard
-        setpoints are not held to the auto modes' speeds).
+        The limits are MPC_XY_VEL_MAX, MPC_Z_VEL_MAX_UP / _DN: offboard setpoints are not held
+        to the auto modes' speeds.
         """
         target = self.target(nav.position_ned_m, nav.yaw_rad, dt_s, hover_thrust)
         out.position_ned_m = target.position_ned_m
@@ -308,9 +308,9 @@ class OffboardControl:
         out.attitude_wxyz = target.attitude_wxyz
         out.body_rates_rad_s = target.body_rates_rad_s
         out.thrust = target.thrust
-        out.max_speed_xy_m_s = p["MPC_XY_VEL_MAX"]
-        out.max_speed_up_m_s = p["MPC_Z_VEL_MAX_UP"]
-        out.max_speed_down_m_s = p["MPC_Z_VEL_MAX_DN"]
+        out.max_speed_xy_m_s = params.max_speed_xy_m_s
+        out.max_speed_up_m_s = params.max_climb_speed_m_s
+        out.max_speed_down_m_s = params.max_descent_speed_m_s
 
     def wants_climb(self, position_ned_m: np.ndarray, hover_thrust: float) -> bool:
         """On the ground: does the setpoint lift the vehicle off (start of a take-off)?"""

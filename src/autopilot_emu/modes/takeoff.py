@@ -7,10 +7,10 @@ the requested altitude (NAV_TAKEOFF param7, AMSL) or to home + MIS_TAKEOFF_ALT, 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 
 import numpy as np
 
+from autopilot_emu.commander_params import CommanderParams
 from autopilot_emu.estimator import GRAVITY_M_S2
 from autopilot_emu.modes.nav_types import (
     SEVERITY_INFO,
@@ -20,7 +20,6 @@ from autopilot_emu.modes.nav_types import (
     NavOutput,
     Say,
 )
-from autopilot_emu.params import ParamStore
 
 MIN_TAKEOFF_HEIGHT_M = 1.0
 """Lowest take-off height above the ground, m: a take-off to or below the ground (a NAV_TAKEOFF
@@ -29,15 +28,15 @@ REACHED_M = 0.3
 """Vertical distance to the target at which the take-off is complete, m."""
 
 
-def takeoff_height_m(params: ParamStore) -> float:
+def takeoff_height_m(params: CommanderParams) -> float:
     """Default take-off height above the ground: MIS_TAKEOFF_ALT, at least the minimum, m."""
-    return max(float(params.get("MIS_TAKEOFF_ALT")), MIN_TAKEOFF_HEIGHT_M)
+    return max(params.takeoff_alt_m, MIN_TAKEOFF_HEIGHT_M)
 
 
 def takeoff_target(
     nav: NavInput,
     home: Home,
-    params: ParamStore,
+    params: CommanderParams,
     in_air: bool,
     alt_amsl_m: float | None,
     say: Say,
@@ -83,14 +82,14 @@ class TakeoffRamp:
         self.start_s: float | None = None
         """Simulation time the ramp started; None while not taking off."""
 
-    def apply(self, nav: NavInput, out: NavOutput, p: Mapping[str, float]) -> None:
-        """Replace the vertical setpoint of ``out`` by the ramp's climb rate (``p``: floats)."""
+    def apply(self, nav: NavInput, out: NavOutput, params: CommanderParams) -> None:
+        """Replace the vertical setpoint of ``out`` by the ramp's climb rate."""
         if self.start_s is None:
             self.start_s = nav.time_s
-        ramp_s = max(p["MPC_TKO_RAMP_T"], 1e-3)
+        ramp_s = max(params.takeoff_ramp_s, 1e-3)
         frac = min(max((nav.time_s - self.start_s) / ramp_s, 0.0), 1.0)
-        start = GRAVITY_M_S2 / max(p["MPC_Z_VEL_P_ACC"], 0.1)
-        end = -p["MPC_TKO_SPEED"]
+        start = GRAVITY_M_S2 / max(params.z_vel_p_acc_1_s, 0.1)
+        end = -params.takeoff_speed_m_s
         out.position_ned_m[2] = np.nan
         out.velocity_ff_m_s = np.array([0.0, 0.0, start + frac * (end - start)])
         out.max_speed_down_m_s = max(out.max_speed_down_m_s, start)
