@@ -52,7 +52,7 @@ def test_a_bad_mount_is_a_usage_error():
 def test_up_prints_the_stream_uri(tmp_path):
     port = free_port_block(1)
     args = ["up", "--speed", "50", "--duration", "0.5", "--gcs-port", "0", "--sdk-port", "0"]
-    args += ["--listen-port", "0", "--out", str(tmp_path / "run")]
+    args += ["--listen-port", "0", "--out", str(tmp_path / "run"), "--payload-port", "0"]
     args += ["--video-port", str(port), "--camera-size", "160x120", "--camera-hz", "5"]
     result = CliRunner().invoke(app, args, terminal_width=200)
     assert result.exit_code == 0, result.output

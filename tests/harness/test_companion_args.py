@@ -20,7 +20,6 @@ from typer.testing import CliRunner
 
 from companion.planning.coverage_role import CoverageParams
 from companion.scripts.indoor_search import SearchParams
-from harness import scenario_run
 from harness.cli import app
 from harness.run.companion_args import (
     ArgsProblem,
@@ -29,6 +28,7 @@ from harness.run.companion_args import (
     declared_params,
     program_module,
 )
+from harness.scenarios import runner as scenario_run
 from harness.scenarios.spec import ScenarioError, load_scenario
 
 SCENARIO = """\

@@ -19,7 +19,9 @@ def _distance_sensors_sent(tmp_path, *flags: str) -> set[int]:
         sink.bind(("127.0.0.1", 0))  # the OS picks the port the vehicle streams to
         sink.setblocking(False)
         sdk_port = str(sink.getsockname()[1])
-        args = ["up", "--speed", "50", "--duration", "1", "--gcs-port", "0"]
+        # No camera: its payload link and stream would bind the default ports (14030, 5600),
+        # which the README's demo, run verbatim by another test, binds too.
+        args = ["up", "--speed", "50", "--duration", "1", "--gcs-port", "0", "--no-camera"]
         args += ["--out", str(tmp_path), "--sdk-port", sdk_port, "--listen-port", "0", *flags]
         result = CliRunner().invoke(app, args)
         assert result.exit_code == 0, result.output
