@@ -50,7 +50,7 @@ def test_processes_stop_and_signals_only_set_the_flag_until_the_end(tmp_path):
     with RunSession(sim, tmp_path, speed=10.0) as session:
         teller = session.start_process("teller", [PY, "-c", tell], tmp_path / "teller.log")
         sleeper = session.start_process(
-            "sleeper", [PY, "-c", "import time; time.sleep(60)"], tmp_path / "sleeper.log"
+            "sleeper", [PY, "-c", "import signal; signal.pause()"], tmp_path / "sleeper.log"
         )
         os.kill(os.getpid(), signal.SIGTERM)  # would end pytest without the session's handler
         assert session.stopped

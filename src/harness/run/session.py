@@ -63,9 +63,10 @@ class RunSession:
         self.speed = speed
         self.max_speed = max_speed
         self.stopped = False
-        """Set by SIGINT / SIGTERM (or :meth:`stop`): the run should end."""
+        """Set by SIGINT / SIGTERM: the run should end."""
         self.processes: dict[str, subprocess.Popen] = {}
-        """What :meth:`start_process` started, by name; stopped when the session ends."""
+        """What :meth:`start_process` started or :meth:`adopt_process` took, by name; stopped
+        when the session ends."""
         self._handle_signals = handle_signals
         self._old_handlers: dict[int, object] = {}
         self._stack = contextlib.ExitStack()
@@ -120,10 +121,6 @@ class RunSession:
     def _on_signal(self, signum: int, frame: FrameType | None) -> None:
         self.stopped = True
 
-    def stop(self) -> None:
-        """Ask the run to end (what a signal does)."""
-        self.stopped = True
-
     def environment(self) -> dict[str, str]:
         """What a process of this run is told of the clock (``companion.clock`` reads it)."""
         return {
@@ -143,19 +140,23 @@ class RunSession:
 
         The process is stopped when the session ends (if it still runs).
         """
-        if name in self.processes:
-            raise ValueError(f"a process named {name!r} already runs in this session")
+        self._check_name(name)
         full_env = os.environ | self.environment() | (env or {})
         with log_path.open("w") as log:
             proc = subprocess.Popen(
                 list(cmd), env=full_env, stdout=log, stderr=subprocess.STDOUT, text=True
             )
-        self.processes[name] = proc
+        self.adopt_process(name, proc)
         return proc
 
     def adopt_process(self, name: str, proc: subprocess.Popen) -> None:
         """Stop ``proc`` with the session's own processes (started elsewhere)."""
+        self._check_name(name)
         self.processes[name] = proc
+
+    def _check_name(self, name: str) -> None:
+        if name in self.processes:
+            raise ValueError(f"a process named {name!r} already runs in this session")
 
     def _stop_processes(self) -> None:
         stop_processes(self.processes)

@@ -50,7 +50,6 @@ from harness.run.lockstep import LOCKSTEP, GatedLink, LockstepGate, gated_links
 from harness.run.manifest import RunManifest, write_manifest
 from harness.run.ports import RunPorts, free_tcp_ports
 from harness.run.session import RunSession
-from harness.run.sim_clock import ClockFile
 from harness.scenarios.fleet_spawn import fleet_spawn
 from harness.scenarios.spec import Scenario
 from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
@@ -158,7 +157,6 @@ class ScenarioRun:
         self.wall_start = time.monotonic()
         self.started_utc = dt.datetime.now(dt.UTC).isoformat(timespec="seconds")
         self._samples: dict[int, list[float]] = {}
-        self._clock: ClockFile | None = None
         self._gate: LockstepGate | None = None
         self.sim: Simulation | None = None
         self.manifest: RunManifest | None = None
@@ -274,7 +272,7 @@ class ScenarioRun:
             params=role.args,
         )
         env = dict(os.environ) | senv.to_env() | dict(role.env)
-        env |= {"PYTHONUNBUFFERED": "1", "SWARMSITL_CLOCK_FILE": str(self._clock.path)}
+        env |= {"PYTHONUNBUFFERED": "1", "SWARMSITL_CLOCK_FILE": str(self.session.clock.path)}
         if self.options.speed is not None:
             env |= {
                 "SWARMSITL_SPEED": f"{self.options.speed:g}",
@@ -398,7 +396,8 @@ class ScenarioRun:
 
     def _loop(self, on_progress: Callable[[ScenarioRun], None] | None) -> None:
         sim = self.sim
-        assert sim is not None and self._clock is not None
+        assert sim is not None and self.session is not None
+        clock = self.session.clock
         end = self.scenario.spec.duration_s
         steps = max(1, round(sim.config.physics_hz * CHECK_EVERY_S))
         speed = self.options.speed
@@ -413,7 +412,7 @@ class ScenarioRun:
                     break
             for _ in range(steps):
                 sim.step()
-                self._clock.publish(sim.time_s)
+                clock.publish(sim.time_s)
                 if sim.time_s >= end - 1e-9:
                     break
             for c in self.companions:
@@ -465,7 +464,7 @@ class ScenarioRun:
             session = RunSession(
                 self.sim, self.run_dir, speed=self.options.speed, handle_signals=False
             )
-            self.session, self._clock = session, session.clock
+            self.session = session
             if session.acks is not None:
                 self._gate = LockstepGate(
                     LOCKSTEP, session.acks, self._gated_links, self._live_groups
@@ -474,7 +473,7 @@ class ScenarioRun:
             if self.net_run is not None and spec.cloud:
                 cloud = role_process(
                     self.net_run, "cloud", spec.duration_s, self.options.speed or 1.0,
-                    self.wall_start, self.run_dir / "cloud.log", clock_file=self._clock.path,
+                    self.wall_start, self.run_dir / "cloud.log", clock_file=session.clock.path,
                 )  # fmt: skip
                 session.adopt_process("cloud", cloud)
             self._start_bridges()

@@ -264,11 +264,6 @@ class SimulationConfig:
 
 
 _DEFAULT_WORLD = WorldConfig()
-_CONFIG_DEFAULTS = {
-    f.name: f.default
-    for f in fields(SimulationConfig)
-    if f.name in ("n_vehicles", "seed", "physics_hz", "spacing_m", "frames", "wind")
-}
 _SHARED = {
     "n_vehicles": "n_vehicles",
     "seed": "seed",
@@ -278,6 +273,7 @@ _SHARED = {
     "wind": "wind",
 }
 """SimulationConfig fields that are also WorldConfig fields (by their name there)."""
+_CONFIG_DEFAULTS = {f.name: f.default for f in fields(SimulationConfig) if f.name in _SHARED}
 
 
 def _shared_world_settings(config: SimulationConfig, world: WorldConfig) -> dict[str, Any]:
