@@ -97,7 +97,7 @@ class AutopilotFleet:
         """Trajectory smoothing and position control, at ``nav_hz``."""
         self.hover_thrust_loop = HoverThrustLoop(n)
         """PX4's mc_hover_thrust_estimator, at ``nav_hz`` (parameters set at the first message)."""
-        self.inner_loop = InnerLoop.from_params(self.params)
+        self.inner_loop = InnerLoop.from_params(self.params, config.imu_hz)
         """Attitude, rate control and mixer, at each IMU sample."""
         self._smooth = np.zeros(n, dtype=bool)
         """Vehicles whose commander asks for a smoothed target (auto modes)."""

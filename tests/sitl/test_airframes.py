@@ -87,17 +87,18 @@ def test_rotor_hubs_are_the_rotor_links_seen_from_the_centre_of_mass(name):
 
 
 @pytest.mark.parametrize(
-    ("name", "autostart", "mav_type", "n_rotors"),
-    [("typhoon_h480", 6011, 13, 6), ("x500", 4001, 2, 4)],
+    ("name", "autostart", "mav_type", "n_rotors", "hover_guess"),
+    [("typhoon_h480", 6011, 13, 6, None), ("x500", 4001, 2, 4, 0.60)],
 )
-def test_px4_section_is_the_px4_airframe_file(name, autostart, mav_type, n_rotors):
-    """SYS_AUTOSTART, MAV_TYPE and the CA_ROTOR geometry in output order; no MPC_THR_HOVER."""
+def test_px4_section_is_the_px4_airframe_file(name, autostart, mav_type, n_rotors, hover_guess):
+    """SYS_AUTOSTART, MAV_TYPE and the CA_ROTOR geometry in output order; MPC_THR_HOVER where
+    PX4's file sets it (4001_gz_x500: 0.60; 6011 leaves PX4's default)."""
     spec = multirotor.load_airframe(name)
     params = spec.px4_params
     assert params["SYS_AUTOSTART"] == autostart
     assert params["MAV_TYPE"] == mav_type
     assert params["CA_ROTOR_COUNT"] == n_rotors == len(spec.rotors)
-    assert "MPC_THR_HOVER" not in params
+    assert params.get("MPC_THR_HOVER") == hover_guess
     for i, rotor in enumerate(spec.rotors):
         assert np.sign(params[f"CA_ROTOR{i}_KM"]) == (1 if rotor.spin is Spin.CCW else -1)
         bearing_px4 = np.arctan2(params[f"CA_ROTOR{i}_PY"], params[f"CA_ROTOR{i}_PX"])

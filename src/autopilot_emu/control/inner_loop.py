@@ -1,8 +1,10 @@
-"""The per-IMU-sample control loop of the fleet: attitude P -> body-rate PID -> mixer.
+"""The per-IMU-sample control loop of the fleet: gyro filters, attitude P, rate PID, mixer.
 
-As PX4's mc_att_control (quaternion P law, ``attitude_kernel``), mc_rate_control (PID with the
-derivative on the measurement, ``rate_kernel``) and control_allocator (``mixer_kernel``, the
-allocation of :class:`~autopilot_emu.control.mixer.Mixer`), fused into one compiled call,
+As PX4's vehicle_angular_velocity (IMU_GYRO_CUTOFF and IMU_DGYRO_CUTOFF low-passes,
+``gyro_filter_kernel``), mc_att_control (quaternion P law, ``attitude_kernel``), mc_rate_control
+(PID whose D term acts on the filtered angular acceleration, ``rate_kernel``) and
+control_allocator with the motors' thrust model (``mixer_kernel``, the allocation of
+:class:`~autopilot_emu.control.mixer.Mixer`), fused into one compiled call,
 ``inner_loop_kernel``, behind one entry point, :meth:`InnerLoop.step`. Offboard body-rate
 setpoints replace the attitude loop's per axis; inactive vehicles idle, disarmed ones output 0.
 """
@@ -13,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from autopilot_emu.control.gyro_filter import pass_through, rate_filter_coefficients
 from autopilot_emu.control.inner_loop_kernel import inner_loop_kernel
 from autopilot_emu.control.mixer import MAX_ROTORS, Mixer, RotorGeometry
 from autopilot_emu.params import ParamStore, param_column
@@ -23,7 +26,7 @@ RATE_INTEGRATOR_LIMIT = 0.3
 
 @dataclass(frozen=True)
 class InnerLoopGains:
-    """MC_* attitude and rate gains of every vehicle, (N, 3) arrays over roll, pitch, yaw.
+    """MC_* gains of every vehicle ((N, 3) over roll, pitch, yaw) and its gyro filters.
 
     Frozen: a parameter change builds new gains (:meth:`from_params`).
     """
@@ -38,6 +41,9 @@ class InnerLoopGains:
     """MC_*RATE_I: normalised torque per rad of integrated rate error."""
     rate_d: np.ndarray
     """MC_*RATE_D: normalised torque per rad/s² of rate change."""
+    filters: np.ndarray | None = None
+    """(2, N, 5) low-pass coefficients (b0, b1, b2, a1, a2) of the angular velocity
+    (IMU_GYRO_CUTOFF) and of the angular acceleration (IMU_DGYRO_CUTOFF); None: unfiltered."""
     packed: np.ndarray = field(init=False)
     """(5, N, 3) the gains above stacked in that order, for ``inner_loop_kernel``."""
 
@@ -47,21 +53,32 @@ class InnerLoopGains:
             (self.attitude_p, self.rate_max_rad_s, self.rate_p, self.rate_i, self.rate_d)
         )
         object.__setattr__(self, "packed", packed)
+        if self.filters is None:
+            object.__setattr__(self, "filters", pass_through(len(self.attitude_p)))
 
     @classmethod
-    def from_params(cls, params: list[ParamStore]) -> InnerLoopGains:
-        """Read the parameters of every vehicle."""
+    def from_params(cls, params: list[ParamStore], sample_rate_hz: float) -> InnerLoopGains:
+        """Read the parameters of every vehicle; the filters are built for ``sample_rate_hz``.
+
+        MC_*RATE_K scales the P, I and D gains of its axis, as in PX4's mc_rate_control.
+        """
 
         def rpy(fmt: str) -> np.ndarray:
             axes = ("ROLL", "PITCH", "YAW")
             return np.stack([param_column(params, fmt.format(a)) for a in axes], axis=1)
 
+        k = rpy("MC_{}RATE_K")
         return cls(
             attitude_p=rpy("MC_{}_P"),
             rate_max_rad_s=np.radians(rpy("MC_{}RATE_MAX")),
-            rate_p=rpy("MC_{}RATE_P"),
-            rate_i=rpy("MC_{}RATE_I"),
-            rate_d=rpy("MC_{}RATE_D"),
+            rate_p=k * rpy("MC_{}RATE_P"),
+            rate_i=k * rpy("MC_{}RATE_I"),
+            rate_d=k * rpy("MC_{}RATE_D"),
+            filters=rate_filter_coefficients(
+                param_column(params, "IMU_GYRO_CUTOFF"),
+                param_column(params, "IMU_DGYRO_CUTOFF"),
+                sample_rate_hz,
+            ),
         )
 
 
@@ -71,8 +88,15 @@ class InnerLoopState:
 
     rate_integral: np.ndarray
     """(N, 3) body-rate integrators, normalised torque (±``RATE_INTEGRATOR_LIMIT``)."""
-    prev_rates_rad_s: np.ndarray
-    """(N, 3) body rates of the previous sample (derivative on measurement), rad/s."""
+    filter_state: np.ndarray
+    """(N, 3, 5) per axis: the velocity filter's two delays, the acceleration filter's two, and
+    the previous filtered rate (rad/s) the acceleration is differentiated from."""
+    filter_primed: np.ndarray
+    """(N,) the filters have seen a finite sample (the first one settles them)."""
+    rates_filtered_rad_s: np.ndarray
+    """(N, 3) body rates after IMU_GYRO_CUTOFF, what the P and I terms act on, rad/s."""
+    angular_accel_rad_s2: np.ndarray
+    """(N, 3) angular acceleration after IMU_DGYRO_CUTOFF, what the D term acts on, rad/s²."""
     rate_sp_rad_s: np.ndarray
     """(N, 3) body-rate setpoints of the last sample, rad/s."""
     outputs: np.ndarray
@@ -81,28 +105,47 @@ class InnerLoopState:
     @classmethod
     def zeros(cls, n: int) -> InnerLoopState:
         """State of n vehicles at rest."""
-        return cls(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, MAX_ROTORS)))
+        return cls(
+            rate_integral=np.zeros((n, 3)),
+            filter_state=np.zeros((n, 3, 5)),
+            filter_primed=np.zeros(n, dtype=bool),
+            rates_filtered_rad_s=np.zeros((n, 3)),
+            angular_accel_rad_s2=np.zeros((n, 3)),
+            rate_sp_rad_s=np.zeros((n, 3)),
+            outputs=np.zeros((n, MAX_ROTORS)),
+        )
 
 
 class InnerLoop:
     """Attitude, rate control and allocation of N vehicles, one compiled call per IMU sample."""
 
-    def __init__(self, gains: InnerLoopGains, mixer: Mixer) -> None:
+    def __init__(self, gains: InnerLoopGains, mixer: Mixer, sample_rate_hz: float = 250.0) -> None:
         self.gains = gains
         self.mixer = mixer
+        self.sample_rate_hz = sample_rate_hz
+        """Rate the filters are designed for (the IMU rate), Hz."""
         self.state = InnerLoopState.zeros(len(mixer.geometries))
 
     @classmethod
-    def from_params(cls, params: list[ParamStore]) -> InnerLoop:
-        """The loop of every vehicle, its gains and mixer from its parameters."""
-        return cls(InnerLoopGains.from_params(params), Mixer.from_params(params))
+    def from_params(cls, params: list[ParamStore], sample_rate_hz: float = 250.0) -> InnerLoop:
+        """The loop of every vehicle, its gains, filters and mixer from its parameters."""
+        return cls(
+            InnerLoopGains.from_params(params, sample_rate_hz),
+            Mixer.from_params(params),
+            sample_rate_hz,
+        )
 
     def set_params(self, params: list[ParamStore]) -> None:
-        """New parameters: new gains; a new mixer only where the rotor layout changed."""
-        self.gains = InnerLoopGains.from_params(params)
+        """New parameters: new gains and filters; a new mixer where rotors or THR_MDL_FAC changed.
+
+        The filters' state carries on, as PX4's does when only a cutoff changes.
+        """
+        self.gains = InnerLoopGains.from_params(params, self.sample_rate_hz)
         geometries = [RotorGeometry.from_params(p) for p in params]
-        if not self.mixer.same_rotors(geometries):
-            self.mixer = Mixer(geometries, self.mixer.idle_output)
+        factor = np.array([float(p.get("THR_MDL_FAC")) for p in params])
+        same_factor = np.array_equal(factor, self.mixer.thrust_model_factor)
+        if not (self.mixer.same_rotors(geometries) and same_factor):
+            self.mixer = Mixer(geometries, self.mixer.idle_output, factor)
 
     def step(
         self,
@@ -126,7 +169,9 @@ class InnerLoop:
         """
         s, m = self.state, self.mixer
         inner_loop_kernel(
-            q, rates_rad_s, q_sp, thrust, self.gains.packed, overridden, rate_target_rad_s, dt_s,
-            active, armed, RATE_INTEGRATOR_LIMIT, s.rate_integral, s.prev_rates_rad_s, m.matrix,
-            m.thrust_column, m.used, m.idle_output, s.rate_sp_rad_s, s.outputs,
+            q, rates_rad_s, q_sp, thrust, self.gains.packed, self.gains.filters, overridden,
+            rate_target_rad_s, dt_s, active, armed, RATE_INTEGRATOR_LIMIT, s.rate_integral,
+            s.filter_state, s.filter_primed, m.matrix, m.thrust_column, m.used, m.idle_output,
+            m.thrust_model_factor, s.rates_filtered_rad_s, s.angular_accel_rad_s2,
+            s.rate_sp_rad_s, s.outputs,
         )  # fmt: skip

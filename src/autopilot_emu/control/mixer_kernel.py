@@ -3,9 +3,10 @@
 Compiled into the inner loop's kernel (:mod:`autopilot_emu.control.inner_loop_kernel`), with the
 allocation of :class:`autopilot_emu.control.mixer.Mixer`. Per vehicle: its thrust fractions first;
 if one of them leaves 0..1 (and none is NaN), the vehicle's outputs are desaturated (roll/pitch kept
-by shifting the collective thrust, yaw scaled into what is left); then outputs = max(sqrt(fraction),
-idle) on used rotors, 0 elsewhere. Vehicles never affect each other (an earlier version decided
-saturation for the whole fleet at once, which coupled them).
+by shifting the collective thrust, yaw scaled into what is left); then each fraction goes through
+PX4's thrust model (THR_MDL_FAC) to an output, floored at idle on used rotors, 0 elsewhere.
+Vehicles never affect each other (an earlier version decided saturation for the whole fleet at
+once, which coupled them).
 """
 
 from __future__ import annotations
@@ -77,8 +78,23 @@ def desaturate_row(
 
 
 @numba.njit(cache=True, error_model="numpy", no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def output_row(i: int, used: np.ndarray, idle_output: float, out: np.ndarray) -> None:
-    """Thrust fractions -> motor outputs (thrust ∝ output²), idle floor, unused outputs 0."""
+def output_row(
+    i: int, used: np.ndarray, idle_output: float, thrust_model_factor: np.ndarray, out: np.ndarray
+) -> None:
+    """Thrust fractions -> motor outputs, idle floor, unused outputs 0.
+
+    PX4's thrust model (mixer_module FunctionMotors): relative thrust = a u² + (1 - a) u with
+    a = THR_MDL_FAC; for 0 < a <= 1 the output is the positive root, otherwise (PX4's default
+    a = 0) the output is the fraction itself.
+    """
+    a = thrust_model_factor[i]
+    shaped = 0.0 < a <= 1.0
+    half_b = (1.0 - a) / (2.0 * a) if shaped else 0.0
     for r in range(out.shape[1]):
+        f = out[i, r]
+        if shaped and f > 0.0:
+            f = math.sqrt(half_b * half_b + f / a) - half_b
+        elif shaped and f <= 0.0:
+            f = 0.0  # NaN stays NaN (fmax keeps it), as numpy would
         used_f = 1.0 if used[i, r] else 0.0
-        out[i, r] = fmax(math.sqrt(out[i, r]), idle_output) * used_f
+        out[i, r] = fmax(f, idle_output) * used_f

@@ -63,14 +63,17 @@ def roll_quaternion(angle_rad):
 
 
 def test_roll_error_gives_the_p_law_rate_and_the_pid_torque():
-    """A 0.1 rad roll setpoint: rate = 2 sin(0.05) MC_ROLL_P, torque = MC_ROLLRATE_P rate."""
+    """A 0.1 rad roll setpoint: rate = 2 sin(0.05) MC_ROLL_P, torque = MC_ROLLRATE_P rate; the
+    integrator takes MC_ROLLRATE_I e dt scaled by PX4's i_factor 1 - (e / 400 deg/s)²."""
     t = Tick()
     t.q_sp[0] = roll_quaternion(0.1)
     t.run()
     s = t.loop.state
     want_rate = 2.0 * math.sin(0.05) * 6.5
     np.testing.assert_allclose(s.rate_sp_rad_s[0], [want_rate, 0.0, 0.0], atol=1e-12)
-    np.testing.assert_allclose(s.rate_integral[0], [0.2 * DT * want_rate, 0.0, 0.0], atol=1e-12)
+    i_factor = 1.0 - (want_rate / math.radians(400.0)) ** 2
+    want_integral = 0.2 * DT * want_rate * i_factor
+    np.testing.assert_allclose(s.rate_integral[0], [want_integral, 0.0, 0.0], atol=1e-12)
     # Roll right (positive) raises the left rotors (body y < 0) above the right ones.
     y = np.asarray(TYPHOON_H480_ROTORS)[:, 1]
     out = s.outputs[0, :6]
@@ -112,7 +115,7 @@ def test_masks_idle_inactive_and_zero_disarmed_vehicles_even_with_nan_setpoints(
     out = t.run()
     np.testing.assert_allclose(out[1], [0.15] * 4 + [0.0] * 4)
     np.testing.assert_array_equal(out[2], 0.0)
-    np.testing.assert_allclose(out[0, :6], math.sqrt(0.4), rtol=2e-3)
+    np.testing.assert_allclose(out[0, :6], 0.4, rtol=2e-3)  # THR_MDL_FAC 0: output = thrust
     np.testing.assert_array_equal(t.loop.state.rate_integral[1], np.nan)  # NaN * 0 is NaN too
 
 
@@ -156,7 +159,7 @@ def test_derivative_acts_on_the_measured_rate_not_the_setpoint():
     np.testing.assert_array_equal(with_d.run(), without_d.run())
     for t in (with_d, without_d):
         t.rates[0, 0] = 0.5  # the vehicle starts rolling
-    moment = [(roll_arm * t.run()[0, :4] ** 2).sum() for t in (with_d, without_d)]
+    moment = [(roll_arm * t.run()[0, :4]).sum() for t in (with_d, without_d)]
     assert moment[0] < moment[1]
 
 
@@ -169,7 +172,7 @@ def test_a_saturating_vehicle_keeps_roll_and_stays_within_range():
     out = t.run()[0, :4]
     assert np.all((out >= 0.0) & (out <= 1.0))
     r = np.asarray(QUAD_X)
-    assert (-r[:, 1] * out**2).sum() > 0.0  # positive roll moment
+    assert (-r[:, 1] * out).sum() > 0.0  # positive roll moment (thrust fraction = output)
 
 
 def test_each_vehicle_of_an_unsaturated_fleet_matches_flying_alone():

@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 
 from autopilot_emu.control.inner_loop import InnerLoop, InnerLoopGains
-from autopilot_emu.control.mixer import MAX_ROTORS, TYPHOON_H480_ROTORS, Mixer, RotorGeometry
+from autopilot_emu.control.mixer import (
+    MAX_ROTORS,
+    TYPHOON_H480_ROTORS,
+    Mixer,
+    RotorGeometry,
+    normalised_mix,
+)
 from autopilot_emu.params import ParamStore
 
 # PX4 Quad X output order: 1 front right CCW, 2 rear left CCW, 3 front left CW, 4 rear right CW.
@@ -39,13 +45,13 @@ def mix(mixer: Mixer, torque: np.ndarray, thrust: np.ndarray) -> np.ndarray:
 def _wrench(outputs, rows=TYPHOON_H480_ROTORS):
     """Roll, pitch, yaw torque and thrust (per unit max rotor thrust) of motor outputs."""
     r = np.asarray(rows)
-    t = outputs[: len(r)] ** 2  # thrust fraction: thrust ∝ (rotor speed)² ∝ output²
+    t = outputs[: len(r)]  # THR_MDL_FAC 0 (PX4's default): the allocator's thrust = output
     return np.array([(-r[:, 1] * t).sum(), (r[:, 0] * t).sum(), (r[:, 2] * t).sum(), t.sum()])
 
 
 def test_pure_thrust_is_symmetric():
     out = mix(Mixer(), np.zeros((1, 3)), np.array([0.4]))[0]
-    np.testing.assert_allclose(out[:6], np.sqrt(0.4), rtol=2e-3)
+    np.testing.assert_allclose(out[:6], 0.4, rtol=2e-3)
     np.testing.assert_array_equal(out[6:], 0.0)
     np.testing.assert_allclose(_wrench(out)[:3], 0.0, atol=1e-12)
 
@@ -164,3 +170,47 @@ def test_one_vehicles_saturation_leaves_the_others_outputs_alone():
     torque[0], thrust[0] = (1.0, 0.0, 1.0), 0.95  # vehicle 0 saturates
     stormy = mix(Mixer(geometry), torque, thrust)
     np.testing.assert_array_equal(stormy[1], calm[1])
+
+
+def test_px4_normalisation_of_the_hexa_x_and_quad_x():
+    """PX4's ControlAllocationPseudoInverse scales, worked by hand for PX4's Hexa X layout
+    (arm 1: rotors at y = ±1 and (±0.866, ±0.5)). The pseudo-inverse's roll column is y / Σy²
+    = y / 3, pitch x / Σx² = x / 3. Roll scale sqrt((Σy² / 9) / (6 / 2)) = 1/3, pitch (4 rotors
+    non-zero) sqrt((Σx² / 9) / (4 / 2)) = 0.408; both are divided by the larger, 0.408: roll
+    entries ±0.816 and ±0.408, pitch ±0.707. A Quad X: ±0.707 on both. Yaw ±1, thrust 1."""
+    hexa = ((0, 1, -0.05), (0, -1, 0.05), (0.866025, -0.5, -0.05), (-0.866025, 0.5, 0.05),
+            (0.866025, 0.5, 0.05), (-0.866025, -0.5, -0.05))  # fmt: skip
+    m = normalised_mix(RotorGeometry.from_rows(hexa))
+    np.testing.assert_allclose(np.abs(m[:, 0]), [0.8165, 0.8165, 0.4082, 0.4082, 0.4082, 0.4082],
+                               atol=1e-4)  # fmt: skip
+    np.testing.assert_allclose(np.abs(m[:, 1]), [0, 0, 0.7071, 0.7071, 0.7071, 0.7071], atol=1e-4)
+    np.testing.assert_allclose(np.abs(m[:, 2]), 1.0, atol=1e-9)
+    np.testing.assert_allclose(m[:, 3], 1.0, atol=1e-9)
+    quad = normalised_mix(RotorGeometry.from_rows(QUAD_X))
+    np.testing.assert_allclose(np.abs(quad[:, :2]), 1 / np.sqrt(2), atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("factor", "fraction", "output"),
+    [
+        (0.0, 0.5, 0.5),  # PX4 default: thrust linear in the output
+        (1.0, 0.5, np.sqrt(0.5)),  # thrust = u²
+        (0.5, 0.5, (np.sqrt(5.0) - 1.0) / 2.0),  # 0.5 u² + 0.5 u = 0.5
+    ],
+)
+def test_thrust_model_factor_maps_thrust_to_output_as_px4(factor, fraction, output):
+    mixer = Mixer([RotorGeometry.from_rows(QUAD_X)], idle_output=0.0,
+                  thrust_model_factor=np.array([factor]))  # fmt: skip
+    out = mix(mixer, np.zeros((1, 3)), np.array([fraction]))
+    np.testing.assert_allclose(out[0, :4], output, rtol=1e-12)
+
+
+def test_thr_mdl_fac_is_read_per_vehicle_and_a_change_rebuilds_the_mixer():
+    params = [ParamStore(), ParamStore({"THR_MDL_FAC": 0.3})]
+    loop = InnerLoop.from_params(params)
+    np.testing.assert_allclose(loop.mixer.thrust_model_factor, [0.0, 0.3])
+    params[0].set("THR_MDL_FAC", 1.0)
+    loop.set_params(params)
+    np.testing.assert_allclose(loop.mixer.thrust_model_factor, [1.0, 0.3])
+    with pytest.raises(ValueError, match="thrust_model_factor"):
+        Mixer([RotorGeometry.from_rows(QUAD_X)], thrust_model_factor=np.array([1.5]))
