@@ -1,7 +1,8 @@
 """The airframes' budgets beside the published aircraft: the table of docs/airframes.md.
 
 Every "ours" number is computed here from the airframe files and the models that fly them
-(:func:`sitl.vehicles.budget.airframe_budget`): hover at ISA sea level with the avionics load,
+(:func:`sitl.vehicles.budget.airframe_budget`): hover in ISA air (sea level unless ``--alt-m``;
+the simulated worlds default to 488 m) with the avionics load,
 the pack drained at that power to PX4's low-battery reserve (BAT_LOW_THR, read from the emulated
 autopilot's parameter defaults) and to the low-voltage cutoff, the drag model's level flight at
 the identification tilt (35 deg, below MPC_TILTMAX_AIR). The reference column holds the published
@@ -9,7 +10,7 @@ figures of the Yuneec Typhoon H, with their sources below the table; no airframe
 (``benchmarks/flight_envelope.py`` flies them).
 
     python benchmarks/airframe_budget.py
-    python benchmarks/airframe_budget.py --frames typhoon_h480_yuneec
+    python benchmarks/airframe_budget.py --frames typhoon_h480_yuneec --alt-m 488
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from autopilot_emu.params import ParamStore
+from sitl.physics.earth import isa_pressure_pa, isa_temperature_k
 from sitl.vehicles.budget import AirframeBudget, BudgetConditions, airframe_budget
 from sitl.vehicles.multirotor import load_airframe
 
@@ -90,7 +92,7 @@ def rows(reserve_soc: float) -> list[Row]:
             "-",
         ),
         Row(
-            "top speed (level flight at 35 deg), m/s",
+            "top speed (level flight at 35 deg, sea level), m/s",
             lambda b: b.top_speed_m_s,
             "{:.2f}",
             f"{YUNEEC_TOP_SPEED_M_S:.2f} = 70 km/h [Yuneec]",
@@ -131,15 +133,19 @@ def main() -> None:
     """Print the table for the airframes asked for, with its conditions and sources."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", default=",".join(FRAMES), help="comma-separated airframes")
+    ap.add_argument(
+        "--alt-m", type=float, default=0.0, help="altitude AMSL of the hover (ISA air), m"
+    )
     args = ap.parse_args()
     params = ParamStore()
     reserve = float(params.get("BAT_LOW_THR"))
     tilt_max = float(params.get("MPC_TILTMAX_AIR"))
-    conditions = BudgetConditions(reserve_soc=reserve)
+    rho = float(isa_pressure_pa(args.alt_m) / (287.05 * isa_temperature_k(args.alt_m)))
+    conditions = BudgetConditions(reserve_soc=reserve, air_density_kg_m3=rho)
     if conditions.top_speed_tilt_deg >= tilt_max:
         raise SystemExit(f"top-speed tilt {conditions.top_speed_tilt_deg} >= MPC_TILTMAX_AIR")
     print(
-        f"Hover at ISA sea level (rho {conditions.air_density_kg_m3} kg/m^3), loads "
+        f"Hover at {args.alt_m:g} m AMSL in ISA air (rho {rho:.4f} kg/m^3), loads "
         f"{conditions.loads_w:g} W, reserve BAT_LOW_THR = {reserve:g}, top speed at "
         f"{conditions.top_speed_tilt_deg:g} deg (MPC_TILTMAX_AIR {tilt_max:g} deg).\n"
     )
