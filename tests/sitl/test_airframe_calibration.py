@@ -26,6 +26,7 @@ from autopilot_emu.params import ParamStore
 from sitl.physics.rotors import Spin
 from sitl.power.battery import LipoPack
 from sitl.power.propulsion import load_power_spec
+from sitl.vehicles.budget import BudgetConditions, airframe_budget
 from sitl.vehicles.multirotor import load_airframe
 
 NAME = "typhoon_h480_yuneec"
@@ -130,3 +131,19 @@ def test_yaw_step_accelerates_as_the_shaft_torque_over_the_inertia():
         rate = world.truth.angular_velocity_body_frd_rad_s[0, 2]
     assert predicted > 0.1
     assert rate == pytest.approx(predicted, rel=1.6e-3)
+
+
+def test_the_budget_table_gives_the_published_aircraft():
+    """sitl.vehicles.budget (the table of docs/airframes.md) at ISA sea level: the published
+    flight time (achieved -0.24 %), top speed (1.3e-4), thrust/weight 2 (-0.0011), and a k_m
+    equal to its own shaft torque / thrust (0.11 %)."""
+    reserve = float(ParamStore().get("BAT_LOW_THR"))
+    budget = airframe_budget(load_airframe(NAME), BudgetConditions(reserve_soc=reserve))
+    assert budget.mass_kg == PUBLISHED_MASS_KG
+    assert budget.endurance_to_reserve_s == pytest.approx(PUBLISHED_FLIGHT_TIME_S, rel=0.0036)
+    assert budget.endurance_to_cutoff_s > budget.endurance_to_reserve_s
+    assert budget.top_speed_m_s == pytest.approx(PUBLISHED_TOP_SPEED_M_S, rel=2e-4)
+    assert budget.thrust_to_weight == pytest.approx(2.0, abs=1.7e-3)
+    assert budget.moment_coefficient_m == pytest.approx(
+        budget.shaft_torque_per_thrust_m, rel=1.6e-3
+    )
