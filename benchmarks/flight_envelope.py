@@ -11,7 +11,7 @@ maximum (20 m/s). Every number comes from the simulator's ground truth:
 - top speed: mean ground speed over the last 5 s of the full-speed run, with its mean tilt, and
   the drag model's closed-form level-flight speed at that tilt for comparison.
 
-    python benchmarks/flight_envelope.py            # both airframes, seed 0
+    python benchmarks/flight_envelope.py            # the three shipped airframes, seed 0
     python benchmarks/flight_envelope.py --frames x500 --seed 3
 
 The last line is ``RESULT key=value ...`` (per airframe: hover_w, endurance_min, cruise_m_s,
@@ -119,7 +119,11 @@ def fly(frame: str, seed: int) -> dict[str, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--frames", default="typhoon_h480,x500", help="comma-separated airframes")
+    ap.add_argument(
+        "--frames",
+        default="typhoon_h480,typhoon_h480_yuneec,x500",
+        help="comma-separated airframes",
+    )
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     cpu = platform.processor() or platform.machine()

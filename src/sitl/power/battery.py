@@ -143,3 +143,33 @@ def endurance_s(params: LipoParams, power_w: float, dt_s: float = 1.0, soc: floa
         v_prev = v
         if pack.soc[0] <= 0.0:
             return t
+
+
+def endurance_to_reserve_s(
+    params: LipoParams, power_w: float, reserve_soc: float, dt_s: float = 1.0, soc: float = 1.0
+) -> float:
+    """Time a full pack delivers a constant ``power_w`` until ``reserve_soc`` of it is left, s.
+
+    The reserve is a fraction of the rated capacity, as PX4's BAT_LOW_THR (its remaining-charge
+    estimate never exceeds ``1 - discharged / capacity``). Integrates :class:`LipoPack` at
+    ``dt_s`` steps and interpolates the crossing; stops earlier if the low-voltage cutoff trips
+    first (a pack too weak for the load); ``inf`` for a non-positive power.
+    """
+    if not 0.0 <= reserve_soc < 1.0:
+        raise ValueError(f"reserve_soc must be in [0, 1), got {reserve_soc!r}")
+    if not power_w > 0.0:
+        return float("inf")
+    if soc <= reserve_soc:
+        return 0.0
+    pack = LipoPack(params, 1, soc)
+    power = np.array([float(power_w)])
+    t = 0.0
+    while True:
+        soc_prev = float(pack.soc[0])
+        pack.draw(power, dt_s)
+        soc_now = float(pack.soc[0])
+        if soc_now <= reserve_soc:
+            return t + (soc_prev - reserve_soc) / max(soc_prev - soc_now, 1e-15) * dt_s
+        t += dt_s
+        if pack.cut_off[0]:
+            return t
