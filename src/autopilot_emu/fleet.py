@@ -322,6 +322,7 @@ class AutopilotFleet:
             attitude_target=self._att_target_q,
             thrust_target=self._att_target_thrust,
             rate_integral=self.inner_loop.state.rate_integral,
+            heading_rad=np.asarray(yaw),
         )
 
     def _update_hover_thrust(self, dt: float) -> None:

@@ -17,6 +17,7 @@ import pymap3d
 import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
+from autopilot_emu import quaternion as quat
 from autopilot_emu.mission.items import MissionItem, MissionType
 from autopilot_emu.modes import AutoSubMode, MainMode
 from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
@@ -263,5 +264,36 @@ def test_a_hexa_and_a_quad_fly_through_their_own_mixers_and_learn_their_hover_th
         speeds, progress = np.array(speeds), np.array(progress)
         for i in (0, 1):
             _assert_cruise(speeds[_middle(progress[:, i], 60.0), i], cruise)
+    finally:
+        sim.close()
+
+
+def test_an_auto_heading_change_turns_at_mpc_yawrauto_max():
+    """A goto to here with the opposite heading: the true yaw rate stays at MPC_YAWRAUTO_MAX
+    (45 deg/s; within 10 %) and the turn takes 175 / 45 s plus the lag of the yaw loop, a ramp
+    through the attitude P law's first order (1 / MC_YAW_P), as PX4's auto modes turn
+    (FlightTaskAuto's yaw-rate limit), not at MC_YAWRATE_MAX. Achieved 4.40 s against 4.25 s."""
+    sim, v = _airborne()
+    try:
+        rate_max = float(sim.fleet.params[0].get("MPC_YAWRAUTO_MAX"))
+        yaw_lag_s = 1.0 / float(sim.fleet.params[0].get("MC_YAW_P"))
+        tel = v.telemetry()
+        yaw0 = float(quat.yaw_of(sim.fleet.estimator.r)[0])
+        target = math.atan2(
+            math.sin(yaw0 + math.radians(179.0)), math.cos(yaw0 + math.radians(179.0))
+        )
+        lat, lon = _geodetic(v, *tel.position_ned_m[:2])
+        assert v.reposition(lat, lon, tel.alt_amsl_m, target, math.nan) == 0
+        rates, times = [], []
+        t0 = sim.time_s
+        while sim.time_s - t0 < 6.0:
+            sim.run_lockstep(0.02)
+            rates.append(math.degrees(float(sim.world.truth.angular_velocity_body_frd_rad_s[0, 2])))
+            times.append(sim.time_s - t0)
+        rates, times = np.array(rates), np.array(times)
+        assert np.abs(rates).max() <= rate_max * (1.0 + SPEED_TOLERANCE)
+        turned = np.abs(np.cumsum(rates) * 0.02)
+        t_half = times[np.argmax(turned >= 175.0)]
+        assert t_half == pytest.approx(175.0 / rate_max + yaw_lag_s, rel=SPEED_TOLERANCE)
     finally:
         sim.close()

@@ -95,6 +95,8 @@ class NavGains:
     """MPC_JERK_AUTO: the trajectory's jerk limit, m/s³."""
     error_max_m: np.ndarray
     """MPC_XY_ERR_MAX: vehicle-to-trajectory horizontal distance that stops the trajectory, m."""
+    yaw_rate_auto_rad_s: np.ndarray | None = None
+    """MPC_YAWRAUTO_MAX: how fast auto modes turn the heading setpoint, rad/s (None: no limit)."""
     axes: np.ndarray = field(init=False)
     """(4, N, 3) pos_p, vel_p, vel_i, vel_d stacked for ``nav_kernel``."""
     vehicle: np.ndarray = field(init=False)
@@ -143,6 +145,7 @@ class NavGains:
             acc_down_m_s2=col("MPC_ACC_DOWN_MAX"),
             jerk_m_s3=col("MPC_JERK_AUTO"),
             error_max_m=col("MPC_XY_ERR_MAX"),
+            yaw_rate_auto_rad_s=np.radians(col("MPC_YAWRAUTO_MAX")),
         )
 
 
@@ -170,6 +173,8 @@ class NavState:
     """(N,) collective thrust setpoints, 0..1 (0 while inactive)."""
     overridden: np.ndarray
     """(N,) offboard attitude / rate setpoints replaced the position loop's output."""
+    yaw_sp_rad: np.ndarray
+    """(N,) heading setpoint flown at the last tick, rad (auto modes: rate-limited)."""
 
     @classmethod
     def zeros(cls, n: int) -> NavState:
@@ -185,7 +190,30 @@ class NavState:
             q_sp=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
             thrust=np.zeros(n),
             overridden=np.zeros(n, dtype=bool),
+            yaw_sp_rad=np.full(n, np.nan),
         )
+
+
+def limit_yaw_rate(
+    target_rad: np.ndarray,
+    previous_rad: np.ndarray,
+    heading_rad: np.ndarray,
+    rate_max_rad_s: np.ndarray,
+    dt_s: float,
+    limit: np.ndarray,
+) -> np.ndarray:
+    """Heading setpoints moved towards ``target_rad`` by at most ``rate_max_rad_s`` dt.
+
+    PX4's FlightTaskAuto::_limitYawRate (MPC_YAWRAUTO_MAX): where ``limit``, the setpoint turns
+    from the one flown last (from the vehicle's ``heading_rad`` when there is none) the short
+    way round; elsewhere, and for a NaN target (hold the heading), the target passes unchanged.
+    """
+    previous = np.where(np.isfinite(previous_rad), previous_rad, heading_rad)
+    step = np.angle(np.exp(1j * (target_rad - previous)))
+    bound = rate_max_rad_s * dt_s
+    limited = np.angle(np.exp(1j * (previous + np.clip(step, -bound, bound))))
+    use = limit & np.isfinite(target_rad) & np.isfinite(previous)
+    return np.where(use, limited, target_rad)
 
 
 class NavLoop:
@@ -208,6 +236,7 @@ class NavLoop:
         attitude_target: np.ndarray,
         thrust_target: np.ndarray,
         rate_integral: np.ndarray,
+        heading_rad: np.ndarray | None = None,
     ) -> None:
         """One navigation tick of every vehicle: writes ``state`` (q_sp, thrust, overridden).
 
@@ -217,11 +246,19 @@ class NavLoop:
         their position controller and their rate integrators (``rate_integral``, the inner
         loop's, (N, 3)). Where ``thrust_target`` (N,) is finite (offboard attitude or rate
         setpoints) it replaces the thrust (clipped to 0..1), a finite ``attitude_target`` (N, 4)
-        wxyz the attitude setpoint, and the position controller restarts.
+        wxyz the attitude setpoint, and the position controller restarts. In auto modes the
+        heading setpoint turns at most MPC_YAWRAUTO_MAX, starting from the vehicle's estimated
+        ``heading_rad`` (N,) when a vehicle enters an auto mode (no limit without headings).
         """
         s, g, sp = self.state, self.gains, setpoint
+        yaw = sp.yaw_rad
+        if heading_rad is not None and g.yaw_rate_auto_rad_s is not None:
+            auto = smooth & active
+            previous = np.where(s.smoothing & auto, s.yaw_sp_rad, np.nan)
+            yaw = limit_yaw_rate(yaw, previous, heading_rad, g.yaw_rate_auto_rad_s, dt_s, auto)
+        s.yaw_sp_rad[:] = yaw
         nav_kernel(
-            sp.position_ned_m, sp.velocity_ff_m_s, sp.yaw_rad, sp.max_speed_xy_m_s,
+            sp.position_ned_m, sp.velocity_ff_m_s, yaw, sp.max_speed_xy_m_s,
             sp.max_speed_up_m_s, sp.max_speed_down_m_s, sp.acceleration_ff_m_s2, sp.smoothed,
             g.limits, s.trajectory_position_m, s.trajectory_velocity_m_s,
             s.trajectory_acceleration_m_s2, smooth, s.smoothing, g.axes, g.vehicle,

@@ -8,7 +8,7 @@ import pytest
 from nav_support import DT, Nav, px4_gains
 
 from autopilot_emu import quaternion as quat
-from autopilot_emu.control.nav import NavGains, PositionSetpoint
+from autopilot_emu.control.nav import NavGains, PositionSetpoint, limit_yaw_rate
 from autopilot_emu.params import ParamStore
 
 G = 9.80665
@@ -158,3 +158,28 @@ def test_attitude_setpoint_never_tilts_past_mpc_tiltmax_air(tilt_max_deg):
     assert tilts.max() >= limit - 1e-6
     held = G * np.tan(limit) / drag
     assert speeds[-50:].mean() == pytest.approx(held, rel=0.1)
+
+
+def test_auto_heading_turns_at_mpc_yawrauto_max_the_short_way_round():
+    """PX4's _limitYawRate: from the last heading setpoint by at most MPC_YAWRAUTO_MAX dt, the
+    short way round across ±180 deg; a vehicle not in an auto mode and a NaN target pass."""
+    rate = np.radians(np.full(4, 45.0))
+    target = np.radians([90.0, -170.0, 90.0, np.nan])
+    previous = np.radians([0.0, 170.0, np.nan, 10.0])
+    heading = np.radians([0.0, 0.0, 80.0, 10.0])
+    auto = np.array([True, True, True, True])
+    out = np.degrees(limit_yaw_rate(target, previous, heading, rate, 0.02, auto))
+    np.testing.assert_allclose(out[:3], [0.9, 170.9, 80.9], atol=1e-9)  # 45 deg/s x 20 ms
+    assert np.isnan(out[3])
+    manual = limit_yaw_rate(target, previous, heading, rate, 0.02, ~auto)
+    np.testing.assert_array_equal(manual[:3], target[:3])
+
+
+def test_a_half_turn_in_an_auto_mode_takes_180_over_mpc_yawrauto_max():
+    rate = np.radians(np.array([45.0]))
+    yaw, ticks = np.array([np.nan]), 0
+    target = np.radians(np.array([179.0]))
+    while not (np.isfinite(yaw[0]) and abs(np.degrees(yaw[0]) - 179.0) < 1e-9):
+        yaw = limit_yaw_rate(target, yaw, np.zeros(1), rate, 0.02, np.array([True]))
+        ticks += 1
+    assert ticks * 0.02 == pytest.approx(179.0 / 45.0, abs=0.021)
