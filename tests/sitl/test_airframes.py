@@ -134,6 +134,21 @@ def x500_copy(tmp_path, monkeypatch):
         ("    NAV_DLL_ACT: 2", "    NAV_DLL_ACT: two", r"NAV_DLL_ACT: 'two' is not a finite"),
         ("name: rotor_3, mass_kg", "name: rotor_3, mas_kg", r"links\[4\]'.*missing.*mass_kg"),
         ("mass_kg: 2.0,", "mass_kg: 2.5,", r"the URDF body .* not the composite"),
+        (
+            "  receiver: neo_m9n",
+            "  receiver: neo_m10",
+            r"section 'gps': receiver: unknown gps class 'neo_m10' \(known: neo_m8n, .*zed_f9p",
+        ),
+        (
+            "  sensor: icm42688p",
+            "  sensor: bmi999",
+            r"section 'imu': sensor: unknown imu class 'bmi999' \(known: icm42688p, px4_gaz",
+        ),
+        (
+            "  sensor: ms5611",
+            "  sensor: ms5611\n  drift_pa: 1",
+            r"section 'baro'.*unknown \['drift_pa'\]",
+        ),
     ],
 )
 def test_wrong_or_missing_field_names_file_and_field(x500_copy, old, new, message):
@@ -143,6 +158,19 @@ def test_wrong_or_missing_field_names_file_and_field(x500_copy, old, new, messag
     x500_copy.write_text(text.replace(old, new, 1))
     with pytest.raises(ValueError, match=r"x500\.(yaml|urdf).*" + message):
         multirotor.load_airframe("x500")
+
+
+def test_a_sensor_class_with_explicit_fields_overriding_it(x500_copy):
+    """A section naming a class takes the class's parameters; a field written next to it wins."""
+    text = x500_copy.read_text()
+    x500_copy.write_text(
+        text.replace("  receiver: neo_m9n", "  receiver: zed_f9p_rtk\n  delay_ms: 60")
+    )
+    gps = multirotor.load_airframe("x500").gps
+    assert gps.delay_ms == 60.0
+    # ZED-F9P RTK: 0.01 m CEP50 -> eph at the reference geometry 0.01 / 1.1774 m per axis.
+    eph, _ = gps.accuracy_m(np.array([gps.satellites_reference]))
+    assert eph[0] == pytest.approx(0.01 / 1.1774, rel=1e-3)
 
 
 def test_missing_px4_section_is_named(x500_copy):

@@ -23,6 +23,7 @@ from sitl.physics.rotors import MotorParams, RotorSpec, Spin
 from sitl.power.propulsion import load_power_spec
 from sitl.sensors.baro import BaroParams
 from sitl.sensors.camera import CameraSpec
+from sitl.sensors.catalogue import class_params
 from sitl.sensors.gps import GpsParams
 from sitl.sensors.imu import ImuParams
 from sitl.sensors.mag import MagParams
@@ -199,6 +200,29 @@ def _build(cls: type, data: Any, section: str, path: Path) -> Any:
         return cls(**values)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{path}: section '{section}': {exc}") from exc
+
+
+CLASS_KEYS = {"gps": "receiver", "imu": "sensor", "baro": "sensor"}
+"""Key naming a catalogue class (sitl/sensors/catalogue.yaml) in each sensor section."""
+
+
+def _sensor_section(cls: type, data: Any, section: str, path: Path) -> Any:
+    """A sensor section built from its catalogue class, if it names one, and its own fields.
+
+    ``receiver:`` (gps) or ``sensor:`` (imu, baro) names a class of sitl/sensors/catalogue.yaml;
+    the section's explicit fields override the class's. Without a class every field is given.
+    """
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: section '{section}' must be a mapping")
+    key = CLASS_KEYS[section]
+    if key not in data:
+        return _build(cls, data, section, path)
+    try:
+        base = class_params(section, str(data[key]))
+    except KeyError as exc:
+        raise ValueError(f"{path}: section '{section}': {key}: {exc.args[0]}") from exc
+    overrides = {k: v for k, v in data.items() if k != key}
+    return _build(cls, {**base, **overrides}, section, path)
 
 
 def _links(data: Any, path: Path) -> tuple[LinkInertial, ...]:
@@ -419,10 +443,10 @@ def load_airframe(name: str | Path) -> MultirotorSpec:
         motor=_build(MotorParams, data["motor"], "motor", yaml_path),
         rotors=rotors,
         fuselage=_build(FuselageDrag, data["fuselage"], "fuselage", yaml_path),
-        imu=_build(ImuParams, data["imu"], "imu", yaml_path),
+        imu=_sensor_section(ImuParams, data["imu"], "imu", yaml_path),
         mag=_build(MagParams, data["mag"], "mag", yaml_path),
-        baro=_build(BaroParams, data["baro"], "baro", yaml_path),
-        gps=_build(GpsParams, data["gps"], "gps", yaml_path),
+        baro=_sensor_section(BaroParams, data["baro"], "baro", yaml_path),
+        gps=_sensor_section(GpsParams, data["gps"], "gps", yaml_path),
         px4_params=_px4_params(data["px4"], rotors, yaml_path),
     )
     rangefinders = _rangefinders(data.get("rangefinders"), spec.extent_m, yaml_path)
