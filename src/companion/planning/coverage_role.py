@@ -160,6 +160,24 @@ def return_altitude_m(
     return max(altitude_m, needed)
 
 
+def launch_surface_up_m(world: Any, home_enu_m: np.ndarray) -> float:
+    """Height (ENU up, m) of the surface the vehicle took off from.
+
+    GNSS altitude is metres off (a standalone receiver's epv is ~3 m, and PX4's EKF origin takes
+    its altitude from the first fixes), so a footprint's camera height must not come from the
+    absolute altitude: it is this surface plus the height above home, which the barometer
+    measures to decimetres. The surface is the world's launch area under home (a helideck's
+    top), else the ground: the plane at the origin's altitude (0 m) the footprints are projected
+    on, with or without a world.
+    """
+    home = np.asarray(home_enu_m, dtype=float)
+    for area in world.launch_areas if world is not None else ():
+        centre = np.asarray(area.center_enu_m, dtype=float)
+        if np.hypot(*(centre[:2] - home[:2])) <= area.radius_m + 5.0:
+            return float(centre[2])
+    return 0.0
+
+
 def reference_point(world: Any, home_enu_m: np.ndarray) -> np.ndarray:
     """The point the vehicles of one launch area split the area from: that area's centre.
 

@@ -52,6 +52,7 @@ from companion.planning.coverage_role import (
     CoverageParams,
     climb_and_landing_s,
     finish_time_s,
+    launch_surface_up_m,
     plan,
     return_altitude_m,
     world_spills,
@@ -161,9 +162,14 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
 
     async def positions() -> None:
         async for p in drone.telemetry.position():
-            e, n, u = pymap3d.geodetic2enu(
+            if not launch_up_m:
+                continue  # no height before home is known (the vehicle is still on its pad)
+            e, n, _ = pymap3d.geodetic2enu(
                 p.latitude_deg, p.longitude_deg, p.absolute_altitude_m, *origin
             )
+            # Height from the launch surface and the barometric height above home, not from
+            # the GNSS altitude (metres off): launch_surface_up_m.
+            u = launch_up_m[0] + p.relative_altitude_m
             here = np.array([e, n, u], dtype=float)
             now = vehicle_clock.now_s if vehicle_clock.started else math.nan
             with lock:
@@ -190,6 +196,8 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             armed_flag[0] = a
 
     armed_flag = [False]
+    launch_up_m: list[float] = []
+    """Height of the launch surface, once home is known (until then positions are unknown)."""
     drone = System(port=env.grpc_port)
     tasks: list[asyncio.Task] = []
     flying = False
@@ -214,6 +222,8 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             ),
             dtype=float,
         )
+        home_enu[2] = launch_surface_up_m(world, home_enu)
+        launch_up_m.append(float(home_enu[2]))
         now = vehicle_clock.now_s
         shared, params = params, params.own(env.role_index)
         # Take-off lasts until the highest of the role is up (nobody leaves before: below).

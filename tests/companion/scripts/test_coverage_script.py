@@ -13,6 +13,7 @@ from companion.perception.camera_model import CameraModel, rotation_flu_enu_from
 from companion.planning.coverage_role import (
     CoverageParams,
     climb_and_landing_s,
+    launch_surface_up_m,
     plan,
     reference_point,
     return_altitude_m,
@@ -146,3 +147,13 @@ def test_the_return_altitude_clears_the_solids_on_the_way_home(offshore):
     # The higher return costs time: its climb and its longer descent.
     params = CoverageParams()
     assert climb_and_landing_s(params, 33.0)[1] > climb_and_landing_s(params)[1] + 3.0
+
+
+def test_the_camera_height_comes_from_the_launch_surface_not_gnss_altitude(offshore):
+    """A home whose GNSS altitude is 8 m low (2.8 epv, seen in flight) still sits on the
+    helideck's surface; one on the sea, or anywhere without a world, on the ground plane (0 m)."""
+    helideck = np.array(offshore.launch_area("helideck").center_enu_m)
+    low = helideck + np.array([2.0, 1.0, -8.0])
+    assert launch_surface_up_m(offshore, low) == pytest.approx(helideck[2])
+    assert launch_surface_up_m(offshore, np.array([200.0, -150.0, -7.9])) == 0.0
+    assert launch_surface_up_m(None, low) == 0.0
