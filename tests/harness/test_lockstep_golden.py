@@ -26,6 +26,10 @@ the calm Typhoons moved by at most 2.8 mm (float32 rounding); the mixed fleet by
 197 rad/s of rotor speed at spool-up, where the x500's saturation had been desaturating the
 Typhoons' outputs.
 
+Re-recorded at issue 28, when behaviour was meant to change: PX4's allocation normalisation,
+THR_MDL_FAC 0, the gyro and D-term filters, MPC_YAWRAUTO_MAX, the x500's MPC_THR_HOVER and the
+GNSS receivers of the sensor catalogue (NEO-M9N, 1.27 m per axis instead of ~0.35 m).
+
 Regenerate (only when behaviour is meant to change, and say so in the commit):
 ``python tests/harness/test_lockstep_golden.py --record``.
 """
