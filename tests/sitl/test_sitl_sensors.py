@@ -93,13 +93,18 @@ def test_imu_noise_density_at_rest_is_the_datasheet_figure(airframe):
     sensors, _ = collect(world, 20.0)
     world.close()
     accel_ug, gyro_mdps = DATASHEET_DENSITIES[airframe]
+    measured = []
     for vehicle in range(4):
         imu = sensor_array(sensors, vehicle, IMU)[1:]
         for axis in range(3):
             accel = white_noise_density(imu[:, axis], 1.0 / 250.0) / 9.80665e-6
             gyro = np.degrees(white_noise_density(imu[:, 3 + axis], 1.0 / 250.0)) * 1e3
+            measured.append((accel, gyro))
             assert accel == pytest.approx(accel_ug, rel=DENSITY_REL_BOUND)
             assert gyro == pytest.approx(gyro_mdps, rel=DENSITY_REL_BOUND)
+    a, g = np.array(measured).T
+    print(f"{airframe}: accel {a.min():.1f}-{a.max():.1f} ug/rtHz (class {accel_ug}), "
+          f"gyro {g.min():.2f}-{g.max():.2f} mdeg/s/rtHz (class {gyro_mdps})")  # fmt: skip
 
 
 def test_magnetometer_reads_the_configured_field(at_rest):
