@@ -52,6 +52,12 @@ GYRO_BIAS_BOUND_RAD_S = 0.0009
 """Gyro-bias state minus the simulated bias, any axis (0.0006 rad/s)."""
 DEAD_RECKONING_BOUND_M = 3.5
 """Horizontal drift over 10 s without GNSS in a hover (2.32 m; 0.79-2.32 m over the five)."""
+LEG_YAW_BOUND_DEG = 0.4
+"""Estimated heading minus each commanded one, 4 s after it (0.24 deg; a 90 deg turn at
+MPC_YAWRAUTO_MAX takes 2 s plus the yaw loop's lag)."""
+LEG_ARRIVAL_BOUND_M = 0.5
+"""Estimated position minus each leg's target, 10 s after it (0.32 m; a 20 m leg at
+MPC_XY_CRUISE 5 m/s with the jerk-limited approach takes ~7 s)."""
 
 
 class Errors:
@@ -61,6 +67,8 @@ class Errors:
         self.sim = sim
         self.rows: list[np.ndarray] = []
         self.truth_down0_m = sim.world.truth.position_ned_m[:, 2].copy()
+        self.legs: list[tuple[str, object, np.ndarray]] = []
+        """Each commanded heading and goto with where every vehicle's estimate was at its end."""
 
     def origin_ned_m(self) -> np.ndarray:
         """Each vehicle's EKF origin in the world's NED frame (N, 2), m."""
@@ -128,15 +136,18 @@ def flight():
         assert vehicle.arm(False) == 0 and vehicle.takeoff(None) == 0
     errors.run(8.0)
     nan = math.nan
+    est = sim.fleet.estimator
     for yaw_deg in (90, 180, 270, 0):
         for vehicle in vehicles:
             assert vehicle.reposition(nan, nan, nan, math.radians(yaw_deg), nan) == 0
         errors.run(4.0)
+        errors.legs.append(("yaw", float(yaw_deg), np.degrees(quat.yaw_of(est.r))))
     for north, east in ((20.0, 0.0), (20.0, 20.0), (0.0, 0.0)):
         for i, vehicle in enumerate(vehicles):
             lat, lon = geodetic_of(sim, i, north, east)
             assert vehicle.reposition(lat, lon, nan, nan, nan) == 0
         errors.run(10.0)
+        errors.legs.append(("goto", (north, east), est.position_ned_m[:, :2].copy()))
     errors.run(5.0)  # hover back over the start
     yield sim, errors
     sim.close()
@@ -153,8 +164,23 @@ def test_estimate_tracks_truth_within_stated_bounds(flight):
     assert np.linalg.norm(vel, axis=2).max() < VELOCITY_BOUND_M_S
     assert (np.linalg.norm(hor, axis=2) / eph).max() < HORIZONTAL_PER_EPH_BOUND
     assert np.abs(ver).max() < VERTICAL_BOUND_M
-    # The vehicles really flew the legs and are back (so the bounds were tested under motion).
     assert all(c.in_air for c in sim.fleet.commanders)
+
+
+def test_every_heading_and_leg_was_flown(flight):
+    """The bounds above were tested under motion: each of the four headings was reached (the
+    estimate within LEG_YAW_BOUND_DEG of it 4 s after the command) and each of the three 20 m
+    legs ended at its target (the estimate within LEG_ARRIVAL_BOUND_M after 10 s)."""
+    _, errors = flight
+    kinds = [kind for kind, _, _ in errors.legs]
+    assert kinds == ["yaw"] * 4 + ["goto"] * 3
+    for kind, target, reached in errors.legs:
+        if kind == "yaw":
+            off = (reached - target + 180.0) % 360.0 - 180.0
+            assert np.abs(off).max() < LEG_YAW_BOUND_DEG, (target, off)
+        else:
+            miss = np.linalg.norm(reached - np.asarray(target), axis=1)
+            assert miss.max() < LEG_ARRIVAL_BOUND_M, (target, miss)
 
 
 def test_imu_biases_converge_to_the_simulated_ones(flight):
