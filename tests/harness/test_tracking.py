@@ -24,8 +24,16 @@ from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
 from harness.sim.simulation import Simulation, SimulationConfig
 
 LEG_M = 80.0
-SPEED_TOLERANCE = 0.10
-"""Cruise must be met within 10 % over the middle of a leg."""
+SPEED_TOLERANCE = 0.06
+"""Cruise must be met within 6 % over the middle of a leg: 1.5x the worst achieved (3.8 %, the
+truth also moving with the GNSS error the estimate follows; ``pytest -s`` prints each)."""
+ESTIMATED_VERTICAL_TOLERANCE = 0.065
+"""The estimate's climb and descent speed at MPC_Z_VEL_MAX_UP / _DN (what PX4 limits) within
+6.5 %: 1.5x the worst achieved (4.3 % in descent)."""
+VELOCITY_ESTIMATE_ERROR_M_S = 0.16
+"""What the true speed may differ from the estimate's: the estimator's velocity bound
+(tests/harness/test_estimator_flight.py). In descent the truth runs ~0.1 m/s faster than the
+estimate, whose accelerometer-bias state converges over minutes (as EKF2's)."""
 OVERSHOOT_M = 0.5
 
 
@@ -41,8 +49,8 @@ def _airborne(params: dict[str, float] | None = None, seed: int = 2):
 
 
 def _record(sim, seconds: float, every_s: float = 0.1, each=None, done=None) -> np.ndarray:
-    """Rows (t, north, east, up, v_north, v_east, v_up, tilt, est_north, est_east) every
-    ``every_s``: the simulator's truth, then the autopilot's own position estimate. Stops early
+    """Rows (t, north, east, up, v_north, v_east, v_up, tilt, est_north, est_east, est_v_down)
+    every ``every_s``: the simulator's truth, then the autopilot's own estimate. Stops early
     once ``done(rows)`` holds (when the rows a test asserts on are all recorded)."""
     rows = []
     t0 = sim.time_s
@@ -54,7 +62,8 @@ def _record(sim, seconds: float, every_s: float = 0.1, each=None, done=None) -> 
         e, n, u = tr.position_enu_m[0]
         ve, vn, vu = tr.velocity_enu_m_s[0]
         est_n, est_e, _ = sim.fleet.estimator.position_ned_m[0]
-        rows.append((tr.time_s, n, e, u, vn, ve, vu, tr.tilt_rad[0], est_n, est_e))
+        est_vd = sim.fleet.estimator.velocity_ned_m_s[0, 2]
+        rows.append((tr.time_s, n, e, u, vn, ve, vu, tr.tilt_rad[0], est_n, est_e, est_vd))
     return np.array(rows)
 
 
@@ -80,8 +89,21 @@ def _middle(progress: np.ndarray, length_m: float) -> np.ndarray:
     return (progress > length_m / 3.0) & (progress < 2.0 * length_m / 3.0)
 
 
+def _assert_vertical(estimated: np.ndarray, true: np.ndarray, limit: float, what: str) -> None:
+    """Vertical speed at its limit: the estimate's within ESTIMATED_VERTICAL_TOLERANCE, the
+    truth's within that plus the estimator's velocity error."""
+    est_worst = np.abs(estimated - limit).max()
+    true_worst = np.abs(true - limit).max()
+    print(
+        f"{what} at {limit} m/s: estimate worst {est_worst / limit:.2%}, truth {true_worst:.3f} m/s"
+    )
+    assert est_worst <= ESTIMATED_VERTICAL_TOLERANCE * limit, estimated
+    assert true_worst <= ESTIMATED_VERTICAL_TOLERANCE * limit + VELOCITY_ESTIMATE_ERROR_M_S, true
+
+
 def _assert_cruise(speed: np.ndarray, cruise: float) -> None:
     assert speed.size > 5
+    print(f"cruise {cruise} m/s: worst {np.abs(speed - cruise).max() / cruise:.2%}")
     assert np.all(np.abs(speed - cruise) <= SPEED_TOLERANCE * cruise), (
         speed.min(),
         speed.max(),
@@ -154,11 +176,9 @@ def test_offboard_climb_and_descent_are_limited_by_mpc_z_vel_max():
         p = sim.fleet.params[0]
         up, down = float(p.get("MPC_Z_VEL_MAX_UP")), float(p.get("MPC_Z_VEL_MAX_DN"))
         r = _record(sim, 8.0, each=_offboard_velocity(v, (0.0, 0.0, -(up + 3.0))))
-        climb = r[-30:, 6]
-        assert np.all(np.abs(climb - up) <= SPEED_TOLERANCE * up), climb
+        _assert_vertical(-r[-30:, 10], r[-30:, 6], up, "climb")
         r = _record(sim, 8.0, each=_offboard_velocity(v, (0.0, 0.0, down + 3.0)))
-        descent = -r[-30:, 6]
-        assert np.all(np.abs(descent - down) <= SPEED_TOLERANCE * down), descent
+        _assert_vertical(r[-30:, 10], -r[-30:, 6], down, "descent")
     finally:
         sim.close()
 
@@ -291,6 +311,7 @@ def test_an_auto_heading_change_turns_at_mpc_yawrauto_max():
             rates.append(math.degrees(float(sim.world.truth.angular_velocity_body_frd_rad_s[0, 2])))
             times.append(sim.time_s - t0)
         rates, times = np.array(rates), np.array(times)
+        print(f"yaw rate worst {np.abs(rates).max():.1f} deg/s")
         assert np.abs(rates).max() <= rate_max * (1.0 + SPEED_TOLERANCE)
         turned = np.abs(np.cumsum(rates) * 0.02)
         t_half = times[np.argmax(turned >= 175.0)]
