@@ -1,21 +1,37 @@
-"""Closed loop on the simulated airframe: an attitude step settles without large overshoot.
+"""Closed loop on the simulated airframe: a roll attitude step rises as PX4's loop says and settles.
 
 The autopilot's attitude and rate controllers fly the PyBullet Typhoon H480 (in lockstep, no
 sockets) on an offboard attitude setpoint, fed to the vehicle as its MAVLink endpoint would;
-the response is read from the simulator's ground truth, not from the estimator.
+the response is read from the simulator's ground truth, not from the estimator. The oracle of
+the rise is the linear model of PX4's roll loop (``px4_roll_loop_model``, see
+``test_rate_step.py``) linearised about the hover flown.
+
+Measured (seed 3, ``pytest -s`` prints it): rise (10 % to 90 %) 0.150 s against the model's
+0.146 s; peak 9.93 deg for the 10 deg step (the model's 10.25 deg); after 0.5 s within 0.55 deg
+of the step (the estimate's
+roll wanders as the tilted vehicle accelerates sideways: an accelerometer bias and a tilt cannot
+be told apart until the vehicle turns, as in EKF2).
 """
+
+import math
 
 import numpy as np
 import pytest
+from px4_roll_loop_model import RollLoop, roll_step_response, roll_torque_per_command, step_metrics
 
 from autopilot_emu import quaternion as quat
+from autopilot_emu.control.mixer import RotorGeometry, normalised_mix
 from autopilot_emu.modes import AutoSubMode, MainMode
 from autopilot_emu.modes.offboard import LocalFrame, OffboardSetpoint
 from harness.sim.simulation import Simulation, SimulationConfig
 
 STEP_DEG = 10.0
-OVERSHOOT_BOUND = 0.20
-"""Stated bound: the true roll may exceed the step by at most 20 % of the step."""
+RISE_TOLERANCE = 0.15
+"""Rise time within 15 % of the linear model's."""
+PEAK_MARGIN_DEG = 0.4
+"""The true roll may exceed the model's peak by at most this (it fell 0.32 deg short)."""
+SETTLED_BOUND_DEG = 0.85
+"""After 0.5 s the true roll stays this close to the step (0.55 deg achieved)."""
 
 
 @pytest.fixture(scope="module")
@@ -25,6 +41,11 @@ def hovering():
     v = sim.fleet.vehicle(0)
     assert v.arm(False) == 0 and v.takeoff(None) == 0
     sim.run_lockstep(8.0)
+    outputs = []
+    for _ in range(250):  # 0.5 s of hover: the operating point of the linear model
+        sim.step()
+        outputs.append(sim.fleet.inner_loop.state.outputs[0, :6].copy())
+    sim.hover_output = float(np.mean(outputs))
     # The attitude the autopilot tracks is its estimate's: with the full IMU turn-on biases a
     # horizontal accelerometer bias and a tilt are indistinguishable until the vehicle yaws
     # (as for PX4's EKF2), so estimated and true roll differ by up to a few degrees. The step
@@ -40,32 +61,62 @@ def _true_roll_deg(sim):
     return float(np.degrees(sim.world.truth.euler_ned_frd_rad[0, 0]))
 
 
-def test_roll_step_settles_within_overshoot_bound(hovering):
+def _model_response(sim) -> tuple[np.ndarray, np.ndarray]:
+    spec, p = sim.world.airframe, sim.fleet.params[0]
+    y = np.array([r.position_frd_m[1] for r in sorted(spec.rotors, key=lambda r: r.output)])
+    mix = normalised_mix(RotorGeometry.from_params(p))
+    k = float(p.get("MC_ROLLRATE_K"))
+    loop = RollLoop(
+        inertia_kg_m2=spec.inertia_diag_kg_m2[0],
+        torque_per_command_n_m=roll_torque_per_command(
+            spec.mass_kg, y, mix[:, 0], sim.hover_output
+        ),
+        time_constant_up_s=spec.motor.time_constant_up_s,
+        time_constant_down_s=spec.motor.time_constant_down_s,
+        attitude_p=float(p.get("MC_ROLL_P")),
+        rate_max_rad_s=math.radians(float(p.get("MC_ROLLRATE_MAX"))),
+        rate_p=k * float(p.get("MC_ROLLRATE_P")),
+        rate_i=k * float(p.get("MC_ROLLRATE_I")),
+        rate_d=k * float(p.get("MC_ROLLRATE_D")),
+        gyro_cutoff_hz=float(p.get("IMU_GYRO_CUTOFF")),
+        dgyro_cutoff_hz=float(p.get("IMU_DGYRO_CUTOFF")),
+    )
+    t, roll, _ = roll_step_response(loop, math.radians(STEP_DEG), 1.0)
+    return t, np.degrees(roll)
+
+
+def test_roll_step_rises_as_the_model_and_settles(hovering):
     sim = hovering
     fleet = sim.fleet
     yaw = float(quat.yaw_of(fleet.estimator.r)[0])
-    q = quat.from_euler(np.array([[np.radians(STEP_DEG), 0.0, yaw]]))[0]
+    est_roll = sim.hover_roll_deg - sim.roll_offset_deg
+    q = quat.from_euler(np.array([[np.radians(est_roll + STEP_DEG), 0.0, yaw]]))[0]
     hover = float(fleet.hover_thrust[0])  # learned by the hover-thrust estimator
-    setpoint = OffboardSetpoint(attitude_wxyz=q, thrust=hover / np.cos(np.radians(STEP_DEG)))
+    setpoint = OffboardSetpoint(
+        attitude_wxyz=q, thrust=hover / math.sqrt(math.cos(math.radians(STEP_DEG)))
+    )
     vehicle = fleet.vehicle(0)
     vehicle.offboard_setpoint(setpoint, LocalFrame.LOCAL_NED)
     assert vehicle.set_mode(MainMode.OFFBOARD, 0) == 0
     rolls, times = [], []
+    start = _true_roll_deg(sim)
     t0 = sim.time_s
     while sim.time_s - t0 < 1.0:
         vehicle.offboard_setpoint(setpoint, LocalFrame.LOCAL_NED)
         sim.step()
-        rolls.append(_true_roll_deg(sim))
+        rolls.append(_true_roll_deg(sim) - start)
         times.append(sim.time_s - t0)
     assert vehicle.set_mode(MainMode.AUTO, AutoSubMode.LOITER) == 0
     rolls, times = np.array(rolls), np.array(times)
-    rolls -= sim.roll_offset_deg
-    assert rolls.max() <= STEP_DEG * (1 + OVERSHOOT_BOUND)
-    settled = rolls[times >= 0.5]
-    assert np.all(np.abs(settled - STEP_DEG) < 1.5), settled.min()
-    # Rise: it actually got there quickly (90 % of the way within 0.4 s).
-    start = rolls[0]
-    assert rolls[times <= 0.4].max() - start >= 0.9 * (STEP_DEG - start)
+    t_model, roll_model = _model_response(sim)
+    flown = step_metrics(times, rolls, 0.0, STEP_DEG)
+    model = step_metrics(t_model, roll_model, 0.0, STEP_DEG)
+    print(f"rise {flown.rise_time_s:.3f} s (model {model.rise_time_s:.3f}), peak "
+          f"{rolls.max():.2f} deg (model {roll_model.max():.2f}), settled within "
+          f"{np.abs(rolls[times >= 0.5] - STEP_DEG).max():.2f} deg")  # fmt: skip
+    assert flown.rise_time_s == pytest.approx(model.rise_time_s, rel=RISE_TOLERANCE)
+    assert rolls.max() <= roll_model.max() + PEAK_MARGIN_DEG
+    assert np.abs(rolls[times >= 0.5] - STEP_DEG).max() < SETTLED_BOUND_DEG
 
 
 def test_releasing_the_target_returns_to_level_hover(hovering):
