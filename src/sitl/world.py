@@ -43,7 +43,7 @@ from sitl.power.system import FleetPower
 from sitl.sensors.baro import Barometer, BaroSample
 from sitl.sensors.camera import CameraFrame, CameraSpec
 from sitl.sensors.camera_render import CameraRig
-from sitl.sensors.gps import Gps, GpsOutages
+from sitl.sensors.gps import Gps, GpsOutages, SharedGnssError
 from sitl.sensors.imu import Imu
 from sitl.sensors.mag import Magnetometer
 from sitl.sensors.mocap import Mocap, MocapParams, MocapSample
@@ -429,6 +429,11 @@ class World:
         # The scenery (ground texture) draws from its own child generator, spawned after every
         # other one, with or without cameras: no other stream changes.
         scenery_rng = rng.spawn(1)[0]
+        # The GNSS error the receivers share (atmosphere, satellite clocks and orbits): one for
+        # the world, across airframe groups; spawned last, so that no other stream moves.
+        shared_gnss = SharedGnssError(rng.spawn(1)[0])
+        for group in self._groups:
+            group.gps.shared_error = shared_gnss
         self._cameras: CameraRig | None = None
         self._last_camera_tick = -1
         if config.cameras:

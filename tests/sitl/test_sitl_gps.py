@@ -92,8 +92,10 @@ def test_random_outages_match_their_mean_interval_and_duration():
 
 def test_reported_accuracy_is_the_error_spread():
     """(error / eph) per horizontal axis and (error / epv) vertically have unit std; eph follows
-    HDOP x UERE / sqrt(2) of the satellite count."""
-    gps = _receivers(400, seed=5)
+    HDOP x UERE / sqrt(2) of the satellite count. The receivers are independent here
+    (common_error_fraction 0): one receiver's error has the same spread whatever share of it
+    the world's receivers have in common, and 400 independent ones measure it faster."""
+    gps = _receivers(400, seed=5, common_error_fraction=0.0)
     samples = _run_still(gps, 1200, dt_s=1.0)[::20]  # 20 min, every 20 s
     enu = np.stack(
         [frames.geodetic_to_enu(s.lat_deg, s.lon_deg, s.alt_amsl_m, ORIGIN) for s in samples]
@@ -131,7 +133,7 @@ def test_horizontal_error_matches_the_receivers_datasheet():
     (the satellite count wanders around its reference, so the RMS of HDOP sits ~1.4 % above the
     reference's), RMS eph within 1 % of the measured per-axis spread.
     """
-    gps = _receivers(400, seed=9)
+    gps = _receivers(400, seed=9, common_error_fraction=0.0)  # independent: see above
     samples = _run_still(gps, 3600, dt_s=1.0)[::30]
     enu = np.stack(
         [frames.geodetic_to_enu(s.lat_deg, s.lon_deg, s.alt_amsl_m, ORIGIN) for s in samples]
@@ -146,6 +148,48 @@ def test_horizontal_error_matches_the_receivers_datasheet():
     print(f"NEO-M9N: CEP50 {np.median(radius):.3f} m (datasheet {NEO_M9N_CEP50_M}), per-axis "
           f"sigma {per_axis.round(3)} m (datasheet / 1.1774 = {sigma:.3f}), "
           f"RMS eph {np.sqrt(np.mean(eph**2)):.3f} m")  # fmt: skip
+
+
+def test_receivers_of_one_world_err_together():
+    """Two receivers side by side share common_error_fraction c of their wandering error, so
+    neighbouring vehicles do not see each other metres off: over 100 independent pairs held
+    still for an hour, the spread of their difference per axis is what c predicts from the
+    accuracies they report, c (w1 - w2)² + (1 - c)(w1² + w2²) + 2 white² with w the wandering
+    part of eph (0.62 m for the NEO-M9N's 1.27 m per axis, where independent receivers would
+    differ by 1.8 m), and their errors correlate as c w1 w2 / (eph1 eph2) predicts. Bounds:
+    the difference within 5 % (achieved 0.5-0.8 %), the correlation within 0.02 (achieved
+    0.003)."""
+    c = PARAMS.common_error_fraction
+    white = PARAMS.horizontal_noise_sigma_m
+    errors, ephs = [], []
+    for pair in range(100):
+        gps = _receivers(2, seed=1000 + pair)
+        for s in _run_still(gps, 120, dt_s=30.0):  # an hour, every 30 s (exact discretisation)
+            errors.append(frames.geodetic_to_enu(s.lat_deg, s.lon_deg, s.alt_amsl_m, ORIGIN)[:, :2])
+            ephs.append(s.eph_m)
+    e, eph = np.array(errors), np.array(ephs)  # (samples, receiver, axis), (samples, receiver)
+    w = np.sqrt(eph**2 - white**2)
+    predicted_var = (
+        np.mean(c * (w[:, 0] - w[:, 1]) ** 2 + (1 - c) * (w**2).sum(axis=1)) + 2 * white**2
+    )
+    difference = (e[:, 0, :] - e[:, 1, :]).std()
+    corr = np.mean([np.corrcoef(e[:, 0, k], e[:, 1, k])[0, 1] for k in range(2)])
+    predicted_corr = c * np.mean(w[:, 0] * w[:, 1]) / np.sqrt(np.prod(np.mean(eph**2, axis=0)))
+    print(f"difference {difference:.3f} m (predicted {np.sqrt(predicted_var):.3f}), "
+          f"correlation {corr:.3f} (predicted {predicted_corr:.3f})")  # fmt: skip
+    assert difference == pytest.approx(np.sqrt(predicted_var), rel=0.05)
+    assert corr == pytest.approx(predicted_corr, abs=0.02)
+
+
+def test_a_world_hands_every_airframe_group_the_same_common_error():
+    from sitl.world import World, WorldConfig
+
+    world = World(WorldConfig(n_vehicles=2, airframe=("typhoon_h480", "x500"), seed=4))
+    try:
+        a, b = (group.gps.shared_error for group in world._groups)
+        assert a is b
+    finally:
+        world.close()
 
 
 def test_satellites_wander_slowly_around_their_mean():

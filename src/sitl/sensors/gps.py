@@ -12,7 +12,10 @@ One measurement epoch per ``1 / gps_hz``; every quantity is an (N, ...) array. P
   are what HIL_GPS reports, in cm, as PX4's simulator reads them (1-sigma accuracy, m x 100);
 - the position error has exactly that standard deviation: a wandering part (a unit Gauss-Markov
   process with PX4's 60 s ``gps_corellation_time_`` scaled by ``sqrt(eph^2 - white^2)``) plus
-  white receiver noise; velocity error is white noise;
+  white receiver noise; velocity error is white noise. The wandering unit process is a mix:
+  ``common_error_fraction`` of its variance is one process every receiver of the world shares
+  (:class:`SharedGnssError`: atmosphere, satellite clocks and orbits), the rest the receiver's
+  own, so that neighbouring vehicles' fixes err together as real receivers' do;
 - fix type from the count: 0-2 satellites no fix, 3 a 2D fix, 4 or more a 3D fix;
 - outages (:class:`GpsOutages`): scripted windows and/or a seeded two-state random process;
   during an outage the receiver reports no fix (``fix_type`` 1), 0 satellites and unknown
@@ -81,6 +84,16 @@ class GpsParams:
     """White velocity noise std per horizontal axis, m/s."""
     vertical_velocity_noise_sigma_m_s: float
     """White velocity noise std, vertical, m/s."""
+    common_error_fraction: float = 0.9
+    """Share of the wandering error's variance common to every receiver of the world, 0..1.
+
+    Most of a standalone receiver's ranging error is the same for receivers a few kilometres
+    apart, which see the same satellites through the same sky: satellite clock and ephemeris,
+    ionospheric and tropospheric delays dominate the single-frequency UERE budget, multipath and
+    receiver noise are local (Kaplan and Hegarty, *Understanding GPS*, 2nd ed., table 7.4; the
+    reason differential GNSS works). 0.9 (assumed from that budget): two receivers of the swarm
+    disagree by sqrt(2 x 0.1) ~ 0.45 of one receiver's error, not by sqrt(2) of it.
+    """
 
     def __post_init__(self) -> None:
         if self.delay_ms < 0.0:
@@ -95,6 +108,8 @@ class GpsParams:
         for name in ("satellites_correlation_time_s", "bias_correlation_time_s"):
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if not 0.0 <= self.common_error_fraction <= 1.0:
+            raise ValueError(f"common_error_fraction must be in 0..1: {self.common_error_fraction}")
 
     def dop(self, satellites: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(HDOP, VDOP) for satellite counts (N,)."""
@@ -203,6 +218,31 @@ class GpsSample:
         )
 
 
+class SharedGnssError:
+    """The part of the GNSS error every receiver of a world shares.
+
+    One unit Gauss-Markov 3-vector (ENU) per correlation time, advanced once per measurement
+    epoch by whichever receiver (airframe group) asks first, so that all read the same value.
+    """
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self._rng = rng
+        self._processes: dict[float, tuple[GaussMarkov, list[float]]] = {}
+
+    def at(self, time_s: float, dt_s: float, correlation_time_s: float) -> np.ndarray:
+        """The (3,) unit error at ``time_s``; ``dt_s`` since the previous epoch."""
+        entry = self._processes.get(correlation_time_s)
+        if entry is None:
+            entry = (GaussMarkov(np.ones(3), correlation_time_s, self._rng), [time_s])
+            self._processes[correlation_time_s] = entry
+            return entry[0].value
+        process, last = entry
+        if time_s > last[0]:
+            process.advance(dt_s)
+            last[0] = time_s
+        return process.value
+
+
 class Gps:
     """GNSS receivers of N vehicles, antenna at the centre of mass.
 
@@ -214,6 +254,8 @@ class Gps:
     Args:
         rows: which rows of the world's (N_world, 3) arrays are these receivers' vehicles (a
             slice or an index array; all rows by default). Scripted outages name world indices.
+        shared_error: the world's common error (:class:`SharedGnssError`); by default one of
+            these receivers' own (a world hands every airframe group the same one).
     """
 
     def __init__(
@@ -227,8 +269,11 @@ class Gps:
         physics_hz: float,
         gps_hz: float,
         rows: slice | np.ndarray | None = None,
+        shared_error: SharedGnssError | None = None,
     ) -> None:
         self.params = params
+        self.shared_error = shared_error if shared_error is not None else SharedGnssError(rng)
+        """The error this receiver shares with the world's others (its own when alone)."""
         self.outages = outages or GpsOutages()
         self._origin = origin
         self._n = n_vehicles
@@ -320,7 +365,10 @@ class Gps:
         p = self.params
         self.satellite_process.advance(dt_s)
         self._advance_outages(dt_s)
-        unit_bias = self.bias_unit_enu.advance(dt_s)
+        own = self.bias_unit_enu.advance(dt_s)
+        common = self.shared_error.at(time_s, dt_s, p.bias_correlation_time_s)
+        c = p.common_error_fraction
+        unit_bias = math.sqrt(c) * common + math.sqrt(1.0 - c) * own
         z = self._rng.standard_normal((2, *position_enu_m.shape))
 
         satellites = self.satellites()

@@ -190,10 +190,16 @@ def _build(cls: type, data: Any, section: str, path: Path) -> Any:
     """Construct dataclass ``cls`` from a YAML mapping, with errors that name file and section."""
     if not isinstance(data, dict):
         raise ValueError(f"{path}: section '{section}' must be a mapping")
-    names = {f.name for f in dataclasses.fields(cls)}
+    fields = dataclasses.fields(cls)
+    names = {f.name for f in fields}
+    required = {
+        f.name
+        for f in fields
+        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+    }
     values = {k: v for k, v in data.items() if k not in ("description", "source")}
     unknown = sorted(set(values) - names)
-    missing = sorted(names - set(values))
+    missing = sorted(required - set(values))
     if unknown or missing:
         raise ValueError(f"{path}: section '{section}': missing keys {missing}, unknown {unknown}")
     try:
