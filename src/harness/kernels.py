@@ -98,7 +98,7 @@ SIGNATURES: dict[str, tuple[Signature, ...]] = {
         (F, F2, INT, F, B1, F1, F1, F1, B1),
     ),
     "autopilot_emu.control.inner_loop_kernel:inner_loop_kernel": (
-        (F2, F2, F2, F1, F3, F3, B1, F2, F, B1, B1, F, F2, F3, B1, F3, F2, B2, F, F1, F2, F2, F2, F2),
+        (F2, F2, F2, F1, F3, F3, B1, F2, F, B1, B1, F, F2, F3, B1, F3, F2, B2, F, F1, *(F2,) * 4),
     ),
     "autopilot_emu.control.nav_kernel:nav_kernel": (_NAV,),
     "autopilot_emu.control.hover_thrust_kernel:hover_thrust_tick_kernel": (

@@ -7,7 +7,8 @@ the inner-loop tick where the new rate setpoint took effect. The oracle is
 allocator's normalisation, THR_MDL_FAC 0) on a rigid body linearised about the hover the vehicle
 really flies, with the airframe's inertia, rotor positions and motor lags. Of the emulator's
 code it uses only the allocation matrix (``normalised_mix``, itself checked against PX4's
-normalisation worked by hand in ``tests/autopilot_emu/control/test_mixer.py``). Rise time (10 % to 90 %) must agree within 15 %, and where the model
+normalisation worked by hand in ``tests/autopilot_emu/control/test_mixer.py``). Rise time
+(10 % to 90 %) must agree within 15 %, and where the model
 overshoots by 5 % or more (the x500: ~6 %) the overshoot too. The Typhoons' model overshoot is
 2.5 % of the step, below the run-to-run spread their full IMU turn-on biases leave (0 to 3 %
 over seeds), so theirs is held to the model's within 1.5 % of the step instead.

@@ -7,6 +7,7 @@ import socket
 import numpy as np
 import pymap3d
 import pytest
+from gnss_drift import gnss_drift_m
 
 from harness.run.ports import free_port_block
 from harness.sim.simulation import PortPlan, Simulation, SimulationConfig, check_params
@@ -43,18 +44,23 @@ def flight():
     sim.run_lockstep(3.0)
     assert v.arm(False) == 0
     assert v.takeoff(None) == 0
+    t_home = sim.time_s
     sim.run_lockstep(10.0)
     out["after_takeoff"] = sim.world.truth.position_enu_m[0].copy()
+    out["est_home"] = np.asarray(v.telemetry().home.local_ned_m, dtype=float)[:2]
     home = v.telemetry().home
     lat, lon, _ = pymap3d.ned2geodetic(20.0, 0.0, 0.0, home.lat_deg, home.lon_deg, home.alt_amsl_m)
     tel = v.telemetry()
     assert v.reposition(float(lat), float(lon), tel.alt_amsl_m, 0.0, math.nan) == 0
     sim.run_lockstep(15.0)
     out["after_goto"] = sim.world.truth.position_enu_m[0].copy()
+    out["est_after_goto"] = sim.fleet.estimator.position_ned_m[0, :2].copy()
+    out["goto_elapsed_s"] = sim.time_s - t_home
     v.params.set("RTL_RETURN_ALT", 10.0)
     assert v.set_mode(4, 5) == 0
     sim.run_lockstep(60.0, until=lambda s: not s.fleet.commanders[0].armed)
     out["final"] = sim.world.truth.position_enu_m[0].copy()
+    out["rtl_elapsed_s"] = sim.time_s - t_home
     out["armed"] = sim.fleet.commanders[0].armed
     out["texts"] = [t for _, t in v.pop_status_texts()]
     out["track"] = sim.recorder.vehicle(0)
@@ -68,14 +74,21 @@ def test_takeoff_reaches_mis_takeoff_alt(flight):
 
 
 def test_goto_arrives_within_a_metre(flight):
+    """Within a metre of 20 m north of home where the vehicle sees itself (its estimate: what
+    the controller flies); in truth within that plus the drift of its GNSS error since home was
+    set (gnss_drift.py: 25 s of a 60 s-correlated 1.27 m error, 3 sigma)."""
+    est = flight["est_after_goto"] - flight["est_home"]
+    assert abs(est[0] - 20.0) < 1.0 and abs(est[1]) < 1.0
     moved = flight["after_goto"] - flight["start"]
-    assert abs(moved[1] - 20.0) < 1.0
-    assert abs(moved[0]) < 1.0
+    allowance = gnss_drift_m(flight["goto_elapsed_s"])
+    assert abs(moved[1] - 20.0) < 1.0 + allowance
+    assert abs(moved[0]) < 1.0 + allowance
 
 
 def test_rtl_lands_near_home_and_disarms(flight):
     assert not flight["armed"]
-    assert np.hypot(*(flight["final"][:2] - flight["start"][:2])) < 1.5
+    allowance = gnss_drift_m(flight["rtl_elapsed_s"])
+    assert np.hypot(*(flight["final"][:2] - flight["start"][:2])) < 1.5 + allowance
     assert abs(flight["final"][2] - flight["start"][2]) < 0.05
     assert "Disarmed by landing" in flight["texts"]
 

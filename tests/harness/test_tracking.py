@@ -121,11 +121,13 @@ def test_goto_cruises_at_mpc_xy_cruise_and_stops_without_overshoot(cruise):
         north = r[:, 1] - start[1]
         speed = np.hypot(r[:, 4], r[:, 5])
         _assert_cruise(speed[_middle(north, LEG_M)], cruise)
-        # The target in the truth frame: the autopilot's target plus its estimation offset while
-        # holding there (GPS noise moves where it holds, not how far it overshoots).
+        # Overshoot where the autopilot sees itself (its estimate, what the trajectory governs):
+        # in truth the GNSS error drifts by up to a metre over the leg, which is no overshoot.
+        assert r[:, 8].max() - target < OVERSHOOT_M
+        # It stops there: the target in the truth frame is the autopilot's target plus its
+        # estimation offset while holding there.
         target_truth = target + float(np.mean(r[-50:, 1] - r[-50:, 8]))
-        assert r[:, 1].max() - target_truth < OVERSHOOT_M
-        assert abs(r[-1, 1] - target_truth) < 0.5  # it stops there
+        assert abs(r[-1, 1] - target_truth) < 0.5
         assert speed[-10:].max() < 0.3
     finally:
         sim.close()
