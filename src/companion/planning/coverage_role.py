@@ -14,11 +14,18 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import networkx as nx
 import numpy as np
 import shapely
 from shapely.geometry import box
 
-from companion.planning.coverage import CoverageSpec, VehiclePlan, plan_vehicle, reachable_area
+from companion.planning.coverage import (
+    CoverageSpec,
+    Router,
+    VehiclePlan,
+    plan_vehicle,
+    reachable_area,
+)
 from companion.role_params import params_from_mapping
 from companion.scenario_env import ScenarioEnv
 
@@ -226,7 +233,7 @@ def plan(
             area = reachable_area(area, ref[:2], env.role_count, spec, reach)
     else:
         area = shapely.Point(ref[:2]).buffer(100.0, cap_style="square")
-    return plan_vehicle(
+    vehicle_plan = plan_vehicle(
         area,
         _obstacles(world, flight_z),
         spec,
@@ -236,6 +243,63 @@ def plan(
         params.mean_speed_m_s,
         budget_s,
     )
+    pad = launch_pad(world, home_enu_m)
+    if pad is None or len(vehicle_plan.waypoints_enu_m) == 0:
+        return vehicle_plan
+    corners = approach_route(
+        vehicle_plan.free_area, pad, vehicle_plan.waypoints_enu_m[-1, :2], home_enu_m[:2]
+    )
+    if corners is None:
+        return vehicle_plan
+    route = np.column_stack((corners, np.full(len(corners), flight_z))).reshape(-1, 3)
+    return dataclasses.replace(vehicle_plan, return_route_enu_m=route)
+
+
+APPROACH_MARGIN_M = 3.0
+"""How far outside the launch pad's usable radius the way home stays until its final leg, m."""
+
+
+def launch_pad(world: Any, home_enu_m: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Centre (x, y) and radius of the launch area home is on (as ``reference_point``), or None."""
+    home = np.asarray(home_enu_m, dtype=float)
+    for area in world.launch_areas if world is not None else ():
+        centre = np.asarray(area.center_enu_m, dtype=float)[:2]
+        if np.hypot(*(centre - home[:2])) <= area.radius_m + 5.0:
+            return centre, float(area.radius_m)
+    return None
+
+
+def approach_route(
+    free_area: Any, pad: tuple[np.ndarray, float], from_xy: np.ndarray, home_xy: np.ndarray
+) -> np.ndarray | None:
+    """Corners of the way home that keep off the launch pad until a straight radial final leg.
+
+    Vehicles of one pad land side by side, each descending over its own home while the others
+    may still be flying home at their own heights: a way home straight across the pad passes
+    over a neighbour's home, where it may be descending through that height (seen: 1.3 m apart
+    in the offshore demo). Staying outside the pad (its radius plus APPROACH_MARGIN_M) until
+    the point radially outside one's own home, then flying straight in, passes over no other
+    home of a pad whose homes surround its centre. None when the way cannot be planned so (the
+    vehicle starts inside the pad's disc, home is the centre, the entry is not free).
+    """
+    centre, radius = pad
+    out = np.asarray(home_xy, dtype=float) - centre
+    if np.hypot(*out) < 1e-6:
+        return None
+    keep_off = radius + APPROACH_MARGIN_M
+    entry = centre + out / np.hypot(*out) * (keep_off + 1.0)
+    disc = shapely.Point(*centre).buffer(keep_off, quad_segs=4)
+    start = np.asarray(from_xy, dtype=float)
+    allowed = free_area.difference(disc) if free_area is not None else None
+    if allowed is None or allowed.is_empty or disc.contains(shapely.Point(*start)):
+        return None
+    if not allowed.buffer(1e-6).covers(shapely.Point(*entry)):
+        return None
+    try:
+        corners = Router(allowed).path(start, entry)
+    except (ValueError, nx.NetworkXException):  # no way round: keep the direct way home
+        return None
+    return np.asarray([*corners, entry], dtype=float).reshape(-1, 2)
 
 
 def world_spills(world: Any) -> list[Any]:

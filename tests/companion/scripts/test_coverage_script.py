@@ -157,3 +157,22 @@ def test_the_camera_height_comes_from_the_launch_surface_not_gnss_altitude(offsh
     assert launch_surface_up_m(offshore, low) == pytest.approx(helideck[2])
     assert launch_surface_up_m(offshore, np.array([200.0, -150.0, -7.9])) == 0.0
     assert launch_surface_up_m(None, low) == 0.0
+
+
+def test_the_way_home_keeps_off_the_neighbours_homes_until_its_radial_final_leg(offshore):
+    """Three homes round the helideck's centre (6 m apart): whatever side the strips end on,
+    each vehicle's way home passes no closer than 4 m to another's home (where it may be
+    descending), by keeping off the pad until the point radially outside its own home."""
+    centre = np.array(offshore.launch_area("helideck").center_enu_m)
+    angles = np.radians([90.0, 210.0, 330.0])
+    homes = [centre + np.array([3.46 * np.cos(a), 3.46 * np.sin(a), 0.0]) for a in angles]
+    for index, home in enumerate(homes):
+        p = plan(_env(index, 3), CoverageParams(altitude_m=20.0), offshore, home, 90.0)
+        way = np.vstack([p.waypoints_enu_m[-1:, :2], p.return_route_enu_m[:, :2], home[:2]])
+        line = shapely.LineString(way)
+        for other, neighbour in enumerate(homes):
+            if other != index:
+                assert line.distance(shapely.Point(*neighbour[:2])) > 4.0, (index, other)
+        final = way[-1] - way[-2]  # the last leg comes straight in from outside
+        outward = home[:2] - centre[:2]
+        assert np.dot(final, outward) < 0 and np.hypot(*way[-2] - centre[:2]) > 11.0
