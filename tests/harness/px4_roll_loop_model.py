@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import signal
@@ -64,6 +65,29 @@ def roll_torque_per_command(
     hover_thrust_n = mass_kg * G_M_S2 / len(rotor_y_m)
     d_thrust_per_output = 2.0 * hover_thrust_n / hover_output
     return float(np.sum(-np.asarray(rotor_y_m) * d_thrust_per_output * np.asarray(roll_mix)))
+
+
+def roll_loop_of(spec: Any, params: Any, allocation: np.ndarray, hover_output: float) -> RollLoop:
+    """The loop of an airframe ``spec`` (sitl MultirotorSpec) flying PX4 parameters ``params``
+    (a ParamStore), with the allocation matrix (M, 4) PX4 builds from its CA_ROTOR* parameters,
+    linearised about ``hover_output``. MC_ROLLRATE_K scales P, I and D, as in PX4."""
+    y = np.array([r.position_frd_m[1] for r in sorted(spec.rotors, key=lambda r: r.output)])
+    k = float(params.get("MC_ROLLRATE_K"))
+    return RollLoop(
+        inertia_kg_m2=spec.inertia_diag_kg_m2[0],
+        torque_per_command_n_m=roll_torque_per_command(
+            spec.mass_kg, y, allocation[:, 0], hover_output
+        ),
+        time_constant_up_s=spec.motor.time_constant_up_s,
+        time_constant_down_s=spec.motor.time_constant_down_s,
+        attitude_p=float(params.get("MC_ROLL_P")),
+        rate_max_rad_s=math.radians(float(params.get("MC_ROLLRATE_MAX"))),
+        rate_p=k * float(params.get("MC_ROLLRATE_P")),
+        rate_i=k * float(params.get("MC_ROLLRATE_I")),
+        rate_d=k * float(params.get("MC_ROLLRATE_D")),
+        gyro_cutoff_hz=float(params.get("IMU_GYRO_CUTOFF")),
+        dgyro_cutoff_hz=float(params.get("IMU_DGYRO_CUTOFF")),
+    )
 
 
 def _lowpass(cutoff_hz: float, fs_hz: float) -> tuple[np.ndarray, np.ndarray]:

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 import pytest
-from px4_roll_loop_model import RollLoop, roll_step_response, roll_torque_per_command, step_metrics
+from px4_roll_loop_model import roll_loop_of, roll_step_response, step_metrics
 
 from autopilot_emu import quaternion as quat
 from autopilot_emu.control.mixer import RotorGeometry, normalised_mix
@@ -62,25 +62,9 @@ def _true_roll_deg(sim):
 
 
 def _model_response(sim) -> tuple[np.ndarray, np.ndarray]:
-    spec, p = sim.world.airframe, sim.fleet.params[0]
-    y = np.array([r.position_frd_m[1] for r in sorted(spec.rotors, key=lambda r: r.output)])
-    mix = normalised_mix(RotorGeometry.from_params(p))
-    k = float(p.get("MC_ROLLRATE_K"))
-    loop = RollLoop(
-        inertia_kg_m2=spec.inertia_diag_kg_m2[0],
-        torque_per_command_n_m=roll_torque_per_command(
-            spec.mass_kg, y, mix[:, 0], sim.hover_output
-        ),
-        time_constant_up_s=spec.motor.time_constant_up_s,
-        time_constant_down_s=spec.motor.time_constant_down_s,
-        attitude_p=float(p.get("MC_ROLL_P")),
-        rate_max_rad_s=math.radians(float(p.get("MC_ROLLRATE_MAX"))),
-        rate_p=k * float(p.get("MC_ROLLRATE_P")),
-        rate_i=k * float(p.get("MC_ROLLRATE_I")),
-        rate_d=k * float(p.get("MC_ROLLRATE_D")),
-        gyro_cutoff_hz=float(p.get("IMU_GYRO_CUTOFF")),
-        dgyro_cutoff_hz=float(p.get("IMU_DGYRO_CUTOFF")),
-    )
+    params = sim.fleet.params[0]
+    allocation = normalised_mix(RotorGeometry.from_params(params))
+    loop = roll_loop_of(sim.world.airframe, params, allocation, sim.hover_output)
     t, roll, _ = roll_step_response(loop, math.radians(STEP_DEG), 1.0)
     return t, np.degrees(roll)
 

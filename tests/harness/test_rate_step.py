@@ -25,12 +25,7 @@ import math
 
 import numpy as np
 import pytest
-from px4_roll_loop_model import (
-    RollLoop,
-    roll_step_response,
-    roll_torque_per_command,
-    step_metrics,
-)
+from px4_roll_loop_model import RollLoop, roll_loop_of, roll_step_response, step_metrics
 
 from autopilot_emu.control.mixer import RotorGeometry, normalised_mix
 from autopilot_emu.modes import MainMode
@@ -61,27 +56,9 @@ def _hover(frame: str) -> Simulation:
 
 def _model(sim: Simulation, hover_outputs: np.ndarray) -> RollLoop:
     """The linear loop of vehicle 0's airframe about the hover output the fleet flies."""
-    spec = sim.world.airframe
-    p = sim.fleet.params[0]
-    rotors = sorted(spec.rotors, key=lambda r: r.output)
-    y = np.array([r.position_frd_m[1] for r in rotors])
-    mix = normalised_mix(RotorGeometry.from_params(p))
-    k = float(p.get("MC_ROLLRATE_K"))
-    return RollLoop(
-        inertia_kg_m2=spec.inertia_diag_kg_m2[0],
-        torque_per_command_n_m=roll_torque_per_command(
-            spec.mass_kg, y, mix[:, 0], float(hover_outputs.mean())
-        ),
-        time_constant_up_s=spec.motor.time_constant_up_s,
-        time_constant_down_s=spec.motor.time_constant_down_s,
-        attitude_p=float(p.get("MC_ROLL_P")),
-        rate_max_rad_s=math.radians(float(p.get("MC_ROLLRATE_MAX"))),
-        rate_p=k * float(p.get("MC_ROLLRATE_P")),
-        rate_i=k * float(p.get("MC_ROLLRATE_I")),
-        rate_d=k * float(p.get("MC_ROLLRATE_D")),
-        gyro_cutoff_hz=float(p.get("IMU_GYRO_CUTOFF")),
-        dgyro_cutoff_hz=float(p.get("IMU_DGYRO_CUTOFF")),
-    )
+    params = sim.fleet.params[0]
+    allocation = normalised_mix(RotorGeometry.from_params(params))
+    return roll_loop_of(sim.world.airframe, params, allocation, float(hover_outputs.mean()))
 
 
 def _rate_steps(sim: Simulation) -> list:
