@@ -51,7 +51,8 @@ class CoverageParams:
     sweep_deg: float | None = None
     """Lane direction, degrees counter-clockwise from east; None: along the area's longer side."""
     margin_m: float = 10.0
-    """Horizontal distance kept from solids that reach the flight height, and no-fly zones, m."""
+    """Horizontal distance kept from solids that reach the flight height, no-fly zones and the
+    world's edge, m."""
     climb_m_s: float = 1.5
     """Climb rate the take-off is budgeted with, m/s (PX4's MPC_TKO_SPEED)."""
     descent_m_s: float = 1.0
@@ -226,7 +227,11 @@ def plan(
     if params.area_enu_m is not None:
         area = box(*params.area_enu_m)
     elif world is not None:
-        area = world.boundary
+        # The world's edge is a line not to cross, as an obstacle is: the lanes keep margin_m
+        # inside it (a vehicle's GNSS error alone is ~1.3 m per axis; a lane's end at the very
+        # edge put the truth 0.7 m outside the offshore world).
+        inside = world.boundary.buffer(-params.margin_m)
+        area = inside if not inside.is_empty else world.boundary
         if env.duration_s is not None:
             overhead = sum(climb_and_landing_s(params)) + params.reserve_s
             reach = params.mean_speed_m_s * max(env.duration_s - overhead, 1.0)
