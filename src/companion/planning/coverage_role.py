@@ -178,12 +178,18 @@ def launch_surface_up_m(world: Any, home_enu_m: np.ndarray) -> float:
     top), else the ground: the plane at the origin's altitude (0 m) the footprints are projected
     on, with or without a world.
     """
+    area = launch_area_under(world, home_enu_m)
+    return float(area.center_enu_m[2]) if area is not None else 0.0
+
+
+def launch_area_under(world: Any, home_enu_m: np.ndarray) -> Any:
+    """The world's launch area home is on (within its radius plus 5 m), or None."""
     home = np.asarray(home_enu_m, dtype=float)
     for area in world.launch_areas if world is not None else ():
         centre = np.asarray(area.center_enu_m, dtype=float)
         if np.hypot(*(centre[:2] - home[:2])) <= area.radius_m + 5.0:
-            return float(centre[2])
-    return 0.0
+            return area
+    return None
 
 
 def reference_point(world: Any, home_enu_m: np.ndarray) -> np.ndarray:
@@ -193,12 +199,10 @@ def reference_point(world: Any, home_enu_m: np.ndarray) -> np.ndarray:
     differ): the split must not depend on them, or the strips would overlap. A vehicle whose
     home is on none of the world's launch areas (within its radius plus 5 m) uses its home.
     """
-    home = np.asarray(home_enu_m, dtype=float)
-    for area in world.launch_areas if world is not None else ():
-        centre = np.asarray(area.center_enu_m, dtype=float)
-        if np.hypot(*(centre[:2] - home[:2])) <= area.radius_m + 5.0:
-            return centre
-    return home
+    area = launch_area_under(world, home_enu_m)
+    if area is None:
+        return np.asarray(home_enu_m, dtype=float)
+    return np.asarray(area.center_enu_m, dtype=float)
 
 
 def plan(
@@ -265,13 +269,11 @@ APPROACH_MARGIN_M = 3.0
 
 
 def launch_pad(world: Any, home_enu_m: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """Centre (x, y) and radius of the launch area home is on (as ``reference_point``), or None."""
-    home = np.asarray(home_enu_m, dtype=float)
-    for area in world.launch_areas if world is not None else ():
-        centre = np.asarray(area.center_enu_m, dtype=float)[:2]
-        if np.hypot(*(centre - home[:2])) <= area.radius_m + 5.0:
-            return centre, float(area.radius_m)
-    return None
+    """Centre (x, y) and radius of the launch area home is on, or None."""
+    area = launch_area_under(world, home_enu_m)
+    if area is None:
+        return None
+    return np.asarray(area.center_enu_m, dtype=float)[:2], float(area.radius_m)
 
 
 def approach_route(
