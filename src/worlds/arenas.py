@@ -119,6 +119,40 @@ def _place_blobs(
     return out
 
 
+def _ring(points: list[tuple[float, float]], field: str) -> Polygon:
+    """A valid polygon from a ring of a world file; ``ValueError`` naming the field."""
+    poly = Polygon(points)
+    if not poly.is_valid or poly.area <= 0.0:
+        raise ValueError(
+            f"{field}: not a simple polygon of positive area ({shapely.is_valid_reason(poly)})"
+        )
+    return poly
+
+
+def _explicit_workspace(spec: WorkspaceMcoSpec) -> tuple[Polygon, list[Polygon], list[Polygon]]:
+    """The outline, holes and zones a world file gives explicitly, checked against each other."""
+    assert spec.outline_m is not None
+    outline = _ring(spec.outline_m, "outline_m")
+    sx, sy = spec.size_m
+    x0, y0, x1, y1 = outline.bounds
+    if x0 < -sx / 2 or x1 > sx / 2 or y0 < -sy / 2 or y1 > sy / 2:
+        raise ValueError(
+            f"outline_m: spans [{x0:g}, {x1:g}] x [{y0:g}, {y1:g}] m, outside the extent size_m "
+            f"{list(spec.size_m)} (centred on the origin)"
+        )
+    holes = [_ring(r, f"holes_m[{k}]") for k, r in enumerate(spec.holes_m)]
+    zones = [_ring(r, f"low_interest_m[{k}]") for k, r in enumerate(spec.low_interest_m)]
+    for field, polys in (("holes_m", holes), ("low_interest_m", zones)):
+        for k, poly in enumerate(polys):
+            if not outline.contains(poly):
+                raise ValueError(f"{field}[{k}]: not inside outline_m")
+    for k, a in enumerate(holes):
+        for j, b in enumerate(holes[k + 1 :], k + 1):
+            if a.intersects(b):
+                raise ValueError(f"holes_m[{k}] and holes_m[{j}] overlap")
+    return outline, holes, zones
+
+
 def build_workspace_mco(spec: WorkspaceMcoSpec, rng: np.random.Generator) -> World:
     """Seed 004's workspace; draw order: outline, holes, low-interest zones.
 
@@ -126,24 +160,37 @@ def build_workspace_mco(spec: WorkspaceMcoSpec, rng: np.random.Generator) -> Wor
     no-fly) and zones of low interest lie inside it, 10 m clear of each other and of the edge.
     """
     sx, sy = spec.size_m
-    n = spec.vertex_count
-    angles = np.sort(rng.uniform(0.0, 2.0 * np.pi, n))
-    scale = 1.0 - spec.radius_jitter * rng.uniform(0.0, 1.0, n)
-    shell = np.column_stack([sx / 2.0 * scale * np.cos(angles), sy / 2.0 * scale * np.sin(angles)])
-    outline = Polygon(shell)
-    if not outline.is_valid:
-        outline = outline.convex_hull
-    inner = outline.buffer(-10.0)
-    holes = _place_blobs(rng, inner, Polygon(), spec.hole_count, spec.hole_radius_m, "hole_count")
-    zones = _place_blobs(
-        rng,
-        inner,
-        shapely.union_all(holes) if holes else Polygon(),
-        spec.low_interest_count,
-        spec.low_interest_radius_m,
-        "low_interest_count",
-    )
+    if spec.outline_m is not None:
+        outline, holes, zones = _explicit_workspace(spec)
+    else:
+        n = spec.vertex_count
+        angles = np.sort(rng.uniform(0.0, 2.0 * np.pi, n))
+        scale = 1.0 - spec.radius_jitter * rng.uniform(0.0, 1.0, n)
+        shell = np.column_stack(
+            [sx / 2.0 * scale * np.cos(angles), sy / 2.0 * scale * np.sin(angles)]
+        )
+        outline = Polygon(shell)
+        if not outline.is_valid:
+            outline = outline.convex_hull
+        inner = outline.buffer(-10.0)
+        holes = _place_blobs(
+            rng, inner, Polygon(), spec.hole_count, spec.hole_radius_m, "hole_count"
+        )
+        zones = _place_blobs(
+            rng,
+            inner,
+            shapely.union_all(holes) if holes else Polygon(),
+            spec.low_interest_count,
+            spec.low_interest_radius_m,
+            "low_interest_count",
+        )
     boundary = Polygon(outline.exterior.coords, [h.exterior.coords for h in holes])
+    launch: tuple[LaunchArea, ...] = ()
+    if spec.launch_m is not None:
+        x, y = spec.launch_m
+        if not boundary.contains(Point(x, y)):
+            raise ValueError(f"launch_m: {list(spec.launch_m)} is not inside the workspace")
+        launch = (LaunchArea("start", (float(x), float(y), 0.0), spec.launch_radius_m),)
     surface = Surface("ground", spec.ground_rgba, "grass", 4.0, 0.25)
     return World(
         kind="workspace_mco",
@@ -151,6 +198,7 @@ def build_workspace_mco(spec: WorkspaceMcoSpec, rng: np.random.Generator) -> Wor
         size_m=(sx, sy),
         boundary=boundary,
         surface=surface,
+        launch_areas=launch,
         no_fly=tuple(holes),
         low_interest=tuple(zones),
         extras={

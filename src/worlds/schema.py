@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
 from worlds.yaml_source import node_at, validate_yaml
 
@@ -24,6 +24,10 @@ def _ordered(value: tuple[float, float]) -> tuple[float, float]:
 
 Range = Annotated[tuple[float, float], AfterValidator(_ordered)]
 """A (min, max) pair drawn uniformly from."""
+XYPoint = tuple[float, float]
+"""A point (east, north), m."""
+Ring = Annotated[list[XYPoint], Field(min_length=3)]
+"""A polygon's ring: at least three (east, north) points, m (closed implicitly)."""
 PositiveXY = tuple[Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]]
 Colour = tuple[
     Annotated[float, Field(ge=0, le=1)],
@@ -152,6 +156,25 @@ class WorkspaceMcoSpec(_Spec):
     hole_radius_m: Range = (30.0, 70.0)
     low_interest_count: int = Field(3, ge=0)
     low_interest_radius_m: Range = (30.0, 80.0)
+    outline_m: list[XYPoint] | None = Field(None, min_length=3)
+    """An explicit outline (east, north; m), instead of the random star: a surveyed field. With it,
+    ``holes_m`` and ``low_interest_m`` replace the random holes and zones, and the ``*_count``,
+    ``*_radius_m``, ``vertex_count`` and ``radius_jitter`` fields are not used."""
+    holes_m: list[Ring] = Field(default_factory=list)
+    """No-fly holes of an explicit outline, each a ring of (east, north) points, m."""
+    low_interest_m: list[Ring] = Field(default_factory=list)
+    """Zones of low interest of an explicit outline, each a ring of (east, north) points, m."""
+    launch_m: XYPoint | None = None
+    """Where the fleet takes off (a ``start`` launch area there); None: the free point nearest
+    the origin (``worlds.launch.default_area``)."""
+    launch_radius_m: float = Field(15.0, gt=0)
+    """Radius of the ``start`` launch area around ``launch_m``, m."""
+
+    @model_validator(mode="after")
+    def _explicit(self) -> WorkspaceMcoSpec:
+        if self.outline_m is None and (self.holes_m or self.low_interest_m):
+            raise ValueError("holes_m and low_interest_m need an explicit outline_m")
+        return self
 
 
 class TaskmapSpec(_Spec):

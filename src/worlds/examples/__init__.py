@@ -3,6 +3,9 @@
 from pathlib import Path
 
 KINDS = ("offshore", "city", "indoor", "arena_aco", "workspace_mco", "taskmap")
+"""One example per world kind, in the file named after the kind."""
+FIELDS = ("mco_rejoya", "mco_urban", "mco_naranjos")
+"""Seed 004's three workspaces (``workspace_mco`` with explicit outlines; docs/seed004.md)."""
 
 
 EXAMPLE_PREFIX = "example:"
@@ -18,7 +21,7 @@ def world_path(name: str | Path) -> Path:
 
 
 def example_path(kind: str) -> Path:
-    """Path of the shipped example YAML for ``kind``; ``ValueError`` naming the kinds otherwise."""
-    if kind not in KINDS:
-        raise ValueError(f"kind: no example {kind!r}; one of {list(KINDS)}")
+    """Path of the shipped example YAML for ``kind`` or a name of FIELDS (``ValueError`` else)."""
+    if kind not in KINDS + FIELDS:
+        raise ValueError(f"kind: no example {kind!r}; one of {list(KINDS + FIELDS)}")
     return Path(__file__).with_name(f"{kind}.yaml")
