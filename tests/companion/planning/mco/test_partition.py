@@ -82,7 +82,7 @@ def test_phase_one_sites_on_the_circle_of_radius_width_over_n(n, seed):
     """Phase I: site 0 is p0; the n - 1 others lie at r = (E-W width) / n from it (Postulate 1)."""
     ws = Workspace(box(0.0, 0.0, 700.0, 1000.0))
     grid = build_grid(ws, Camera())
-    p0 = np.array([350.0 - 10.0, 500.0 - 7.5 + 15.0 * 0])
+    p0 = np.array([350.0, 502.5])
     part = mco_partition(grid, ws, n, np.random.default_rng(seed), takeoff_xy_m=p0)
     np.testing.assert_allclose(part.sites_xy_m[0], p0)
     np.testing.assert_allclose(part.takeoff_xy_m, p0[None, :])
