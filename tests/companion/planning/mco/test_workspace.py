@@ -110,3 +110,22 @@ def test_workspace_without_free_cell_raises():
     poly = box(0, 0, 100, 100)
     with pytest.raises(ValueError, match="no free cell"):
         build_grid(Workspace(poly, (box(-1, -1, 101, 101),)), Camera())
+
+
+def test_the_shipped_workspace_mco_world_gives_a_grid_without_its_holes_and_zones():
+    """The example ``workspace_mco`` world: no waypoint in a no-fly hole or a low-interest zone."""
+    import yaml
+    from shapely import intersects_xy
+
+    from worlds.examples import __file__ as examples_init
+    from worlds.generate import build
+    from worlds.schema import WorkspaceMcoSpec
+
+    path = examples_init.replace("__init__.py", "workspace_mco.yaml")
+    with open(path, encoding="utf-8") as fh:
+        world = build(WorkspaceMcoSpec(**yaml.safe_load(fh)))
+    grid = build_grid(Workspace.from_world(world), Camera())
+    assert grid.hole_cells > 0 and grid.zli_cells > 0
+    x, y = grid.waypoints_xy_m[:, 0], grid.waypoints_xy_m[:, 1]
+    for zone in (*world.no_fly, *world.low_interest):
+        assert not intersects_xy(zone, x, y).any()
