@@ -12,6 +12,7 @@ Nothing starts before all of that passed. ``docs/scenarios.md`` describes every 
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import sys
@@ -282,6 +283,12 @@ class ScenarioSpec(_Model):
         return sum(g.count for g in self.fleet)
 
 
+@functools.lru_cache(maxsize=64)
+def airframe_capacity_mah(airframe: str) -> float:
+    """The capacity of an airframe's pack (its ``power.battery.capacity_mah``), mAh."""
+    return load_power_spec(airframe_yaml_path(airframe)).battery.capacity_mah
+
+
 @dataclass(frozen=True)
 class Vehicle:
     """One vehicle of the fleet: its place in the scenario."""
@@ -303,9 +310,7 @@ class Vehicle:
     def battery_capacity_mah(self) -> float:
         """The vehicle's effective pack capacity, mAh (the scenario's, else the airframe's)."""
         cap = self.battery_capacity_override_mah
-        if cap is not None:
-            return cap
-        return load_power_spec(airframe_yaml_path(self.group.airframe)).battery.capacity_mah
+        return airframe_capacity_mah(self.group.airframe) if cap is None else cap
 
     @property
     def traits(self) -> dict[str, float]:
