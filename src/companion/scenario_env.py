@@ -55,6 +55,10 @@ class ScenarioEnv:
     """Simulated seconds the run lasts (the companion should have landed by then)."""
     params: Mapping[str, object] | None = None
     """The role's ``args`` from the scenario, as JSON (``SWARMSITL_PARAMS``)."""
+    fleet: tuple[dict, ...] | None = None
+    """Every vehicle of the run in vehicle order (``SWARMSITL_FLEET``, a JSON list): ``vehicle``
+    (1-based id), ``role``, ``role_index``, ``airframe``, ``battery_capacity_mah`` (its pack's,
+    mAh) and ``traits`` (the fleet file's free-form capabilities, name -> number)."""
 
     @property
     def pymavlink_url(self) -> str:
@@ -85,6 +89,8 @@ class ScenarioEnv:
             env["DURATION_S"] = repr(float(self.duration_s))
         if self.params is not None:
             env["PARAMS"] = json.dumps(dict(self.params))
+        if self.fleet is not None:
+            env["FLEET"] = json.dumps([dict(entry) for entry in self.fleet])
         return {PREFIX + k: v for k, v in env.items()}
 
     @classmethod
@@ -126,6 +132,15 @@ class ScenarioEnv:
                 raise ScenarioEnvError(f"{PREFIX}PARAMS is not JSON: {exc}") from exc
             if not isinstance(params, dict):
                 raise ScenarioEnvError(f"{PREFIX}PARAMS must be a JSON object")
+        fleet = None
+        if PREFIX + "FLEET" in env:
+            try:
+                fleet = json.loads(get("FLEET"))
+            except json.JSONDecodeError as exc:
+                raise ScenarioEnvError(f"{PREFIX}FLEET is not JSON: {exc}") from exc
+            if not isinstance(fleet, list) or not all(isinstance(e, dict) for e in fleet):
+                raise ScenarioEnvError(f"{PREFIX}FLEET must be a JSON list of objects")
+            fleet = tuple(fleet)
         vehicle = int(number("VEHICLE", int))
         return cls(
             mavlink_url=get("MAVLINK_URL"),
@@ -144,6 +159,7 @@ class ScenarioEnv:
                 float(number("DURATION_S", float)) if PREFIX + "DURATION_S" in env else None
             ),
             params=params,
+            fleet=fleet,
         )
 
     def write_result(self, metrics: Mapping[str, tuple[float | int | str, str]]) -> Path:

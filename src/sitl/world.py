@@ -117,6 +117,9 @@ class WorldConfig:
     """Power the rotors from an ideal constant-voltage supply instead of the LiPo pack."""
     battery_soc: float = 1.0
     """State of charge of every pack at the start, 0..1."""
+    battery_capacity_mah: tuple[float | None, ...] | None = None
+    """Capacity of each vehicle's pack, mAh (one entry per vehicle; None, or a None entry: the
+    airframe's ``power.battery.capacity_mah``)."""
     obstacles: tuple[BoxObstacle, ...] = ()
     """Static boxes (walls, pillars) the vehicles can hit and the sensors see."""
     scene: WorldsWorld | None = None
@@ -189,6 +192,16 @@ class WorldConfig:
             raise ValueError(f"scene must be a worlds.World or None, got {type(self.scene)!r}")
         if not 0.0 <= self.battery_soc <= 1.0:
             raise ValueError(f"battery_soc must be in [0, 1], got {self.battery_soc!r}")
+        if self.battery_capacity_mah is not None:
+            caps = tuple(None if c is None else float(c) for c in self.battery_capacity_mah)
+            object.__setattr__(self, "battery_capacity_mah", caps)
+            if len(caps) != self.n_vehicles:
+                raise ValueError(
+                    f"battery_capacity_mah: {len(caps)} entries for {self.n_vehicles} vehicles"
+                )
+            for k, c in enumerate(caps):
+                if c is not None and not c > 0.0:
+                    raise ValueError(f"battery_capacity_mah[{k}] must be positive, got {c!r}")
         if len(self.loads) not in (1, self.n_vehicles):
             raise ValueError(
                 f"loads needs 1 or n_vehicles={self.n_vehicles} entries, got {len(self.loads)}"
@@ -340,8 +353,10 @@ class World:
         """The Earth field at the origin the magnetometers measure (WMM unless overridden)."""
         field = self.magnetic_field.ned_gauss()
         self._groups: list[_AirframeGroup] = []
+        caps = config.battery_capacity_mah or (None,) * n
         for name, spec in loaded.items():
             size = len(members[name])
+            power_spec = load_power_spec(spec.yaml_path)
             self._groups.append(
                 _AirframeGroup(
                     spec=spec,
@@ -365,7 +380,7 @@ class World:
                         rows=_group_rows(members[name]),
                     ),
                     power=FleetPower(
-                        load_power_spec(spec.yaml_path),
+                        power_spec,
                         spec.motor.thrust_coefficient_n_s2_rad2,
                         spec.motor.max_speed_rad_s,
                         len(spec.rotors),
@@ -373,6 +388,10 @@ class World:
                         [loads[i] for i in members[name]],
                         config.bench_supply,
                         config.battery_soc,
+                        [
+                            power_spec.battery.capacity_mah if caps[i] is None else caps[i]
+                            for i in members[name]
+                        ],
                     ),
                 )
             )

@@ -24,6 +24,17 @@ def full_env(tmp_path: Path) -> ScenarioEnv:
         video_uri="http://127.0.0.1:5601/video.mjpg",  # port-literal: a default, not bound
         duration_s=120.0,
         params={"altitude_m": 30, "area": [[0, 0], [10, 0], [10, 10]]},
+        fleet=tuple(
+            {
+                "vehicle": k + 1,
+                "role": "survey",
+                "role_index": k,
+                "airframe": "typhoon_h480",
+                "battery_capacity_mah": 5400.0 - 1000.0 * k,
+                "traits": {"decision": 0.5 * k, "flight_time_s": 900.0},
+            }
+            for k in range(3)
+        ),
     )
 
 
@@ -46,13 +57,23 @@ def test_optional_fields_absent(tmp_path):
             "SWARMSITL_VEHICLE": "1",
         }
     )
-    assert (env.world, env.origin, env.video_uri, env.params, env.duration_s) == (None,) * 5
+    assert (env.world, env.origin, env.video_uri, env.params, env.duration_s, env.fleet) == (
+        None,
+    ) * 6
     assert env.grpc_port == 50051  # port-literal: 50050 + sysid, MAVSDK's default for vehicle 1
 
 
 @pytest.mark.parametrize(
     ("name", "value"),
-    [("VEHICLE", "two"), ("ORIGIN", "47.3,8.5"), ("PARAMS", "{not json"), ("PARAMS", "[1, 2]")],
+    [
+        ("VEHICLE", "two"),
+        ("ORIGIN", "47.3,8.5"),
+        ("PARAMS", "{not json"),
+        ("PARAMS", "[1, 2]"),
+        ("FLEET", "[{not json"),
+        ("FLEET", '{"vehicle": 1}'),
+        ("FLEET", "[1, 2]"),
+    ],
 )
 def test_malformed_variable_is_named(tmp_path, name, value):
     variables = full_env(tmp_path).to_env() | {f"SWARMSITL_{name}": value}

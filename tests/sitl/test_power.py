@@ -220,3 +220,40 @@ def test_world_config_with_loads_stays_hashable():
     )
     with pytest.raises(ValueError, match="camera"):
         PayloadLoads.of({"camera": -1.0})
+
+
+def test_a_smaller_pack_loses_charge_in_proportion_to_its_capacity():
+    """Per-vehicle capacities: the same current takes charge in inverse proportion to capacity."""
+    pack = LipoPack(PACK, 3, capacity_mah=[5400.0, 2700.0, 10800.0])
+    for _ in range(300):
+        pack.draw(np.full(3, 150.0), 1.0)
+    used = 1.0 - pack.soc
+    # the charge drawn (coulomb) is nearly the same for each (a little more from the one that sags
+    # most): the fraction used goes as 1 / capacity
+    charge_c = used * np.array([5400.0, 2700.0, 10800.0]) * 3.6
+    assert charge_c == pytest.approx(np.full(3, charge_c[0]), rel=0.03)
+    assert used[1] / used[0] == pytest.approx(2.0, rel=0.03)
+    assert used[2] / used[0] == pytest.approx(0.5, rel=0.03)
+    # and matches the params' own capacity when none is given
+    default = LipoPack(PACK, 1)
+    for _ in range(300):
+        default.draw(np.full(1, 150.0), 1.0)
+    assert default.soc[0] == pytest.approx(pack.soc[0], abs=1e-12)
+    with pytest.raises(ValueError, match="capacity_mah"):
+        LipoPack(PACK, 2, capacity_mah=[5400.0])
+    with pytest.raises(ValueError, match="capacity_mah"):
+        LipoPack(PACK, 1, capacity_mah=[0.0])
+
+
+def test_world_packs_take_the_configured_capacities():
+    """WorldConfig.battery_capacity_mah reaches each vehicle's pack; None keeps the airframe's."""
+    world = make_world(
+        n_vehicles=3,
+        airframe=("typhoon_h480", "x500", "typhoon_h480"),
+        battery_capacity_mah=(2000.0, None, None),
+        bench_supply=False,
+    )
+    assert world.power_of(0).pack.capacity_mah.tolist() == [2000.0, 5400.0]  # vehicles 0, 2
+    assert world.power_of(1).pack.capacity_mah.tolist() == [5000.0]  # the x500's own pack
+    with pytest.raises(ValueError, match="battery_capacity_mah"):
+        WorldConfig(n_vehicles=2, battery_capacity_mah=(1000.0,))

@@ -54,6 +54,13 @@ class SwarmVehicle(Protocol):
         """Off the ground."""
 
     @property
+    def battery_remaining_pct(self) -> float:
+        """Charge remaining in the pack, 0..100 % (MAVSDK's ``Battery.remaining_percent``).
+
+        NaN when no battery is modelled.
+        """
+
+    @property
     def path_index(self) -> int:
         """Index of the waypoint of the current path the vehicle flies to."""
 

@@ -148,6 +148,8 @@ class ScenarioRun:
         self.seed = spec.seed if options.seed is None else options.seed
         self.run_dir = options.out_dir.absolute()  # companions start in other directories
         self.vehicles = scenario.vehicles
+        self.fleet_entries = scenario.fleet_entries()
+        """What every companion learns of the fleet (``ScenarioEnv.fleet``)."""
         self.companions: list[Companion] = []
         self.session: RunSession | None = None
         """The run's lifecycle (simulation, clock file, acknowledgements, the cloud and bridge
@@ -183,6 +185,7 @@ class ScenarioRun:
             rangefinders=sensors.rangefinders,
             cameras=sensors.cameras,
             camera=self._cameras(frames) if sensors.cameras else None,
+            battery_capacity_mah=tuple(v.battery_capacity_override_mah for v in self.vehicles),
         )
         return SimulationConfig(
             n_vehicles=spec.n_vehicles,
@@ -270,6 +273,7 @@ class ScenarioRun:
             video_uri=sim.video_uris[v.index],
             duration_s=self.scenario.spec.duration_s,
             params=role.args,
+            fleet=self.fleet_entries,
         )
         env = dict(os.environ) | senv.to_env() | dict(role.env)
         env |= {"PYTHONUNBUFFERED": "1", "SWARMSITL_CLOCK_FILE": str(self.session.clock.path)}

@@ -12,6 +12,7 @@ Nothing starts before all of that passed. ``docs/scenarios.md`` describes every 
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import sys
@@ -31,6 +32,7 @@ from harness.options.suggest import did_you_mean
 from harness.run.companion_args import DeclarationError, check_args, declared_params, program_module
 from harness.sim.link_models import check_link_model, links_config
 from sitl.power.loads import LOAD_PRESETS
+from sitl.power.propulsion import load_power_spec
 from sitl.vehicles.multirotor import airframe_yaml_path
 from worlds.examples import EXAMPLE_PREFIX, world_path
 from worlds.yaml_source import node_at, validate_yaml
@@ -102,6 +104,13 @@ class FleetGroup(_Model):
     """Explicit start points (east, north, surface height; m), one per vehicle of the group."""
     node: str | None = None
     """Node-messaging role of these vehicles' companions (``edge``, ``fog``); docs/messaging.md."""
+    battery_capacity_mah: float | list[float] | None = None
+    """Capacity of the vehicles' LiPo packs, mAh: one for the group or one per vehicle; None: the
+    airframe's pack (its ``power.battery.capacity_mah``)."""
+    traits: dict[str, float | list[float]] = Field(default_factory=dict)
+    """Free-form capabilities of the vehicles (``decision``, ``communication``,
+    ``flight_time_s``, ...): one value for the group or a list of one per vehicle. The companions
+    read them in ``ScenarioEnv.fleet``; the simulator does not."""
 
     @model_validator(mode="after")
     def _starts(self) -> FleetGroup:
@@ -109,10 +118,39 @@ class FleetGroup(_Model):
             raise ValueError(
                 f"start_enu_m has {len(self.start_enu_m)} points for count {self.count}"
             )
+        cap = self.battery_capacity_mah
+        if cap is not None:
+            values = cap if isinstance(cap, list) else [cap]
+            if isinstance(cap, list) and len(cap) != self.count:
+                raise ValueError(
+                    f"battery_capacity_mah has {len(cap)} values for count {self.count} "
+                    "(give one for the group or one per vehicle)"
+                )
+            bad = [v for v in values if not v > 0.0]
+            if bad:
+                raise ValueError(f"battery_capacity_mah must be > 0 mAh, got {bad[0]!r}")
+        for name, value in self.traits.items():
+            if isinstance(value, list) and len(value) != self.count:
+                raise ValueError(
+                    f"traits.{name} has {len(value)} values for count {self.count} "
+                    "(give one for the group or one per vehicle)"
+                )
         if self.node is not None and self.node not in VEHICLE_ROLES:
             hint = did_you_mean(self.node, VEHICLE_ROLES, listing="one of")
             raise ValueError(f"node: unknown role {self.node!r}{hint}")
         return self
+
+    def battery_capacity_of(self, k: int) -> float | None:
+        """The pack capacity the file gives the group's ``k``-th vehicle, mAh (None: airframe's)."""
+        cap = self.battery_capacity_mah
+        return float(cap[k]) if isinstance(cap, list) else None if cap is None else float(cap)
+
+    def traits_of(self, k: int) -> dict[str, float]:
+        """The traits of the group's ``k``-th vehicle."""
+        return {
+            name: float(v[k]) if isinstance(v, list) else float(v)
+            for name, v in self.traits.items()
+        }
 
 
 class LinksSpec(_Model):
@@ -150,6 +188,9 @@ class SwarmSpec(_Model):
     """Nearest nodes within radio range each node's neighbour table lists."""
     loads: str = "seed000_companion"
     """Electrical loads besides the rotors (``sitl.power.loads.LOAD_PRESETS``)."""
+    link_range_m: float | None = Field(None, gt=0)
+    """Range within which two airborne vehicles count as linked (the report's ``links_*``), m;
+    None: the edge-edge link's range (as the neighbour tables)."""
 
     @model_validator(mode="after")
     def _rates(self) -> SwarmSpec:
@@ -242,6 +283,12 @@ class ScenarioSpec(_Model):
         return sum(g.count for g in self.fleet)
 
 
+@functools.lru_cache(maxsize=64)
+def airframe_capacity_mah(airframe: str) -> float:
+    """The capacity of an airframe's pack (its ``power.battery.capacity_mah``), mAh."""
+    return load_power_spec(airframe_yaml_path(airframe)).battery.capacity_mah
+
+
 @dataclass(frozen=True)
 class Vehicle:
     """One vehicle of the fleet: its place in the scenario."""
@@ -251,6 +298,35 @@ class Vehicle:
     group: FleetGroup
     role_index: int
     role_count: int
+    group_index: int = 0
+    """0-based index of the vehicle within its fleet group (for per-vehicle lists)."""
+
+    @property
+    def battery_capacity_override_mah(self) -> float | None:
+        """The pack capacity the scenario gives this vehicle, mAh; None: its airframe's."""
+        return self.group.battery_capacity_of(self.group_index)
+
+    @property
+    def battery_capacity_mah(self) -> float:
+        """The vehicle's effective pack capacity, mAh (the scenario's, else the airframe's)."""
+        cap = self.battery_capacity_override_mah
+        return airframe_capacity_mah(self.group.airframe) if cap is None else cap
+
+    @property
+    def traits(self) -> dict[str, float]:
+        """The vehicle's traits from its fleet group."""
+        return self.group.traits_of(self.group_index)
+
+    def fleet_entry(self) -> dict[str, Any]:
+        """What the companions learn of this vehicle (one entry of ``SWARMSITL_FLEET``)."""
+        return {
+            "vehicle": self.index + 1,
+            "role": self.group.role,
+            "role_index": self.role_index,
+            "airframe": self.group.airframe,
+            "battery_capacity_mah": self.battery_capacity_mah,
+            "traits": self.traits,
+        }
 
 
 @dataclass(frozen=True)
@@ -275,10 +351,10 @@ class Scenario:
         seen: dict[str, int] = {}
         out = []
         for g in self.spec.fleet:
-            for _ in range(g.count):
+            for j in range(g.count):
                 k = seen.get(g.role, 0)
                 seen[g.role] = k + 1
-                out.append(Vehicle(len(out), g, k, counts[g.role]))
+                out.append(Vehicle(len(out), g, k, counts[g.role], j))
         return out
 
     @property
@@ -310,9 +386,18 @@ class Scenario:
             return [sys.executable if a == "{python}" else a for a in r.command]
         return None
 
+    def fleet_entries(self) -> tuple[dict[str, Any], ...]:
+        """Every vehicle's ``Vehicle.fleet_entry``, in vehicle order (``ScenarioEnv.fleet``)."""
+        return tuple(v.fleet_entry() for v in self.vehicles)
+
     def params_of(self, vehicle: Vehicle) -> dict[str, float]:
-        """Autopilot parameters of one vehicle: DEFAULT_PARAMS, then its role's."""
-        return DEFAULT_PARAMS | dict(self.spec.roles[vehicle.group.role].params)
+        """Autopilot parameters of one vehicle: DEFAULT_PARAMS, BAT1_CAPACITY, then its role's.
+
+        ``BAT1_CAPACITY`` is the vehicle's pack capacity when the scenario sets one.
+        """
+        cap = vehicle.battery_capacity_override_mah
+        battery = {} if cap is None else {"BAT1_CAPACITY": cap}
+        return DEFAULT_PARAMS | battery | dict(self.spec.roles[vehicle.group.role].params)
 
 
 def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:

@@ -119,6 +119,7 @@ def world_config(
     camera: CameraSpec | tuple[CameraSpec | None, ...] | None = None,
     mocap_hz: float | None = None,
     gps_outages: GpsOutages | None = None,
+    battery_capacity_mah: tuple[float | None, ...] | None = None,
 ) -> WorldConfig:
     """The world of a run: a world file's scene (``setup``) and the sensors a command asks for.
 
@@ -133,6 +134,8 @@ def world_config(
         mocap_hz: motion-capture rate, Hz, replacing the world's (``--mocap``); None: the
             world's (a GPS-denied world's 50 Hz, else off).
         gps_outages: GNSS outages replacing the world's; None: the world's.
+        battery_capacity_mah: each vehicle's pack capacity, mAh (None entries, or None: the
+            airframe's).
 
     The run's seed, rates, spacing, airframes and wind are ``SimulationConfig``'s own fields.
     """
@@ -148,6 +151,7 @@ def world_config(
         mocap_hz=(setup.mocap_hz if setup is not None else 0.0) if mocap_hz is None else mocap_hz,
         gps_outages=gps_outages
         or (setup.gps_outages if setup is not None and setup.gps_outages else GpsOutages()),
+        battery_capacity_mah=battery_capacity_mah,
     )
 
 

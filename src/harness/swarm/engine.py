@@ -7,9 +7,11 @@ table (the ``neighbours`` nearest nodes within the edge-edge link's range, one K
 the fleet), and which targets each camera sees (world targets and Poisson events, one KD-tree
 query). Messages travel through the same :class:`sitl.links.network.LinkNetwork` and
 ``companion.net.Node`` as in the full stack, over an :class:`~sitl.links.inprocess.InProcessPort`
-in simulation time. ``VehicleHandle`` is the kinematic adapter a program gets
-(``companion.swarm.SwarmVehicle``). Deterministic: one generator per run, programs called in
-vehicle order.
+in simulation time. Each kinematic step drains every vehicle's pack
+(:class:`sitl.power.hover_drain.HoverDrain`); each decision counts every airborne vehicle's links
+(the other airborne vehicles within ``link_range_m``, one KD-tree query). ``VehicleHandle`` is the
+kinematic adapter a program gets (``companion.swarm.SwarmVehicle``). Deterministic: one generator
+per run, programs called in vehicle order.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from scipy.spatial import cKDTree
 
 from companion.swarm.vehicle import Detection, SwarmProgram
 from sitl.kinematic_fleet import KinematicFleet
+from sitl.power.hover_drain import HoverDrain
 
 
 @dataclass(frozen=True)
@@ -84,6 +87,10 @@ class EngineStats:
     """Vehicles that left the world's boundary."""
     errors: dict[int, str] = field(default_factory=dict)
     """Vehicle index -> the exception its program raised."""
+    link_decisions: int = 0
+    """Decision ticks at which links were counted (the first entries of ``series_*``)."""
+    last_landing_s: float | None = None
+    """When a vehicle last touched down, simulated s (None: none has landed)."""
 
 
 class VehicleHandle:
@@ -115,6 +122,12 @@ class VehicleHandle:
     def airborne(self) -> bool:
         """Off the ground."""
         return bool(self._fleet.state.airborne[self.index])
+
+    @property
+    def battery_remaining_pct(self) -> float:
+        """Charge remaining in the pack, % (NaN: the engine models no battery)."""
+        power = self._engine.power
+        return math.nan if power is None else float(power.remaining_pct[self.index])
 
     @property
     def path_index(self) -> int:
@@ -168,6 +181,15 @@ class SwarmEngine:
         camera_tan_half_fov: (N,) ``tan(hfov / 2)`` of each vehicle's down camera; NaN: none.
         targets: what the cameras can see.
         inside_world: (K, 2) -> (K,) bool, the world's boundary test (None: no boundary).
+        power: the vehicles' packs, drained each kinematic step (None: no battery model).
+        link_range_m: two airborne vehicles closer than this are linked, m (None:
+            ``radio_range_m``).
+
+    At each decision the engine counts, for every airborne vehicle, the other airborne vehicles
+    within ``link_range_m`` (its links): ``links_total`` sums them per vehicle; ``series_time_s``,
+    ``series_active`` (airborne vehicles) and ``series_links_mean`` (mean links per airborne
+    vehicle, 0 with none) hold one entry per position sample (each decision, then the end of a
+    run that reached its duration).
     """
 
     def __init__(
@@ -181,6 +203,8 @@ class SwarmEngine:
         camera_tan_half_fov: np.ndarray,
         targets: list[Target],
         inside_world: Callable[[np.ndarray], np.ndarray] | None = None,
+        power: HoverDrain | None = None,
+        link_range_m: float | None = None,
     ) -> None:
         self.fleet = fleet
         self.node_ids = node_ids
@@ -191,6 +215,13 @@ class SwarmEngine:
         self.camera_tan = np.asarray(camera_tan_half_fov, dtype=float)
         self.targets = sorted(targets, key=lambda t: (t.appear_s, t.name))
         self.inside_world = inside_world
+        self.power = power
+        self.link_range_m = self.radio_range_m if link_range_m is None else float(link_range_m)
+        self.links_total = np.zeros(fleet.n, dtype=np.int64)
+        """Links of each vehicle summed over the decisions (see the class docstring)."""
+        self.series_time_s: list[float] = []
+        self.series_active: list[int] = []
+        self.series_links_mean: list[float] = []
         self.home_m = fleet.state.position_m.copy()
         self.steps = 0
         self.time_s = 0.0
@@ -272,12 +303,33 @@ class SwarmEngine:
                 self.stats.min_separation_airborne_m, float(dist_up[:, 1].min())
             )
 
+    def _links(self, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The airborne vehicles and, for each, the other airborne ones within link range."""
+        up = np.flatnonzero(self.fleet.state.airborne)
+        if len(up) < 2:
+            return up, np.zeros(len(up), dtype=np.int64)
+        if not math.isfinite(self.link_range_m):
+            return up, np.full(len(up), len(up) - 1, dtype=np.int64)
+        near = cKDTree(pos[up]).query_ball_point(pos[up], self.link_range_m, return_length=True)
+        return up, np.asarray(near, dtype=np.int64) - 1
+
+    def _sample(self, pos: np.ndarray, decision: bool) -> None:
+        """Record the positions and the links; at a decision, add the links to the totals."""
+        self.samples.append(pos.copy())
+        up, links = self._links(pos)
+        if decision:
+            self.links_total[up] += links
+            self.stats.link_decisions += 1
+        self.series_time_s.append(self.time_s)
+        self.series_active.append(len(up))
+        self.series_links_mean.append(float(links.mean()) if len(up) else 0.0)
+
     # -- the loop -------------------------------------------------------------------------
 
     def _decide(self) -> None:
         pos = self.fleet.state.position_m
         self.path_done = self.fleet.path_done()
-        self.samples.append(pos.copy())
+        self._sample(pos, decision=True)
         self._separation(pos)
         if self.inside_world is not None:
             up = np.flatnonzero(self.fleet.state.airborne)
@@ -317,9 +369,16 @@ class SwarmEngine:
                 self._decide()
                 if end_when_done and self.steps > 0 and self.all_done():
                     return "done"
+            airborne = self.fleet.state.airborne
+            end_s = (self.steps + 1) * self.dt_s
+            if self.power is not None:
+                self.power.draw(airborne, self.dt_s, end_s)
+            was_up = airborne.copy()
             self.fleet.step(self.dt_s)
+            if (was_up & ~self.fleet.state.airborne).any():
+                self.stats.last_landing_s = end_s
             self.steps += 1
-            self.time_s = self.steps * self.dt_s
+            self.time_s = end_s
         self.path_done = self.fleet.path_done()
-        self.samples.append(self.fleet.state.position_m.copy())
+        self._sample(self.fleet.state.position_m, decision=False)
         return "duration"

@@ -38,6 +38,7 @@ from sitl.kinematic_fleet import KinematicFleet
 from sitl.links.inprocess import InProcessPort
 from sitl.links.network import LinkNetwork
 from sitl.physics.earth import GRAVITY_M_S2
+from sitl.power.hover_drain import HoverDrain
 from sitl.power.loads import PayloadLoads
 from sitl.power.propulsion import load_power_spec
 from sitl.vehicles.kinematics import KinematicLimits, load_kinematic_limits
@@ -191,9 +192,17 @@ def _run(
         network.add_node(node_id, role)
     edge_preset = links.classes.get("edge-edge")
     radio_range = links.presets[edge_preset].up.range_m if edge_preset else math.inf
+    hover_w = {name: _hover_power_w(a) for name, a in airframes.items()}
+    packs = {name: load_power_spec(a.yaml_path).battery for name, a in airframes.items()}
+    power = HoverDrain(
+        [packs[v.group.airframe] for v in vehicles],
+        [v.battery_capacity_mah for v in vehicles],
+        [hover_w[v.group.airframe] for v in vehicles],
+        [PayloadLoads.preset(sw.loads).total_w] * n,
+    )
     engine = SwarmEngine(
         fleet, node_ids, sw.step_hz, sw.decision_hz, sw.neighbours, radio_range, tan_half,
-        targets, inside if world is not None else None,
+        targets, inside if world is not None else None, power, sw.link_range_m,
     )  # fmt: skip
     clock = lambda: engine.time_s  # noqa: E731
     port = InProcessPort(network, clock)
@@ -213,6 +222,7 @@ def _run(
     engine.on_decision(place)
     if progress is not None:
         engine.on_decision(lambda e: progress(e.time_s))
+    fleet_entries = scenario.fleet_entries()
     for v in vehicles:
         factory = factories[v.group.role]
         if factory is None:
@@ -231,13 +241,14 @@ def _run(
             world=world_file,
             duration_s=spec.duration_s,
             params=dict(role.args),
+            fleet=fleet_entries,
         )
         try:
             engine.programs[v.index] = factory(env, engine.handles[v.index], nodes[v.index])
         except Exception as exc:  # a program that cannot start fails its vehicle, not the run
             engine.stats.errors[v.index] = f"{type(exc).__name__}: {exc}"
     stop_reason = engine.run(spec.duration_s, spec.end_when_done)
-    report = _report(scenario, seed, engine, network, nodes, airframes, stop_reason)
+    report = _report(scenario, seed, engine, network, nodes, stop_reason)
     if write_files:  # a sweep's trial (no run directory) keeps only the report
         _write_outputs(report, scenario, engine, out)
     wall_s = time.monotonic() - wall0
@@ -254,24 +265,24 @@ def _run(
 
 def _report(
     scenario: Scenario, seed: int, engine: SwarmEngine, network: LinkNetwork, nodes: list[Node],
-    airframes: dict[str, MultirotorSpec], stop_reason: str,
+    stop_reason: str,
 ) -> dict:  # fmt: skip
     spec = scenario.spec
     fleet = engine.fleet
     sim_s = engine.time_s
-    loads_w = PayloadLoads.preset(spec.swarm.loads).total_w
-    hover_w = {name: _hover_power_w(a) for name, a in airframes.items()}
+    power = engine.power
+    assert power is not None
+    remaining = power.remaining_pct
     vehicles: dict[str, Any] = {}
-    energy_total = 0.0
     for v in scenario.vehicles:
         i = v.index
-        energy = hover_w[v.group.airframe] * fleet.airborne_s[i] + loads_w * sim_s
-        energy_total += energy
         entry: dict[str, Any] = {
             "distance_flown": quantity(float(fleet.distance_m[i]), "m"),
             "airborne_time": quantity(float(fleet.airborne_s[i]), "s"),
             "max_tilt": quantity(math.degrees(float(fleet.max_tilt_rad[i])), "deg"),
-            "energy": quantity(energy, "J"),
+            "energy": quantity(float(power.energy_j[i]), "J"),
+            "battery_remaining": quantity(float(remaining[i]), "%"),
+            "links_total": quantity(int(engine.links_total[i]), "count"),
             "landed": quantity(bool(not fleet.state.airborne[i]), "bool"),
         }
         program = engine.programs[i]
@@ -307,7 +318,9 @@ def _report(
         "min_separation": quantity(_finite(st.min_separation_m), "m"),
         "min_separation_airborne": quantity(_finite(st.min_separation_airborne_m), "m"),
         "distance_flown": quantity(float(fleet.distance_m.sum()), "m"),
-        "energy": quantity(energy_total, "J"),
+        "energy": quantity(float(power.energy_j.sum()), "J"),
+        "battery_remaining_mean": quantity(float(remaining.mean()), "%"),
+        "battery_remaining_min": quantity(float(remaining.min()), "%"),
         "decisions": quantity(st.decisions, "count"),
         "targets_appeared": quantity(len(appeared), "count"),
         "targets_seen": quantity(len(latencies), "count"),
@@ -316,7 +329,7 @@ def _report(
         "datagrams_delivered": quantity(delivered, "count"),
         "message_loss": quantity(100.0 * (1 - delivered / submitted) if submitted else 0.0, "%"),
         "message_latency": quantity(latency_ms, "ms"),
-    }
+    } | _link_metrics(engine)
     report: dict[str, Any] = {
         "scenario": spec.name,
         "fidelity": "swarm",
@@ -340,18 +353,55 @@ def _report(
         report["warnings"].append("checks.no_failsafe: fidelity swarm models no failsafes")
     if spec.cloud:
         report["warnings"].append("cloud: fidelity swarm starts no cloud process")
+    cut = np.flatnonzero(np.isfinite(power.cutoff_at_s))
+    if len(cut):
+        report["warnings"].append(
+            f"battery: {len(cut)} vehicles' packs fell under the low-voltage cutoff (vehicles "
+            + ", ".join(f"{i + 1} at {power.cutoff_at_s[i]:.0f} s" for i in cut[:10])
+            + "); fidelity swarm flies them on, their remaining charge clamps at 0 %"
+        )
     report["passed"] = report["complete"] and all(c["ok"] for c in report["checks"].values())
     return report
 
 
+def _link_metrics(engine: SwarmEngine) -> dict[str, Any]:
+    """Links within range and active vehicles over the run (the fleet's ``links_*`` keys)."""
+    decisions = engine.stats.link_decisions
+    active = np.array(engine.series_active[:decisions])
+    links_mean = np.array(engine.series_links_mean[:decisions])
+    flying = active > 0
+    if engine.fleet.state.airborne.any():
+        mission_s: float | None = engine.time_s
+    else:
+        mission_s = engine.stats.last_landing_s
+    return {
+        "links_per_agent_mean": quantity(float(engine.links_total.mean()), "count"),
+        "links_per_step_mean": quantity(
+            float(links_mean[flying].mean()) if flying.any() else 0.0, "count"
+        ),
+        "active_max": quantity(int(active.max()) if decisions else 0, "count"),
+        "mission_time": quantity(mission_s, "s"),
+    }
+
+
 def _write_outputs(report: dict, scenario: Scenario, engine: SwarmEngine, out: Path) -> None:
-    """tracks.npz and plots/map.png beside the report; their names go to ``report["files"]``."""
+    """tracks.npz and plots/map.png beside the report; their names go to ``report["files"]``.
+
+    The link series (one entry per position sample) also go to ``report["series"]``.
+    """
     tracks = np.array(engine.samples)
     np.savez_compressed(
         out / "tracks.npz",
-        time_s=np.arange(len(tracks)) / scenario.spec.swarm.decision_hz,
+        time_s=np.array(engine.series_time_s),
         position_enu_m=tracks,
+        active=np.array(engine.series_active),
+        links_mean=np.array(engine.series_links_mean),
     )
+    report["series"] = {
+        "time_s": list(engine.series_time_s),
+        "active": list(engine.series_active),
+        "links_mean": list(engine.series_links_mean),
+    }
     report["files"] = ["report.json", "tracks.npz", "scenario.yaml"]
     if scenario.world is not None:
         report["files"].append("world.yaml")

@@ -19,6 +19,7 @@ of the Chen model (seconds), temperature, ageing, Peukert capacity loss.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -90,10 +91,24 @@ class LipoParams:
 class LipoPack:
     """State of charge, current and terminal voltage of N packs, integrated in simulation time."""
 
-    def __init__(self, params: LipoParams, n: int, soc: float = 1.0) -> None:
+    def __init__(
+        self,
+        params: LipoParams,
+        n: int,
+        soc: float = 1.0,
+        capacity_mah: Sequence[float] | np.ndarray | None = None,
+    ) -> None:
         if not 0.0 <= soc <= 1.0:
             raise ValueError(f"initial state of charge must be in [0, 1], got {soc}")
         self.params = params
+        if capacity_mah is None:
+            capacity_mah = np.full(n, params.capacity_mah)
+        capacity = np.array(capacity_mah, dtype=float).reshape(-1)
+        if capacity.shape != (n,) or not (capacity > 0.0).all():
+            raise ValueError(f"capacity_mah must be {n} positive values, got {capacity_mah!r}")
+        self.capacity_mah = capacity
+        """Capacity of each pack, mAh, (N,) (the params' unless given: packs of other sizes)."""
+        self._inv_capacity_c = 1.0 / (capacity * 3.6)
         self.soc = np.full(n, float(soc))
         """State of charge, 0..1, (N,)."""
         self.current_a = np.zeros(n)
@@ -113,7 +128,7 @@ class LipoPack:
         power = np.where(self.cut_off, 0.0, power_w) if self.cut_off.any() else power_w
         disc = np.maximum(ocv * ocv - (4.0 * r) * power, 0.0)
         current = (ocv - np.sqrt(disc)) * (0.5 / r)
-        self.soc = np.maximum(self.soc - current * (dt_s / p.capacity_c), 0.0)
+        self.soc = np.maximum(self.soc - current * (dt_s * self._inv_capacity_c), 0.0)
         self.ocv_v = p.ocv_v(self.soc)
         self.current_a = current
         self.voltage_v = self.ocv_v - current * r

@@ -40,6 +40,7 @@ class FleetPower:
         loads: Sequence[PayloadLoads],
         bench_supply: bool = False,
         soc: float = 1.0,
+        capacity_mah: Sequence[float] | None = None,
     ) -> None:
         n = len(loads)
         self.spec = spec
@@ -58,7 +59,8 @@ class FleetPower:
             )
         self.loads_w = np.array([ld.total_w for ld in loads], dtype=float)
         """Payload and avionics power per vehicle, W, (N,)."""
-        self.pack = LipoPack(spec.battery, n, soc)
+        self.pack = LipoPack(spec.battery, n, soc, capacity_mah)
+        """The packs (``capacity_mah``: one per vehicle; None: the spec's battery's)."""
         self.rotor_power_w = np.zeros(n)
         """Electrical power of the rotors of each vehicle, W, (N,)."""
         self.speed_scale = np.ones(n)
