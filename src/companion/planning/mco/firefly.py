@@ -12,8 +12,10 @@ problem", ICAIS 2011) in spirit:
 * Attraction beta = beta0 exp(-gamma r^2). A firefly moves toward a brighter one by
   ``ceil(beta r (K + 1))`` edge insertions: take an edge (a, b) of the brighter tour missing from
   its own and make a and b adjacent by one 2-opt segment reversal.
-* Random step (Yang's alpha epsilon): one random 2-opt segment reversal per firefly per
-  iteration, kept if it does not lengthen the tour, or anyway with probability alpha_t;
+* Random step (Yang's alpha epsilon): once per firefly per iteration, a random node is joined to
+  one of its :data:`NEAREST` nearest nodes by a 2-opt segment reversal (a random reversal of a
+  good tour almost always wrecks it; this candidate-list move is the 2-opt move worth trying),
+  kept if it does not lengthen the tour, or anyway with probability alpha_t;
   alpha_t = alpha alpha_decay^t (t the iteration).
 * Tractability: instead of all pairs (O(P^2) per iteration), each firefly compares itself with
   ``sample`` fireflies drawn at random and moves toward the brightest of them if it is brighter
@@ -35,7 +37,6 @@ import numba
 import numpy as np
 
 from companion.planning.mco.tours import nearest_neighbour_order, tour_length_m
-
 
 NEAREST = 8
 """Candidates of the random step: a node is joined to one of its NEAREST nearest nodes."""
@@ -110,18 +111,18 @@ def firefly_tour(
         dist,
         near,
         pop,
-        params.iterations,
-        params.beta0,
-        params.gamma,
-        params.alpha,
-        params.alpha_decay,
-        params.sample,
+        int(params.iterations),
+        float(params.beta0),
+        float(params.gamma),
+        float(params.alpha),
+        float(params.alpha_decay),
+        int(params.sample),
         int(rng.integers(0, 2**62)),
     )
     return best[1:] - 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _length(dist: np.ndarray, tour: np.ndarray) -> float:  # pragma: no cover - compiled
     """Closed length of ``tour`` (node ids, start first)."""
     m = tour.shape[0]
@@ -131,7 +132,7 @@ def _length(dist: np.ndarray, tour: np.ndarray) -> float:  # pragma: no cover - 
     return total
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _reverse(tour: np.ndarray, pos: np.ndarray, lo: int, hi: int) -> None:  # pragma: no cover
     """Reverse ``tour[lo..hi]`` in place, keeping ``pos`` (node -> position) current."""
     while lo < hi:
@@ -145,8 +146,10 @@ def _reverse(tour: np.ndarray, pos: np.ndarray, lo: int, hi: int) -> None:  # pr
         hi -= 1
 
 
-@numba.njit(cache=True)
-def _reversal_gain(dist: np.ndarray, tour: np.ndarray, lo: int, hi: int) -> float:  # pragma: no cover
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _reversal_gain(
+    dist: np.ndarray, tour: np.ndarray, lo: int, hi: int
+) -> float:  # pragma: no cover
     """How much reversing ``tour[lo..hi]`` (1 <= lo <= hi < m) shortens the closed tour."""
     m = tour.shape[0]
     before = tour[lo - 1]
@@ -172,7 +175,8 @@ def firefly_kernel(
     """Run the discrete FA on ``pop`` (tours as node ids, node 0 = start first); the best tour.
 
     ``dist``: ``(K + 1, K + 1)`` distances between the start (node 0) and the points, m.
-    ``near``: ``(K + 1, c)`` each node's c nearest other nodes. ``pop`` is moved in place. See the module docstring for the moves.
+    ``near``: ``(K + 1, c)`` each node's c nearest other nodes. ``pop`` is moved in place.
+    The moves are described in the module docstring.
     """
     np.random.seed(seed)
     n_ff, m = pop.shape
@@ -212,7 +216,7 @@ def firefly_kernel(
                         differ += 1
                 r = differ / m
                 beta = beta0 * math.exp(-gamma * r * r)
-                moves = int(math.ceil(beta * r * m))
+                moves = int(math.ceil(beta * r * m))  # noqa: RUF046 (numba: keep it an int)
                 for _mv in range(moves):
                     # an edge (a, succ[a]) of the brighter tour, missing here: make it adjacent
                     a = np.random.randint(0, m)
