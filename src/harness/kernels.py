@@ -61,6 +61,7 @@ F2_READ_ONLY = types.Array(types.float64, 2, "C", readonly=True)
 B1 = types.boolean[::1]
 B2 = types.boolean[:, ::1]
 I1 = types.int64[::1]
+I2 = types.int64[:, ::1]
 """Argument types, as ``numba.typeof`` gives them for the callers' values (``F``: a float,
 ``F2``: a C-contiguous 2-D float64 array, ``F2A``: a strided one)."""
 
@@ -109,6 +110,8 @@ SIGNATURES: dict[str, tuple[Signature, ...]] = {
     "autopilot_emu.nan_scalar:fmax": ((F, F),),
     "autopilot_emu.nan_scalar:clamp": ((F, F, F),),
     "autopilot_emu.nan_scalar:sign": ((F,),),
+    # -- companion: planners ----------------------------------------------------------------------
+    "companion.planning.mco.firefly:firefly_kernel": ((F2, I2, I2, INT, F, F, F, F, INT, INT),),
 }
 """Every lazily compiled kernel (``module:function``) and the argument types it is called with."""
 

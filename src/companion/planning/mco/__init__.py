@@ -1,1 +1,1 @@
-"""Seed 004 (MCO Plan): world abstraction, area partitioning and the mission's other stages."""
+"""Seed 004's MCO Plan: world abstraction, partitions, roles, auction and tours (pure)."""
