@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from harness.commands.autopilot import autopilot
+from harness.commands.experiment import experiment
 from harness.commands.first_flight import first_flight
 from harness.commands.net import cloud, net_demo
 from harness.commands.params import params_app
@@ -66,6 +67,7 @@ app.command("replay")(replay)
 app.command("autopilot")(autopilot)
 app.command("net-demo")(net_demo)
 app.command("sweep")(sweep)
+app.command("experiment")(experiment)
 app.add_typer(params_app, name="params")
 
 

@@ -45,6 +45,7 @@ from harness.report.flight_checks import (
 )
 from harness.report.flight_log import FlightLog
 from harness.report.run_report import write_run_report
+from harness.report.swarm_prediction import swarm_prediction
 from harness.report.totals import fleet_totals, metric_checks, versions
 from harness.run.lockstep import LOCKSTEP, GatedLink, LockstepGate, gated_links
 from harness.run.manifest import RunManifest, write_manifest
@@ -583,5 +584,10 @@ class ScenarioRun:
         if bounds:
             report["checks"] |= metric_checks(report, bounds)
             report["passed"] = complete and all(c["ok"] for c in report["checks"].values())
+        if self.scenario.spec.swarm_prediction:
+            try:
+                report["swarm_prediction"] = swarm_prediction(self.scenario, self.seed, report)
+            except Exception as exc:  # the prediction must not cost the run's report
+                report.setdefault("warnings", []).append(f"swarm_prediction: {exc!r}")
         (self.run_dir / "report.json").write_text(json.dumps(report, indent=2, default=str) + "\n")
         return report

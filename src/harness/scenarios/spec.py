@@ -254,6 +254,10 @@ class ScenarioSpec(_Model):
     """With ``node`` roles in the fleet: also start the cloud node (a process)."""
     end_when_done: bool = True
     """Stop early once every companion has exited and every vehicle is disarmed."""
+    swarm_prediction: bool = False
+    """After a full-fidelity run, run the same scenario and seed at fidelity swarm too and set
+    its battery, airborne time and distance per vehicle beside the flight model's (the report's
+    ``swarm_prediction``; docs/swarm.md)."""
     camera_samples: int = Field(3, ge=0)
     """Camera images saved per vehicle (spread over the run) in ``camera/``."""
     checks: ChecksSpec = Field(default_factory=ChecksSpec)

@@ -92,7 +92,7 @@ def _world_targets(scenario: Scenario) -> list[Target]:
     return out
 
 
-def _hover_power_w(airframe: MultirotorSpec) -> float:
+def hover_power_w(airframe: MultirotorSpec) -> float:
     """Electrical power of the rotors in hover (momentum theory, the airframe's power block), W."""
     power = load_power_spec(airframe.yaml_path)
     n = len(airframe.rotors)
@@ -192,7 +192,7 @@ def _run(
         network.add_node(node_id, role)
     edge_preset = links.classes.get("edge-edge")
     radio_range = links.presets[edge_preset].up.range_m if edge_preset else math.inf
-    hover_w = {name: _hover_power_w(a) for name, a in airframes.items()}
+    hover_w = {name: hover_power_w(a) for name, a in airframes.items()}
     packs = {name: load_power_spec(a.yaml_path).battery for name, a in airframes.items()}
     power = HoverDrain(
         [packs[v.group.airframe] for v in vehicles],

@@ -227,6 +227,7 @@ def run_sweep(
     execute: Execute | None = None,
     console: Console | None = None,
     on_row: Callable[[dict[str, Any]], None] | None = None,
+    plots: bool = True,
 ) -> SweepSummary:
     """Run the plan's pending trials on Dask; rows in ``out_dir``, then the table and the plots.
 
@@ -240,6 +241,7 @@ def run_sweep(
         execute: replaces the scenario run in every trial (a test hook; see ``run_trial``).
         console: where the progress bar goes (None: a quiet run).
         on_row: called with each row as it is written.
+        plots: draw the sweep's plots (an experiment draws its own).
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -267,7 +269,7 @@ def run_sweep(
     rows = table.to_pylist() if table is not None else []
     summary.outcome = SweepOutcome.of_rows(rows, len(plan.trials))
     summary.failing = [r for r in rows if r.get("status") != "ok" or not r.get("passed")]
-    if table is not None:
+    if table is not None and plots:
         summary.plots, summary.warnings = plot_sweep(
             table, plan.spec.grid, plan.spec.x_parameter, plan.spec.metrics, out_dir / "plots"
         )

@@ -3,9 +3,9 @@
 Seed 004, Sec. 4.2.3 and Fig. 11: in each partition level the Master takes the sub-area closest to
 the ground station (the level's takeoff location p0), the Coordinators the four sub-areas closest
 to the Master's, the Operators the rest (the larger, peripheral ones). Table 2 (the scores each
-role asks for) did not survive the text conversion: :data:`ROLE_SCORES` uses the digest's reading
-of the prose (high / middle / low on Eq. (2)'s 0..3 scale). The flight time a role asks for is not
-the role's: it is what the sub-area's tour needs (:class:`companion.planning.mco.auction.Task`).
+role asks for) did not survive the text conversion: :data:`ROLE_SCORES` reads the prose as high /
+middle / low = 3 / 1.5 / 0 on Eq. (2)'s 0..3 scale. The flight time a role asks for is not the
+role's: it is what the sub-area's tour needs (:class:`companion.planning.mco.auction.Task`).
 """
 
 from __future__ import annotations
@@ -36,10 +36,13 @@ class RoleScores:
 
 ROLE_SCORES: dict[Role, RoleScores] = {
     Role.MASTER: RoleScores(decision=3.0, communication=3.0),
-    Role.COORDINATOR: RoleScores(decision=2.0, communication=3.0),
-    Role.OPERATOR: RoleScores(decision=1.0, communication=1.0),
+    Role.COORDINATOR: RoleScores(decision=1.5, communication=3.0),
+    Role.OPERATOR: RoleScores(decision=0.0, communication=0.0),
 }
-"""Table 2 of seed 004 is missing: high = 3, middle = 2, low = 1 (Sec. 4.2.3's prose)."""
+"""Table 2 of seed 004 is missing: its words on Eq. (2)'s 0..3 scale, high = 3, middle = 1.5 (the
+scale's middle), low = 0 (Sec. 4.2.3's prose). Eq. (2) scores a fleet's least capable vehicle 0,
+so "low" must be 0 for an Operator task to be open to it; every MAV has basic communication (P3).
+(The digest's suggestion, 3 / 2 / 1, closes Operator tasks to the least capable class.)"""
 
 
 def assign_roles(

@@ -119,3 +119,27 @@ def zigzag_order(
         out.append(line[::-1] if reverse else line)
         reverse = not reverse
     return np.concatenate(out)
+
+
+def straight_legs(path_xy: np.ndarray, tolerance_m: float = 0.01) -> np.ndarray:
+    """The corners of a path: points where it turns, its first and its last.
+
+    A waypoint in the middle of a straight leg (a lane of cell centres) is dropped: the vehicle
+    flies the leg at speed instead of passing a mission item every cell, and the camera triggers
+    by distance along it, so the coverage is the same. A point is kept when it lies more than
+    ``tolerance_m`` off the line from the last kept corner to the next point, or when the path
+    reverses there.
+    """
+    pts = np.asarray(path_xy, dtype=float).reshape(-1, 2)
+    if len(pts) <= 2:
+        return pts.copy()
+    keep = [0]
+    for k in range(1, len(pts) - 1):
+        a, b, c = pts[keep[-1]], pts[k], pts[k + 1]
+        ab, bc = b - a, c - b
+        span = float(np.hypot(*(c - a)))
+        cross = abs(float(ab[0] * bc[1] - ab[1] * bc[0]))
+        if span <= 0.0 or cross / span > tolerance_m or float(ab @ bc) <= 0.0:
+            keep.append(k)
+    keep.append(len(pts) - 1)
+    return pts[keep]
