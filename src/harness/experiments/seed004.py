@@ -312,8 +312,8 @@ def results_table(sweep: pa.Table, cfg: Seed004Config) -> pa.Table:
             float(np.std(waypoints)) if waypoints and all(map(math.isfinite, waypoints))
             else math.nan
         )  # fmt: skip
-        rec["error"] = (row.get("error") or "").strip().splitlines()[-1:] or [""]
-        rec["error"] = rec["error"][0]
+        error_lines = (row.get("error") or "").strip().splitlines()
+        rec["error"] = error_lines[-1] if error_lines else ""
         out.append(rec)
     order = {c.name: i for i, c in enumerate(cfg.cases)}
     out.sort(key=lambda r: (order.get(r["workspace"], 99), PLANNERS.index(r["planner"])

@@ -12,7 +12,6 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pyarrow as pa
 
 from harness.experiments.stats import format_ci, mean_ci95
@@ -297,13 +296,3 @@ def _result_line(rows: list[dict], cfg: Any, total: int) -> str:
         parts.append(f"links_per_agent_{p}={_mean(links):.1f}")
         parts.append(f"heterogeneity_std_max_pct_{p}={max(het, default=math.nan):.2f}")
     return "RESULT " + " ".join(parts)
-
-
-def agent_roles(row: dict) -> list[str]:
-    """Role names of a row's agents, in vehicle order."""
-    names = {0: "master", 1: "coordinator", 2: "operator"}
-    out = []
-    for k in range(1, int(row["n"]) + 1):
-        code = row.get(f"role_agent_{k}")
-        out.append(names.get(int(code), "?") if code is not None and np.isfinite(code) else "?")
-    return out

@@ -45,3 +45,4 @@ def test_the_quick_experiment_writes_its_table_tables_plots_and_result(tmp_path)
         assert paper_number in tables
     for name in ("partitions", "battery_per_agent", "links_over_time", "by_fleet_size"):
         assert (out / "plots" / f"{name}.png").stat().st_size > 10_000
+    assert not (out / "sweep" / "plots").exists(), "the experiment draws its own plots"
