@@ -47,6 +47,10 @@ LAND_ACCURACY_M = 0.5
 """Horizontal distance from home within which the vehicle starts its descent, m."""
 ACCEPTANCE_M = 3.0
 """Acceptance radius of the mission's waypoints, m (fly-through)."""
+TAKEOFF_M = 20.0
+"""Height of the vertical take-off, m (at most the survey height); the mission's first leg climbs
+the rest while it flies out. PX4 bounds MIS_TAKEOFF_ALT (the emulation at 80 m), and a vertical
+climb at MPC_TKO_SPEED to a coarse survey's 84 m would take a minute."""
 
 
 def _log(name: str, **data: Any) -> None:
@@ -112,15 +116,16 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
         items.append(_item(MissionItem, home.latitude_deg, home.longitude_deg, altitude, speed))
         await drone.mission.set_return_to_launch_after_mission(False)
         await drone.mission.upload_mission(MissionPlan(items))
-        await drone.action.set_takeoff_altitude(altitude)
+        takeoff_m = min(altitude, TAKEOFF_M)
+        await drone.action.set_takeoff_altitude(takeoff_m)
         await drone.action.set_return_to_launch_altitude(altitude)
         await drone.action.arm()
         flying = True
         armed_at = clock.now_s
         await drone.action.takeoff()
-        climb_s = altitude / params.climb_m_s
+        climb_s = takeoff_m / params.climb_m_s
         await wait_for(
-            drone.telemetry.position(), lambda p: p.relative_altitude_m >= 0.9 * altitude,
+            drone.telemetry.position(), lambda p: p.relative_altitude_m >= 0.9 * takeoff_m,
             climb_s + 60.0, "take-off altitude", clock,
         )  # fmt: skip
         await drone.mission.start_mission()
