@@ -61,7 +61,7 @@ def test_the_fleet_flies_the_mco_plan_and_the_swarm_engine_predicts_its_battery(
     # The plan every companion flew, rebuilt from the same inputs.
     role = scenario.spec.roles["mav"]
     params = params_from_mapping(McoParams, role.args)
-    bidders = fleet_bidders(scenario.fleet_entries, "mav", n)
+    bidders = fleet_bidders(scenario.fleet_entries(), "mav", n)
     plan = cached_plan(str(result.run_dir / "world.yaml"), params, bidders, report["seed"])
     for k, name in enumerate(names):
         task = plan.task_of(k + 1)
