@@ -47,6 +47,13 @@ LAND_ACCURACY_M = 0.5
 """Horizontal distance from home within which the vehicle starts its descent, m."""
 ACCEPTANCE_M = 3.0
 """Acceptance radius of the mission's waypoints, m (fly-through)."""
+TAKEOFF_M = 20.0
+"""Height of the take-off, m (at most the survey height). The mission's first item climbs on over
+home to the survey height (PX4 bounds MIS_TAKEOFF_ALT, the emulation at 80 m, and takes off at
+MPC_TKO_SPEED, 1.5 m/s: a coarse survey's 84 m is a climb at MPC_Z_V_AUTO_UP instead); its last
+comes home down to this height plus ``altitude_step_m`` per role index."""
+START_SPREAD_S = 3.0
+"""How far apart in time the fleet's take-offs may be, s (the companions start together)."""
 
 
 def _log(name: str, **data: Any) -> None:
@@ -104,23 +111,33 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
                                         home.absolute_altitude_m, *origin)[:2]  # fmt: skip
         tour = np.vstack([home_enu, task.waypoints_xy_m, home_enu])
         corners = straight_legs(tour)[1:]  # a mission item where the path turns, then home
-        items = []
+        takeoff_m = min(altitude, TAKEOFF_M)
+        home_m = min(altitude, TAKEOFF_M + env.role_index * params.altitude_step_m)
+        # Up to the survey height over its own home first, then wait there until the vehicles
+        # flying higher (role index above its own) have climbed past this height: a vehicle
+        # leaving the shared take-off point must not cross a column another still climbs in.
+        climb_m_s = await drone.param.get_param_float("MPC_Z_V_AUTO_UP")
+        higher = env.role_count - 1 - env.role_index
+        step = params.altitude_step_m
+        hold_s = higher * (step / climb_m_s + START_SPREAD_S) if step > 0 else 0.0
+        items = [_item(MissionItem, home.latitude_deg, home.longitude_deg, altitude, speed, hold_s)]
         for x, y in corners[:-1]:
             lat, lon, _ = pymap3d.enu2geodetic(float(x), float(y), 0.0, *origin)
             items.append(_item(MissionItem, lat, lon, altitude, speed))
-        # the tour ends over the take-off point: back over this vehicle's own home
-        items.append(_item(MissionItem, home.latitude_deg, home.longitude_deg, altitude, speed))
+        # the tour ends over the take-off point: back over its own home, down on the way to a
+        # height of its own (a vertical descent from the survey height is a minute more)
+        items.append(_item(MissionItem, home.latitude_deg, home.longitude_deg, home_m, speed))
         await drone.mission.set_return_to_launch_after_mission(False)
         await drone.mission.upload_mission(MissionPlan(items))
-        await drone.action.set_takeoff_altitude(altitude)
+        await drone.action.set_takeoff_altitude(takeoff_m)
         await drone.action.set_return_to_launch_altitude(altitude)
         await drone.action.arm()
         flying = True
         armed_at = clock.now_s
         await drone.action.takeoff()
-        climb_s = altitude / params.climb_m_s
+        climb_s = takeoff_m / params.climb_m_s
         await wait_for(
-            drone.telemetry.position(), lambda p: p.relative_altitude_m >= 0.9 * altitude,
+            drone.telemetry.position(), lambda p: p.relative_altitude_m >= 0.9 * takeoff_m,
             climb_s + 60.0, "take-off altitude", clock,
         )  # fmt: skip
         await drone.mission.start_mission()
@@ -132,7 +149,7 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
             if clock.now_s > give_up_s:
                 raise FlightError(f"the mission did not end by {give_up_s:.0f} s (vehicle time)")
         _log("mission_done", vehicle_time_s=clock.now_s)
-        alt_amsl = home.absolute_altitude_m + altitude
+        alt_amsl = home.absolute_altitude_m + home_m
         await drone.action.goto_location(home.latitude_deg, home.longitude_deg, alt_amsl, math.nan)
 
         def over_home(p: Any) -> bool:
@@ -168,18 +185,20 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
     }
 
 
-def _item(cls: Any, lat: float, lon: float, altitude_m: float, speed_m_s: float) -> Any:
-    """A fly-through mission item at ``altitude_m`` above home."""
+def _item(
+    cls: Any, lat: float, lon: float, altitude_m: float, speed_m_s: float, hold_s: float = 0.0
+) -> Any:
+    """A mission item at ``altitude_m`` above home: fly-through, or a stop of ``hold_s`` > 0."""
     return cls(
         latitude_deg=float(lat),
         longitude_deg=float(lon),
         relative_altitude_m=float(altitude_m),
         speed_m_s=float(speed_m_s),
-        is_fly_through=True,
+        is_fly_through=hold_s <= 0.0,
         gimbal_pitch_deg=math.nan,
         gimbal_yaw_deg=math.nan,
         camera_action=cls.CameraAction.NONE,
-        loiter_time_s=0.0,
+        loiter_time_s=float(hold_s),
         camera_photo_interval_s=math.nan,
         acceptance_radius_m=ACCEPTANCE_M,
         yaw_deg=math.nan,

@@ -53,6 +53,23 @@ def progress_text(run: ScenarioRun) -> str:
     return text
 
 
+def swarm_prediction_table(prediction: dict[str, Any]) -> Table:
+    """Battery left and airborne time per vehicle, flight model beside swarm engine."""
+    table = Table(title="swarm prediction (fidelity swarm beside this run)")
+    for col in ("vehicle", "battery full %", "battery swarm %", "swarm - full", "airborne full s",
+                "airborne swarm s"):  # fmt: skip
+        table.add_column(col, justify="left" if col == "vehicle" else "right")
+
+    def cell(x: Any) -> str:
+        return "-" if x is None else f"{x:.1f}"
+
+    for name, v in prediction["vehicles"].items():
+        keys = ("battery_remaining_full", "battery_remaining_swarm", "battery_difference",
+                "airborne_time_full", "airborne_time_swarm")  # fmt: skip
+        table.add_row(name, *(cell(v.get(k)) for k in keys))
+    return table
+
+
 def print_report(report: dict[str, Any]) -> None:
     """The checks and the headline metrics of a finished run."""
     checks = report.get("checks", {})
@@ -65,6 +82,9 @@ def print_report(report: dict[str, Any]) -> None:
                 name, "[green]ok[/green]" if c["ok"] else "[red]FAILED[/red]", c["message"]
             )
         console.print(table)
+    prediction = report.get("swarm_prediction")
+    if prediction and prediction.get("vehicles"):
+        console.print(swarm_prediction_table(prediction))
     for key, c in report.get("companions", {}).items():
         if c.get("traceback"):
             console.print(f"[red]{key}'s companion failed[/red] ({c['log']}):\n{c['traceback']}")
