@@ -31,7 +31,14 @@ import numpy as np
 import pymap3d
 
 from companion.planning.mco.plan import McoParams
-from companion.planning.mco.role import mco_params, own_flight_time_s, plan_for
+from companion.planning.mco.role import (
+    TAKEOFF_M,
+    departure_hold_s,
+    home_height_m,
+    mco_params,
+    own_flight_time_s,
+    plan_for,
+)
 from companion.planning.mco.tours import straight_legs
 from companion.scenario_env import ScenarioEnv
 from companion.scripts.program import finish, parser, run_flight, scenario_env
@@ -47,13 +54,6 @@ LAND_ACCURACY_M = 0.5
 """Horizontal distance from home within which the vehicle starts its descent, m."""
 ACCEPTANCE_M = 3.0
 """Acceptance radius of the mission's waypoints, m (fly-through)."""
-TAKEOFF_M = 20.0
-"""Height of the take-off, m (at most the survey height). The mission's first item climbs on over
-home to the survey height (PX4 bounds MIS_TAKEOFF_ALT, the emulation at 80 m, and takes off at
-MPC_TKO_SPEED, 1.5 m/s: a coarse survey's 84 m is a climb at MPC_Z_V_AUTO_UP instead); its last
-comes home down to this height plus ``altitude_step_m`` per role index."""
-START_SPREAD_S = 3.0
-"""How far apart in time the fleet's take-offs may be, s (the companions start together)."""
 
 
 def _log(name: str, **data: Any) -> None:
@@ -112,14 +112,11 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
         tour = np.vstack([home_enu, task.waypoints_xy_m, home_enu])
         corners = straight_legs(tour)[1:]  # a mission item where the path turns, then home
         takeoff_m = min(altitude, TAKEOFF_M)
-        home_m = min(altitude, TAKEOFF_M + env.role_index * params.altitude_step_m)
-        # Up to the survey height over its own home first, then wait there until the vehicles
-        # flying higher (role index above its own) have climbed past this height: a vehicle
-        # leaving the shared take-off point must not cross a column another still climbs in.
+        home_m = home_height_m(params, altitude, env.role_index)
+        # Up to the survey height over its own home first, then hold there until the vehicles
+        # flying higher have climbed past (departure_hold_s).
         climb_m_s = await drone.param.get_param_float("MPC_Z_V_AUTO_UP")
-        higher = env.role_count - 1 - env.role_index
-        step = params.altitude_step_m
-        hold_s = higher * (step / climb_m_s + START_SPREAD_S) if step > 0 else 0.0
+        hold_s = departure_hold_s(params, env.role_index, env.role_count, climb_m_s)
         items = [_item(MissionItem, home.latitude_deg, home.longitude_deg, altitude, speed, hold_s)]
         for x, y in corners[:-1]:
             lat, lon, _ = pymap3d.enu2geodetic(float(x), float(y), 0.0, *origin)

@@ -14,7 +14,13 @@ from typing import Any
 import numpy as np
 
 from companion.net.node import Node
-from companion.planning.mco.role import mco_params, own_flight_time_s, plan_for
+from companion.planning.mco.role import (
+    departure_hold_s,
+    home_height_m,
+    mco_params,
+    own_flight_time_s,
+    plan_for,
+)
 from companion.planning.mco.tours import straight_legs
 from companion.scenario_env import ScenarioEnv
 from companion.swarm.vehicle import SwarmVehicle
@@ -36,6 +42,7 @@ class McoProgram:
         self.phase = "takeoff"
         self.error: str | None = None
         self.landed_s = math.nan
+        self.leave_s = math.nan
 
     @property
     def done(self) -> bool:
@@ -49,10 +56,19 @@ class McoProgram:
             v.takeoff(self.altitude_m, self.params.climb_m_s)
             self.phase = "climb"
         elif self.phase == "climb" and v.path_done:
+            env = self.env
+            hold = departure_hold_s(self.params, env.role_index, env.role_count,
+                                    self.params.climb_m_s)  # fmt: skip
+            self.leave_s = now_s + hold  # as the MAVSDK program's first mission item holds
+            self.phase = "hold"
+        elif self.phase == "hold" and now_s >= self.leave_s:
             home = v.home_enu_m
             tour = np.vstack([home[None, :2], self.task.waypoints_xy_m, home[None, :2]])
             xy = straight_legs(tour)[1:]  # from where it hovers, corner to corner, home
             z = np.full((len(xy), 1), float(home[2]) + self.altitude_m)
+            z[-1] = float(home[2]) + home_height_m(
+                self.params, self.altitude_m, self.env.role_index
+            )
             v.fly_path(np.hstack([xy, z]), self.params.speed_m_s)
             self.phase = "survey"
         elif self.phase == "survey" and v.path_done:

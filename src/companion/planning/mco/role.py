@@ -22,6 +22,13 @@ from companion.planning.mco.workspace import Workspace
 from companion.role_params import params_from_mapping
 from companion.scenario_env import ScenarioEnv
 
+TAKEOFF_M = 20.0
+"""Height of the take-off, m (at most the survey height). The mission's first item climbs on over
+home to the survey height (PX4 bounds MIS_TAKEOFF_ALT, the emulation at 80 m, and takes off at
+MPC_TKO_SPEED, 1.5 m/s: a coarse survey's 84 m is a climb at MPC_Z_V_AUTO_UP instead); its last
+comes home down to this height plus ``altitude_step_m`` per role index."""
+START_SPREAD_S = 3.0
+"""How far apart in time the fleet's take-offs may be, s (the companions start together)."""
 TRAITS = ("flight_time_s", "decision", "communication")
 """Fleet-file traits a vehicle bids with (P8: flight time, decision capacity, communication)."""
 
@@ -90,3 +97,23 @@ def own_flight_time_s(env: ScenarioEnv) -> float:
         if int(entry.get("vehicle", -1)) == env.vehicle:
             return float((entry.get("traits") or {}).get("flight_time_s", math.inf))
     return math.inf
+
+
+def home_height_m(params: McoParams, altitude_m: float, role_index: int) -> float:
+    """Height the tour comes home at: TAKEOFF_M plus the role index's step, at most the survey's."""
+    return min(altitude_m, TAKEOFF_M + role_index * params.altitude_step_m)
+
+
+def departure_hold_s(
+    params: McoParams, role_index: int, role_count: int, climb_m_s: float
+) -> float:
+    """How long a vehicle holds over its home at survey height before it leaves, s.
+
+    Until the vehicles flying higher (role index above its own) have climbed past its height: a
+    vehicle leaving the shared take-off point must not cross a column another still climbs in.
+    """
+    step = params.altitude_step_m
+    if step <= 0.0:
+        return 0.0
+    higher = role_count - 1 - role_index
+    return higher * (step / climb_m_s + START_SPREAD_S)
