@@ -94,10 +94,11 @@ def lattice_regions(
         zli_cells=0,
         hole_cells=0,
     )
+    frame = box(x_min, y_min, x_min + n_col * step_m, y_min + n_row * step_m)
     try:
-        labels = _label(grid, free, box(x_min, y_min, x_min + n_col * step_m, y_min + n_row * step_m), k, method)
+        labels = _label(grid, free, frame, k, method)
     except ValueError as err:
-        raise ValueError(f"partition {method!r} of the free area among k={k} vehicles: {err}") from err
+        raise ValueError(f"partition {method!r} among k={k} vehicles: {err}") from err
     cell_label = np.full(len(cells), -1, dtype=np.int64)
     cell_label[on_lane] = labels
     rest = np.flatnonzero(in_free & ~on_lane)
