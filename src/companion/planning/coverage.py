@@ -187,11 +187,14 @@ def split(free: BaseGeometry, spec: CoverageSpec, k: int) -> tuple[Part, ...]:
     def back(g: BaseGeometry) -> BaseGeometry:
         return affinity.rotate(g, sweep, origin=(0.0, 0.0))
 
+    # Strips need k lanes at least; regions may share a lane, so they keep the spacing's lanes
+    # (the same lanes as strips unless k exceeds their number), and a lattice of that size.
+    lattice = spec.partition != "strips" and k > 1
     rows = [
         _segments(rotated.intersection(LineString([(x_min - 1, y), (x_max + 1, y)])))
-        for y in _lane_positions(y_min, y_max, spec.lane_spacing_m, k)
+        for y in _lane_positions(y_min, y_max, spec.lane_spacing_m, 1 if lattice else k)
     ]
-    if spec.partition != "strips" and k > 1:
+    if lattice:
         regions = lattice_regions(
             rotated, rows, y_min, (y_max - y_min) / len(rows), k, spec.partition
         )

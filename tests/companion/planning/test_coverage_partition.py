@@ -130,6 +130,8 @@ def test_unknown_partition_and_too_many_vehicles_are_named():
         CoverageParams.from_mapping({"partition": "voronoi"})
     assert set(PARTITIONS) == {"strips", *LATTICE}
     free = free_area(AREA, OBSTACLES, 5.0)
+    # more vehicles than lanes (7): regions share lanes, each vehicle still gets some
+    assert all(p.lanes for p in split(free, _spec("kmeans", sweep_deg=0.0), 10))
     with pytest.raises(ValueError, match=r"'kmeans'.*k=1000"):
         split(free, _spec("kmeans"), 1000)
     # a plain rectangle is one boustrophedon cell: it cannot be shared by two vehicles
