@@ -30,8 +30,13 @@ from shapely import affinity
 from shapely.geometry import LineString, Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
+from companion.planning.coverage_partition import LATTICE_PARTITIONS, lattice_regions
+
 _TOLERANCE_M = 1e-6
 """Slack of the "segment inside the free area" test (points on its boundary count as inside)."""
+
+PARTITIONS = ("strips", *LATTICE_PARTITIONS)
+"""Ways to share the free area among the vehicles (``CoverageSpec.partition``)."""
 
 
 @dataclass(frozen=True)
@@ -49,6 +54,10 @@ class CoverageSpec:
     side of the area's minimum rotated rectangle (fewest turns)."""
     margin_m: float = 10.0
     """Horizontal distance kept from every obstacle, m (>= 0)."""
+    partition: str = "strips"
+    """How the lanes are shared among the vehicles (one of ``PARTITIONS``): "strips", K strips
+    of neighbouring lanes (``split``); otherwise regions of a lattice labelled by seed 004's
+    partitioner of that name (``companion.planning.coverage_partition``)."""
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.altitude_m) and self.altitude_m > 0.0):
@@ -61,6 +70,8 @@ class CoverageSpec:
             raise ValueError(f"sweep_deg must be finite or None, got {self.sweep_deg!r}")
         if not (math.isfinite(self.margin_m) and self.margin_m >= 0.0):
             raise ValueError(f"margin_m must be >= 0, got {self.margin_m!r}")
+        if self.partition not in PARTITIONS:
+            raise ValueError(f"partition must be one of {PARTITIONS}, got {self.partition!r}")
 
     @property
     def footprint_width_m(self) -> float:
@@ -154,12 +165,16 @@ def _lane_positions(y_min: float, y_max: float, spacing: float, at_least: int) -
 
 @functools.lru_cache(maxsize=8)
 def split(free: BaseGeometry, spec: CoverageSpec, k: int) -> tuple[Part, ...]:
-    """The free area's lanes split into ``k`` strips of about equal lane length, one per vehicle.
+    """The free area's lanes shared among ``k`` vehicles as ``spec.partition`` says, one part each.
 
-    Deterministic: the same geometry, spec and ``k`` give the same parts on every vehicle, so
-    each vehicle can plan its own part alone. Raises ``ValueError`` for an empty area or k < 1.
-    Remembered for the last few (geometry, spec, k): the vehicles of a swarm-scale run share one
-    process and plan from the same inputs, so the split is made once, not once per vehicle.
+    "strips": ``k`` strips of neighbouring lanes of about equal lane length. Otherwise (and
+    k >= 2) the regions of seed 004's partitioner of that name, each with the same lanes' pieces
+    inside it (``coverage_partition.lattice_regions``); k = 1 is one part, the whole free area,
+    whatever the partition. Deterministic: the same geometry, spec and ``k`` give the same parts
+    on every vehicle, so each vehicle can plan its own part alone. Raises ``ValueError`` for an
+    empty area, k < 1, or k the partition cannot share the lanes among. Remembered for the last
+    few (geometry, spec, k): the vehicles of a swarm-scale run share one process and plan from
+    the same inputs, so the split is made once, not once per vehicle.
     """
     if k < 1:
         raise ValueError(f"k (number of vehicles) must be >= 1, got {k}")
@@ -168,11 +183,26 @@ def split(free: BaseGeometry, spec: CoverageSpec, k: int) -> tuple[Part, ...]:
     sweep = sweep_direction_deg(free) if spec.sweep_deg is None else spec.sweep_deg
     rotated = affinity.rotate(free, -sweep, origin=(0.0, 0.0))
     x_min, y_min, x_max, y_max = rotated.bounds
-    lanes: list[list[LineString]] = []
-    for y in _lane_positions(y_min, y_max, spec.lane_spacing_m, k):
-        pieces = _segments(rotated.intersection(LineString([(x_min - 1, y), (x_max + 1, y)])))
-        if pieces:
-            lanes.append(pieces)
+
+    def back(g: BaseGeometry) -> BaseGeometry:
+        return affinity.rotate(g, sweep, origin=(0.0, 0.0))
+
+    # Strips need k lanes at least; regions may share a lane, so they keep the spacing's lanes
+    # (the same lanes as strips unless k exceeds their number), and a lattice of that size.
+    lattice = spec.partition != "strips" and k > 1
+    rows = [
+        _segments(rotated.intersection(LineString([(x_min - 1, y), (x_max + 1, y)])))
+        for y in _lane_positions(y_min, y_max, spec.lane_spacing_m, 1 if lattice else k)
+    ]
+    if lattice:
+        regions = lattice_regions(
+            rotated, rows, y_min, (y_max - y_min) / len(rows), k, spec.partition
+        )
+        return tuple(
+            Part(polygon=back(g), lanes=tuple(tuple(back(s) for s in lane) for lane in own))
+            for g, own in regions
+        )
+    lanes = [pieces for pieces in rows if pieces]
     if len(lanes) < k:
         raise ValueError(f"the area holds {len(lanes)} lanes, fewer than the {k} vehicles")
     lengths = np.array([sum(s.length for s in lane) for lane in lanes])
@@ -194,10 +224,6 @@ def split(free: BaseGeometry, spec: CoverageSpec, k: int) -> tuple[Part, ...]:
         low = y_min - 1.0 if j == 0 else (lane_y(first - 1) + lane_y(first)) / 2.0
         high = y_max + 1.0 if j == k - 1 else (lane_y(last) + lane_y(last + 1)) / 2.0
         strip = rotated.intersection(box(x_min - 1.0, low, x_max + 1.0, high))
-
-        def back(g: BaseGeometry) -> BaseGeometry:
-            return affinity.rotate(g, sweep, origin=(0.0, 0.0))
-
         parts.append(
             Part(
                 polygon=back(strip),

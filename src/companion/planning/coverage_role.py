@@ -20,6 +20,7 @@ import shapely
 from shapely.geometry import box
 
 from companion.planning.coverage import (
+    PARTITIONS,
     CoverageSpec,
     Router,
     VehiclePlan,
@@ -53,6 +54,10 @@ class CoverageParams:
     margin_m: float = 10.0
     """Horizontal distance kept from solids that reach the flight height, no-fly zones and the
     world's edge, m."""
+    partition: str = "strips"
+    """How the vehicles of the role share the area (``coverage.PARTITIONS``): "strips" of
+    neighbouring lanes, or seed 004's "mco", "kmeans" or "boustrophedon" regions of a lattice
+    (``coverage_partition``)."""
     climb_m_s: float = 1.5
     """Climb rate the take-off is budgeted with, m/s (PX4's MPC_TKO_SPEED)."""
     descent_m_s: float = 1.0
@@ -86,6 +91,10 @@ class CoverageParams:
         step = self.altitude_step_m
         if not (isinstance(step, (int, float)) and math.isfinite(step) and step >= 0):
             raise ValueError(f"PARAMS altitude_step_m must be a number >= 0, got {step!r}")
+        if self.partition not in PARTITIONS:
+            raise ValueError(
+                f"PARAMS partition must be one of {list(PARTITIONS)}, got {self.partition!r}"
+            )
         if not 0.0 < self.mean_speed_fraction <= 1.0:
             raise ValueError(
                 f"PARAMS mean_speed_fraction must be in (0, 1], got {self.mean_speed_fraction!r}"
@@ -227,6 +236,7 @@ def plan(
         overlap=params.overlap,
         sweep_deg=params.sweep_deg,
         margin_m=params.margin_m,
+        partition=params.partition,
     )
     if params.area_enu_m is not None:
         area = box(*params.area_enu_m)
