@@ -124,23 +124,24 @@ class ScenarioEnv:
                     f"{PREFIX}ORIGIN={get('ORIGIN')!r}: expected LAT,LON,ALT_AMSL"
                 ) from exc
             origin = (lat, lon, alt)
+
+        def parsed(name: str) -> object:
+            try:
+                return json.loads(get(name))
+            except json.JSONDecodeError as exc:
+                raise ScenarioEnvError(f"{PREFIX}{name} is not JSON: {exc}") from exc
+
         params = None
         if PREFIX + "PARAMS" in env:
-            try:
-                params = json.loads(get("PARAMS"))
-            except json.JSONDecodeError as exc:
-                raise ScenarioEnvError(f"{PREFIX}PARAMS is not JSON: {exc}") from exc
+            params = parsed("PARAMS")
             if not isinstance(params, dict):
                 raise ScenarioEnvError(f"{PREFIX}PARAMS must be a JSON object")
         fleet = None
         if PREFIX + "FLEET" in env:
-            try:
-                fleet = json.loads(get("FLEET"))
-            except json.JSONDecodeError as exc:
-                raise ScenarioEnvError(f"{PREFIX}FLEET is not JSON: {exc}") from exc
-            if not isinstance(fleet, list) or not all(isinstance(e, dict) for e in fleet):
+            entries = parsed("FLEET")
+            if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
                 raise ScenarioEnvError(f"{PREFIX}FLEET must be a JSON list of objects")
-            fleet = tuple(fleet)
+            fleet = tuple(entries)
         vehicle = int(number("VEHICLE", int))
         return cls(
             mavlink_url=get("MAVLINK_URL"),
