@@ -21,6 +21,11 @@ T = TypeVar("T")
 
 PARAMS_ATTRIBUTE = "PARAMS"
 """Name of the module-level variable holding a program's parameter dataclass."""
+RUN_CHECK = "check_run"
+"""Optional method of a PARAMS dataclass, ``check_run(self, vehicles: int, world) -> None``:
+raise ValueError (naming the value) if the role cannot run with ``vehicles`` vehicles in
+``world`` (a built ``worlds.World`` or None). ``swarmsitl run`` calls it when it loads the
+scenario, so that a fleet too large for the plan fails before anything starts."""
 
 
 class UnknownParamsError(ValueError):

@@ -27,6 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 import worlds
 from autopilot_emu.params import ParamStore
+from companion.role_params import RUN_CHECK, params_from_mapping
 from harness.net.plan import VEHICLE_ROLES
 from harness.options.suggest import did_you_mean
 from harness.run.companion_args import DeclarationError, check_args, declared_params, program_module
@@ -484,7 +485,8 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
                 raise fail(("roles", name, "params", p), f"unknown autopilot parameter{hint}")
         if role.script and not (base / role.script).is_file():
             raise fail(("roles", name, "script"), f"no such file: {(base / role.script)}")
-        _check_role_args(name, role, base, fail)
+        count = sum(g.count for g in spec.fleet if g.role == name)
+        _check_role_args(name, role, base, fail, count, world)
     for k, group in enumerate(spec.fleet):
         try:
             airframe_yaml_path(group.airframe)
@@ -502,8 +504,15 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
     return Scenario(spec, None, text, world_spec, world, links_file)
 
 
-def _check_role_args(name: str, role: RoleSpec, base: Path, fail: Any) -> None:
-    """The role's ``args`` read as its program reads them, if its module declares ``PARAMS``."""
+def _check_role_args(
+    name: str, role: RoleSpec, base: Path, fail: Any, count: int, world: worlds.World | None
+) -> None:
+    """The role's ``args`` read as its program reads them, if its module declares ``PARAMS``.
+
+    A PARAMS dataclass with a ``check_run(vehicles, world)`` method (``RUN_CHECK``) is then
+    asked whether it can serve the role's ``count`` vehicles in the scenario's world: a
+    ValueError it raises fails the scenario here, before anything starts.
+    """
     module = program_module(role.module, role.command)
     if module is None:
         return
@@ -518,6 +527,13 @@ def _check_role_args(name: str, role: RoleSpec, base: Path, fail: Any) -> None:
     if problem is not None:
         loc = ("roles", name, "args") + (() if problem.key is None else (problem.key,))
         raise fail(loc if role.args else where, problem.message)
+    check = getattr(params, RUN_CHECK, None)
+    if check is not None and count > 0:
+        try:
+            check(params_from_mapping(params, json.loads(json.dumps(dict(role.args)))), count,
+                  world)  # fmt: skip
+        except ValueError as exc:
+            raise fail(("roles", name, "args") if role.args else where, str(exc)) from exc
 
 
 def _world_spec(spec: ScenarioSpec, base: Path, fail: Any) -> worlds.WorldSpec | None:

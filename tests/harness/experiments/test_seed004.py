@@ -22,6 +22,7 @@ from harness.experiments.seed004 import (
     make_config,
     scenario_text,
 )
+from harness.scenarios.spec import ScenarioError, parse_scenario
 from harness.sweep.trial import Trial, build_scenario
 from worlds.examples import world_path
 
@@ -88,3 +89,19 @@ def test_the_cli_names_the_experiments_and_has_an_example(tmp_path) -> None:
     assert "seed004" in result.output
     help_text = CliRunner().invoke(app, ["experiment", "--help"]).output
     assert "Example:" in help_text and "seed004 --quick" in help_text
+
+
+@pytest.mark.parametrize(
+    ("count", "planner", "message"),
+    [(8, "boustrophedon", "n: 8 vehicles exceed the 7 cells"), (1, "kmeans", "n: 1 vehicles")],
+)
+def test_an_mco_scenario_with_a_fleet_the_plan_cannot_serve_fails_when_it_loads(
+    count: int, planner: str, message: str
+) -> None:
+    text = (
+        "name: bad\nseed: 0\nduration_s: 100\nworld: example:mco_naranjos\n"
+        f"fleet: [{{role: mav, count: {count}, airframe: x500}}]\n"
+        f"roles: {{mav: {{module: companion.scripts.mco_plan, args: {{planner: {planner}}}}}}}\n"
+    )
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(text, "bad.yaml")

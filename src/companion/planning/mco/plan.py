@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -77,6 +78,18 @@ class McoParams:
             raise ValueError(f"width_px, height_px: {self.width_px} x {self.height_px} px")
         if self.coordinators < 0:
             raise ValueError(f"coordinators: {self.coordinators} must be >= 0")
+
+    def check_run(self, vehicles: int, world: Any) -> None:
+        """Can ``vehicles`` vehicles share ``world``'s workspace (``companion.role_params``)?
+
+        Raises:
+            ValueError: what ``check_fleet_size`` raises, or no world to plan.
+        """
+        if world is None:
+            raise ValueError("the MCO role needs the scenario's world: the workspace to cover")
+        from companion.planning.mco.role import workspace_of
+
+        check_fleet_size(workspace_of(world)[0], self, vehicles)
 
     @property
     def camera(self) -> Camera:
