@@ -11,6 +11,7 @@ NAMES = (
     "workspace_mco",
     "taskmap",
     "swarm_coverage",
+    "mco_urban",
 )
 
 

@@ -156,8 +156,8 @@ def test_plan_vehicle_and_the_role_plan_with_kmeans_fly_lanes():
     areas = []
     for i in range(3):
         env = ScenarioEnv(
-            mavlink_url="udpin://0.0.0.0:14540",
-            grpc_port=50051,
+            mavlink_url="swarm://",
+            grpc_port=0,
             vehicle=i + 1,
             vehicles=3,
             role="coverage",

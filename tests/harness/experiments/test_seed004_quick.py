@@ -1,4 +1,9 @@
-"""``swarmsitl experiment seed004 --quick`` end to end: a real Dask cluster, every output."""
+"""``swarmsitl experiment seed004 --quick`` end to end: a real Dask cluster, every output.
+
+The cluster has one worker here (``--workers 1``; the default is 2): one busy process at a time,
+so this module is in the process tier and runs beside the e2e group instead of after it
+(tests/conftest.py, Scheduling). The results do not depend on the number of workers.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +15,7 @@ import pytest
 
 from harness.experiments.seed004 import COLUMNS, make_config
 
-pytestmark = [pytest.mark.heavy, pytest.mark.process]
+pytestmark = pytest.mark.process
 
 ISSUE_COLUMNS = [
     "workspace", "planner", "n", "seed", "heterogeneity_std_pct", "mean_remaining_battery_pct",
@@ -20,7 +25,7 @@ ISSUE_COLUMNS = [
 
 def test_the_quick_experiment_writes_its_table_tables_plots_and_result(tmp_path) -> None:
     out = tmp_path / "seed004"
-    command = ["experiment", "seed004", "--quick", "--out", str(out)]
+    command = ["experiment", "seed004", "--quick", "--workers", "1", "--out", str(out)]
     done = subprocess.run(
         [sys.executable, "-m", "harness.cli", *command], capture_output=True, text=True, timeout=900
     )

@@ -9,7 +9,6 @@ MAVSDK mission and land; the run then predicts the same flights at fidelity swar
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,11 +16,12 @@ import pytest
 from companion.planning.mco.plan import McoParams
 from companion.planning.mco.role import cached_plan, fleet_bidders
 from companion.role_params import params_from_mapping
+from harness.scenarios import scenario_path
 from harness.scenarios.spec import load_scenario
 
 pytestmark = pytest.mark.e2e
 
-SCENARIO = Path(__file__).parents[2] / "src/harness/scenarios/mco_urban.yaml"
+SCENARIO = scenario_path("mco_urban")
 BATTERY_AGREEMENT_PP = 8.0
 """Largest |full - swarm| battery left per vehicle, percentage points. Measured on mco_urban: the
 swarm engine (hover power plus the companion's payload, 315 W, throughout) ends 2.0 to 5.0 pp
