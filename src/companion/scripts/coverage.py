@@ -31,7 +31,6 @@ import dataclasses
 import json
 import math
 import os
-import sys
 import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -41,6 +40,7 @@ import numpy as np
 import pymap3d
 import shapely
 
+from companion.mission_items import waypoint_item
 from companion.perception.camera_model import CameraModel, rotation_flu_enu_from_quaternion
 from companion.perception.spill_detector import DetectorConfig, SpillCounter, detect_spills
 from companion.perception.stream_reader import PosedStreamReader
@@ -58,7 +58,13 @@ from companion.planning.coverage_role import (
     world_spills,
 )
 from companion.scenario_env import ScenarioEnv
-from companion.scripts.program import finish, parser, run_flight, scenario_env
+from companion.scripts.program import (
+    finish,
+    parser,
+    return_after_failure,
+    run_flight,
+    scenario_env,
+)
 from companion.telemetry_waits import FlightError, connect, first, wait_for, wait_position_ok
 from companion.vehicle_clock import VehicleClock
 
@@ -259,23 +265,9 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
         mission_xy = np.vstack([waypoints, way_home])[:, :2]
         for x, y in mission_xy:
             lat, lon, _ = pymap3d.enu2geodetic(x, y, 0.0, *origin)
+            # heading left to the autopilot: it faces the lanes, across the image
             items.append(
-                MissionItem(
-                    latitude_deg=float(lat),
-                    longitude_deg=float(lon),
-                    relative_altitude_m=params.altitude_m,
-                    speed_m_s=params.speed_m_s,
-                    is_fly_through=True,
-                    gimbal_pitch_deg=math.nan,
-                    gimbal_yaw_deg=math.nan,
-                    camera_action=MissionItem.CameraAction.NONE,
-                    loiter_time_s=0.0,
-                    camera_photo_interval_s=math.nan,
-                    acceptance_radius_m=2.0,
-                    yaw_deg=math.nan,  # face the direction of travel: the lanes across the image
-                    camera_photo_distance_m=math.nan,
-                    vehicle_action=MissionItem.VehicleAction.NONE,
-                )
+                waypoint_item(MissionItem, lat, lon, params.altitude_m, params.speed_m_s, 2.0)
             )
         await drone.mission.set_return_to_launch_after_mission(False)
         await drone.mission.upload_mission(MissionPlan(items))
@@ -394,11 +386,7 @@ async def fly(env: ScenarioEnv, params: CoverageParams) -> dict[str, tuple[Any, 
             _log("spills", positions_enu_m=seen, frames=watcher.frames, error=watcher.error)
     except BaseException:
         if flying:
-            try:
-                await asyncio.wait_for(drone.action.return_to_launch(), 10.0)
-                print("[coverage] error: returning to launch", file=sys.stderr, flush=True)
-            except Exception:  # the vehicle's own failsafe takes over
-                pass
+            await return_after_failure(drone, "coverage")
         raise
     finally:
         for task in tasks:

@@ -23,13 +23,13 @@ import asyncio
 import json
 import math
 import os
-import sys
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 import pymap3d
 
+from companion.mission_items import waypoint_item
 from companion.planning.mco.plan import McoParams
 from companion.planning.mco.role import (
     TAKEOFF_M,
@@ -38,10 +38,17 @@ from companion.planning.mco.role import (
     mco_params,
     own_flight_time_s,
     plan_for,
+    survey_height_m,
 )
 from companion.planning.mco.tours import straight_legs
 from companion.scenario_env import ScenarioEnv
-from companion.scripts.program import finish, parser, run_flight, scenario_env
+from companion.scripts.program import (
+    finish,
+    parser,
+    return_after_failure,
+    run_flight,
+    scenario_env,
+)
 from companion.swarm.mco import task_metrics
 from companion.telemetry_waits import FlightError, connect, first, wait_for, wait_position_ok
 from companion.vehicle_clock import VehicleClock
@@ -68,7 +75,7 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
     plan = plan_for(env, params)  # before connecting: a plan that cannot be made fails at once
     task = plan.task_of(env.vehicle)
     origin = env.origin or DEFAULT_ORIGIN
-    altitude = params.flight_altitude_m + env.role_index * params.altitude_step_m
+    altitude = survey_height_m(params, env.role_index)
     clock = VehicleClock()
     battery = [math.nan]
     distance = [0.0]
@@ -112,18 +119,32 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
         tour = np.vstack([home_enu, task.waypoints_xy_m, home_enu])
         corners = straight_legs(tour)[1:]  # a mission item where the path turns, then home
         takeoff_m = min(altitude, TAKEOFF_M)
-        home_m = home_height_m(params, altitude, env.role_index)
+        home_m = home_height_m(params, env.role_index)
         # Up to the survey height over its own home first, then hold there until the vehicles
         # flying higher have climbed past (departure_hold_s).
         climb_m_s = await drone.param.get_param_float("MPC_Z_V_AUTO_UP")
         hold_s = departure_hold_s(params, env.role_index, env.role_count, climb_m_s)
-        items = [_item(MissionItem, home.latitude_deg, home.longitude_deg, altitude, speed, hold_s)]
+        items = [
+            waypoint_item(
+                MissionItem,
+                home.latitude_deg,
+                home.longitude_deg,
+                altitude,
+                speed,
+                ACCEPTANCE_M,
+                hold_s,
+            )
+        ]
         for x, y in corners[:-1]:
             lat, lon, _ = pymap3d.enu2geodetic(float(x), float(y), 0.0, *origin)
-            items.append(_item(MissionItem, lat, lon, altitude, speed))
+            items.append(waypoint_item(MissionItem, lat, lon, altitude, speed, ACCEPTANCE_M))
         # the tour ends over the take-off point: back over its own home, down on the way to a
         # height of its own (a vertical descent from the survey height is a minute more)
-        items.append(_item(MissionItem, home.latitude_deg, home.longitude_deg, home_m, speed))
+        items.append(
+            waypoint_item(
+                MissionItem, home.latitude_deg, home.longitude_deg, home_m, speed, ACCEPTANCE_M
+            )
+        )
         await drone.mission.set_return_to_launch_after_mission(False)
         await drone.mission.upload_mission(MissionPlan(items))
         await drone.action.set_takeoff_altitude(takeoff_m)
@@ -165,11 +186,7 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
         _log("landed", vehicle_time_s=landed_s, battery_pct=battery[0])
     except BaseException:
         if flying:
-            try:
-                await asyncio.wait_for(drone.action.return_to_launch(), 10.0)
-                print("[mco_plan] error: returning to launch", file=sys.stderr, flush=True)
-            except Exception:  # the vehicle's own failsafe takes over
-                pass
+            await return_after_failure(drone, "mco_plan")
         raise
     finally:
         for t in tasks:
@@ -180,28 +197,6 @@ async def fly(env: ScenarioEnv, params: McoParams) -> dict[str, tuple[Any, str]]
         "distance_flown_m": (round(distance[0], 1), "m"),
         "mission_time": (round(landed_s - armed_at, 2), "s"),
     }
-
-
-def _item(
-    cls: Any, lat: float, lon: float, altitude_m: float, speed_m_s: float, hold_s: float = 0.0
-) -> Any:
-    """A mission item at ``altitude_m`` above home: fly-through, or a stop of ``hold_s`` > 0."""
-    return cls(
-        latitude_deg=float(lat),
-        longitude_deg=float(lon),
-        relative_altitude_m=float(altitude_m),
-        speed_m_s=float(speed_m_s),
-        is_fly_through=hold_s <= 0.0,
-        gimbal_pitch_deg=math.nan,
-        gimbal_yaw_deg=math.nan,
-        camera_action=cls.CameraAction.NONE,
-        loiter_time_s=float(hold_s),
-        camera_photo_interval_s=math.nan,
-        acceptance_radius_m=ACCEPTANCE_M,
-        yaw_deg=math.nan,
-        camera_photo_distance_m=math.nan,
-        vehicle_action=cls.VehicleAction.NONE,
-    )
 
 
 def swarm_program(env: ScenarioEnv, vehicle: Any, node: Any) -> Any:

@@ -96,6 +96,19 @@ def run_flight(flight: Coroutine[Any, Any, T], teardown_wall_s: float = TEARDOWN
         asyncio.set_event_loop(None)
 
 
+async def return_after_failure(drone: Any, program: str, timeout_wall_s: float = 10.0) -> None:
+    """A flight failed in the air: ask the vehicle to return to launch, once, without raising.
+
+    If the request does not go through within ``timeout_wall_s``, the vehicle's own failsafe
+    (link loss, low battery) takes over; the flight's exception is what the caller re-raises.
+    """
+    try:
+        await asyncio.wait_for(drone.action.return_to_launch(), timeout_wall_s)
+        print(f"[{program}] error: returning to launch", file=sys.stderr, flush=True)
+    except Exception:  # the vehicle's own failsafe takes over
+        pass
+
+
 def _show_mavsdk_server_log() -> None:
     """Print what mavsdk_server says (mavsdk_grpc hands it to the ``mavsdk_server`` logger).
 

@@ -1,9 +1,11 @@
 """The MCO role (``companion.scripts.mco_plan``) behind the kinematic adapter.
 
 The same decisions as the MAVSDK program, in the same order: compute the run's plan
-(``companion.planning.mco.role.plan_for``, the same plan on every vehicle), take off to the
-survey height, fly this vehicle's tour out of the take-off point and back as one path (the
-mission), land where it took off. Links, battery and active vehicles are measured by the engine.
+(``companion.planning.mco.role.plan_for``, the same plan on every vehicle), take off to its
+survey height, hold over home until the vehicles flying higher have climbed past
+(``departure_hold_s``), fly this vehicle's tour out of the take-off point and back as one path
+(the mission), coming home down to its own low height (``home_height_m``), and land where it
+took off. Links, battery and active vehicles are measured by the engine.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from companion.planning.mco.role import (
     mco_params,
     own_flight_time_s,
     plan_for,
+    survey_height_m,
 )
 from companion.planning.mco.tours import straight_legs
 from companion.scenario_env import ScenarioEnv
@@ -36,9 +39,7 @@ class McoProgram:
         self.plan = plan_for(env, self.params)
         self.task = self.plan.task_of(env.vehicle)
         self.flight_time_s = own_flight_time_s(env)
-        self.altitude_m = (
-            self.params.flight_altitude_m + env.role_index * self.params.altitude_step_m
-        )
+        self.altitude_m = survey_height_m(self.params, env.role_index)
         self.phase = "takeoff"
         self.error: str | None = None
         self.landed_s = math.nan
@@ -66,9 +67,7 @@ class McoProgram:
             tour = np.vstack([home[None, :2], self.task.waypoints_xy_m, home[None, :2]])
             xy = straight_legs(tour)[1:]  # from where it hovers, corner to corner, home
             z = np.full((len(xy), 1), float(home[2]) + self.altitude_m)
-            z[-1] = float(home[2]) + home_height_m(
-                self.params, self.altitude_m, self.env.role_index
-            )
+            z[-1] = float(home[2]) + home_height_m(self.params, self.env.role_index)
             v.fly_path(np.hstack([xy, z]), self.params.speed_m_s)
             self.phase = "survey"
         elif self.phase == "survey" and v.path_done:

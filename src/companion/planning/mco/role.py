@@ -99,9 +99,14 @@ def own_flight_time_s(env: ScenarioEnv) -> float:
     return math.inf
 
 
-def home_height_m(params: McoParams, altitude_m: float, role_index: int) -> float:
+def survey_height_m(params: McoParams, role_index: int) -> float:
+    """Height vehicle ``role_index`` of the role surveys at: the camera's, plus its step, m."""
+    return params.flight_altitude_m + role_index * params.altitude_step_m
+
+
+def home_height_m(params: McoParams, role_index: int) -> float:
     """Height the tour comes home at: TAKEOFF_M plus the role index's step, at most the survey's."""
-    return min(altitude_m, TAKEOFF_M + role_index * params.altitude_step_m)
+    return min(survey_height_m(params, role_index), TAKEOFF_M + role_index * params.altitude_step_m)
 
 
 def departure_hold_s(
