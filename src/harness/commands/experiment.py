@@ -61,16 +61,12 @@ def experiment(
 
     try:
         cfg = seed004.make_config(quick, seeds)
-        seed004.check_inputs(cfg)
-    except ValueError as exc:
-        console.print(f"[red]error:[/red] {escape(str(exc))}")
-        raise typer.Exit(EXIT_BAD_INPUT) from exc
-    try:
         status = seed004.run_experiment(
             cfg, out.absolute(), workers=workers, scheduler=scheduler, console=console,
             say=lambda text: console.print(text, markup=False, highlight=False, soft_wrap=True),
         )  # fmt: skip
-    except OSError as exc:  # e.g. no scheduler at --scheduler
+    except (seed004.ExperimentError, OSError) as exc:  # a case that cannot be planned (nothing
+        # ran), a bad --seeds, or no scheduler at --scheduler
         console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(EXIT_BAD_INPUT) from exc
     if status:

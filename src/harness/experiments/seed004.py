@@ -11,6 +11,7 @@ links over time. docs/seed004.md gives every choice.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections.abc import Callable
@@ -23,6 +24,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import yaml
 
+from harness.report.totals import number_of
 from harness.sweep.spec import SweepPlan, SweepSpec, trial_id
 from harness.sweep.trial import Trial
 
@@ -94,7 +96,7 @@ def make_config(quick: bool, seeds: int | None = None) -> Seed004Config:
     core; docs/seed004.md gives the cost.
     """
     if seeds is not None and seeds < 1:
-        raise ValueError(f"--seeds: {seeds}; at least 1")
+        raise ExperimentError(f"--seeds: {seeds}; at least 1")
     if quick:
         n_values = {c.name: (c.max_n // 2, c.max_n) for c in CASES}
         return Seed004Config(True, tuple(range(seeds or 2)), n_values, 40, 200)
@@ -116,6 +118,7 @@ def fleet_classes(n: int) -> list[str]:
     return [kinds[k] for k in order]
 
 
+@functools.lru_cache(maxsize=8)
 def _hover_endurance_s(capacity_mah: float) -> float:
     """Hover time of an x500 with this pack down to RESERVE_SOC, s (the flight-time trait)."""
     from harness.swarm.run import hover_power_w
@@ -127,7 +130,7 @@ def _hover_endurance_s(capacity_mah: float) -> float:
     airframe = load_airframe(AIRFRAME)
     power = load_power_spec(airframe.yaml_path)
     pack = replace(power.battery, capacity_mah=capacity_mah)
-    watts = hover_power_w(airframe) + PayloadLoads.preset("seed000_companion").total_w
+    watts = hover_power_w(airframe, power) + PayloadLoads.preset("seed000_companion").total_w
     return float(endurance_to_reserve_s(pack, watts, RESERVE_SOC, dt_s=5.0))
 
 
@@ -148,6 +151,7 @@ def fleet_group(n: int) -> dict[str, Any]:
     }
 
 
+@functools.lru_cache(maxsize=8)
 def _world_diagonal_m(case: Case) -> float:
     import worlds
     from worlds.examples import world_path
@@ -248,15 +252,15 @@ def agent_numbers(report: dict) -> dict[str, float]:
     plan: dict[str, float] = {}
     for k, (_, entry) in enumerate(sorted(report["vehicles"].items(), key=_vehicle_key), 1):
         companion = entry.get("companion") or {}
-        out[f"battery_agent_{k}"] = _value(entry.get("battery_remaining"))
-        out[f"links_agent_{k}"] = _value(entry.get("links_total"))
+        out[f"battery_agent_{k}"] = number_of(entry.get("battery_remaining"))
+        out[f"links_agent_{k}"] = number_of(entry.get("links_total"))
         role = (companion.get("role") or {}).get("value")
         out[f"role_agent_{k}"] = float(ROLE_CODES.get(str(role), math.nan))
-        out[f"waypoints_agent_{k}"] = _value(companion.get("task_waypoints"))
-        out[f"airborne_agent_{k}"] = _value(entry.get("airborne_time"))
+        out[f"waypoints_agent_{k}"] = number_of(companion.get("task_waypoints"))
+        out[f"airborne_agent_{k}"] = number_of(entry.get("airborne_time"))
         for name in ("plan_waypoints", "heterogeneity_std"):
             if name in companion:
-                plan[name] = _value(companion[name])
+                plan[name] = number_of(companion[name])
     out["waypoints"] = plan.get("plan_waypoints", math.nan)
     out["heterogeneity_std_pct"] = plan.get("heterogeneity_std", math.nan)
     return out
@@ -264,14 +268,6 @@ def agent_numbers(report: dict) -> dict[str, float]:
 
 def _vehicle_key(item: tuple[str, Any]) -> int:
     return int(item[0].removeprefix("vehicle"))
-
-
-def _value(entry: Any) -> float:
-    if isinstance(entry, dict):
-        entry = entry.get("value")
-    return (
-        float(entry) if isinstance(entry, int | float) and not isinstance(entry, bool) else math.nan
-    )
 
 
 COLUMNS = {
@@ -291,6 +287,7 @@ def results_table(sweep: pa.Table, cfg: Seed004Config) -> pa.Table:
     """One row per run: workspace, planner, n, seed, the issue's metrics, per-agent numbers."""
     rows = sweep.to_pylist()
     by_world = {c.world: c.name for c in cfg.cases}
+    n_max = max(c.max_n for c in cfg.cases)
     out = []
     for row in rows:
         rec: dict[str, Any] = {
@@ -302,11 +299,10 @@ def results_table(sweep: pa.Table, cfg: Seed004Config) -> pa.Table:
             "passed": bool(row.get("passed")),
         }
         for src, dst in COLUMNS.items():
-            rec[dst] = _num(row.get(src))
-        n_max = max(c.max_n for c in cfg.cases)
+            rec[dst] = number_of(row.get(src))
         for k in range(1, n_max + 1):
             for what in ("battery", "links", "role", "waypoints", "airborne"):
-                rec[f"{what}_agent_{k}"] = _num(row.get(f"fleet.seed004.{what}_agent_{k}"))
+                rec[f"{what}_agent_{k}"] = number_of(row.get(f"fleet.seed004.{what}_agent_{k}"))
         waypoints = [rec[f"waypoints_agent_{k}"] for k in range(1, rec["n"] + 1)]
         rec["heterogeneity_std_waypoints"] = (
             float(np.std(waypoints)) if waypoints and all(map(math.isfinite, waypoints))
@@ -321,14 +317,6 @@ def results_table(sweep: pa.Table, cfg: Seed004Config) -> pa.Table:
     return pa.Table.from_pylist(out)
 
 
-def _num(value: Any) -> float:
-    return (
-        float(value)
-        if isinstance(value, int | float) and not isinstance(value, bool)
-        else (math.nan)
-    )
-
-
 def run_experiment(
     cfg: Seed004Config,
     out_dir: Path,
@@ -341,6 +329,9 @@ def run_experiment(
     """Run (or resume) the experiment into ``out_dir``; print the tables' summary and RESULT.
 
     Returns the exit status: 0 when every trial ran and passed its checks, 1 otherwise.
+
+    Raises:
+        ExperimentError: a case cannot be planned (``check_inputs``): nothing ran.
     """
     from harness.experiments.seed004_report import write_report
     from harness.sweep.runner import run_sweep

@@ -37,17 +37,15 @@ def _representative(cfg: Any, case: Any, planner: str, runs_dir: Path) -> tuple[
 
 
 def _plan(run_dir: Path, scenario: Any, seed: int) -> Any:
-    """The plan the run flew, computed again as its vehicles computed it."""
-    from companion.planning.mco.role import cached_plan, fleet_bidders, mco_params
-    from companion.scenario_env import ScenarioEnv
+    """The plan the run flew, computed again from its inputs as its vehicles computed it."""
+    from companion.planning.mco.plan import McoParams
+    from companion.planning.mco.role import cached_plan, fleet_bidders
+    from companion.role_params import params_from_mapping
 
     role = next(iter(scenario.spec.roles))
-    env = ScenarioEnv("swarm://", 0, 1, scenario.spec.n_vehicles, role, 0,
-                      scenario.spec.n_vehicles, seed, run_dir, run_dir / "world.yaml",
-                      params=dict(scenario.spec.roles[role].args),
-                      fleet=scenario.fleet_entries())  # fmt: skip
-    bidders = fleet_bidders(env.fleet, role, env.role_count)
-    return cached_plan(str(env.world), mco_params(env), bidders, seed)
+    params = params_from_mapping(McoParams, scenario.spec.roles[role].args)
+    bidders = fleet_bidders(scenario.fleet_entries(), role, scenario.spec.n_vehicles)
+    return cached_plan(str(run_dir / "world.yaml"), params, bidders, seed)
 
 
 def draw_plots(rows: list[dict], cfg: Any, plots_dir: Path, out_dir: Path) -> list[Path]:

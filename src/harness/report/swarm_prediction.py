@@ -13,15 +13,8 @@ import dataclasses
 import math
 from typing import Any
 
+from harness.report.totals import number_of
 from harness.scenarios.spec import Scenario
-
-
-def _value(entry: Any) -> float:
-    if isinstance(entry, dict):
-        entry = entry.get("value")
-    if isinstance(entry, int | float) and not isinstance(entry, bool):
-        return float(entry)
-    return math.nan
 
 
 def _round(x: float, digits: int = 2) -> float | None:
@@ -44,16 +37,16 @@ def swarm_prediction(scenario: Scenario, seed: int, report: dict[str, Any]) -> d
     diffs = []
     for name, full in (report.get("vehicles") or {}).items():
         swarm = (predicted.get("vehicles") or {}).get(name, {})
-        b_full = 100.0 * _value(full.get("final_battery_soc"))
-        b_swarm = _value(swarm.get("battery_remaining"))
+        b_full = 100.0 * number_of(full.get("final_battery_soc"))
+        b_swarm = number_of(swarm.get("battery_remaining"))
         entry = {
             "battery_remaining_full": _round(b_full),
             "battery_remaining_swarm": _round(b_swarm),
             "battery_difference": _round(b_swarm - b_full),
-            "airborne_time_full": _round(_value(full.get("airborne_time")), 1),
-            "airborne_time_swarm": _round(_value(swarm.get("airborne_time")), 1),
-            "distance_flown_full": _round(_value(full.get("distance_flown")), 1),
-            "distance_flown_swarm": _round(_value(swarm.get("distance_flown")), 1),
+            "airborne_time_full": _round(number_of(full.get("airborne_time")), 1),
+            "airborne_time_swarm": _round(number_of(swarm.get("airborne_time")), 1),
+            "distance_flown_full": _round(number_of(full.get("distance_flown")), 1),
+            "distance_flown_swarm": _round(number_of(swarm.get("distance_flown")), 1),
         }
         if math.isfinite(b_swarm - b_full):
             diffs.append(abs(b_swarm - b_full))

@@ -9,6 +9,7 @@ Light on purpose (no simulator import): the swarm-scale engine and sweep workers
 from __future__ import annotations
 
 import contextlib
+import math
 import platform
 from importlib import metadata
 from typing import Any
@@ -21,6 +22,19 @@ def versions() -> dict[str, str]:
         with contextlib.suppress(metadata.PackageNotFoundError):
             out[dist] = metadata.version(dist)
     return out
+
+
+def number_of(entry: Any) -> float:
+    """A report quantity's number (``{"value": v, "unit": u}``, or a bare number) as a float.
+
+    NaN for what is not a number: a missing entry, None (a non-finite value in JSON), a bool, a
+    text.
+    """
+    if isinstance(entry, dict):
+        entry = entry.get("value")
+    if isinstance(entry, int | float) and not isinstance(entry, bool):
+        return float(entry)
+    return math.nan
 
 
 FRACTION_UNITS = ("1", "fraction", "ratio", "%")

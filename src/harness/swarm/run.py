@@ -40,7 +40,7 @@ from sitl.links.network import LinkNetwork
 from sitl.physics.earth import GRAVITY_M_S2
 from sitl.power.hover_drain import HoverDrain
 from sitl.power.loads import PayloadLoads
-from sitl.power.propulsion import load_power_spec
+from sitl.power.propulsion import PowerSpec, load_power_spec
 from sitl.vehicles.kinematics import KinematicLimits, load_kinematic_limits
 from sitl.vehicles.multirotor import MultirotorSpec, load_airframe
 
@@ -92,9 +92,8 @@ def _world_targets(scenario: Scenario) -> list[Target]:
     return out
 
 
-def hover_power_w(airframe: MultirotorSpec) -> float:
+def hover_power_w(airframe: MultirotorSpec, power: PowerSpec) -> float:
     """Electrical power of the rotors in hover (momentum theory, the airframe's power block), W."""
-    power = load_power_spec(airframe.yaml_path)
     n = len(airframe.rotors)
     thrust = np.full(n, airframe.mass_kg * GRAVITY_M_S2 / n)
     return float(power.propulsion.hover_power_w(thrust, AIR_DENSITY_KG_M3))
@@ -192,10 +191,10 @@ def _run(
         network.add_node(node_id, role)
     edge_preset = links.classes.get("edge-edge")
     radio_range = links.presets[edge_preset].up.range_m if edge_preset else math.inf
-    hover_w = {name: hover_power_w(a) for name, a in airframes.items()}
-    packs = {name: load_power_spec(a.yaml_path).battery for name, a in airframes.items()}
+    specs = {name: load_power_spec(a.yaml_path) for name, a in airframes.items()}
+    hover_w = {name: hover_power_w(a, specs[name]) for name, a in airframes.items()}
     power = HoverDrain(
-        [packs[v.group.airframe] for v in vehicles],
+        [specs[v.group.airframe].battery for v in vehicles],
         [v.battery_capacity_mah for v in vehicles],
         [hover_w[v.group.airframe] for v in vehicles],
         [PayloadLoads.preset(sw.loads).total_w] * n,
