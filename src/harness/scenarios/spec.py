@@ -31,6 +31,7 @@ from companion.role_params import RUN_CHECK, params_from_mapping
 from harness.net.plan import VEHICLE_ROLES
 from harness.options.suggest import did_you_mean
 from harness.run.companion_args import DeclarationError, check_args, declared_params, program_module
+from harness.scenarios.faults import Fault, FaultSpec, resolve_faults
 from harness.sim.link_models import check_link_model, links_config
 from sitl.power.loads import LOAD_PRESETS
 from sitl.power.propulsion import load_power_spec
@@ -262,6 +263,9 @@ class ScenarioSpec(_Model):
     camera_samples: int = Field(3, ge=0)
     """Camera images saved per vehicle (spread over the run) in ``camera/``."""
     checks: ChecksSpec = Field(default_factory=ChecksSpec)
+    faults: list[FaultSpec] = Field(default_factory=list)
+    """Vehicles that crash, land or lose their radio during the run (``harness.scenarios.faults``;
+    docs/scenarios.md "Faults")."""
 
     @model_validator(mode="after")
     def _roles_have_programs(self) -> ScenarioSpec:
@@ -395,6 +399,10 @@ class Scenario:
         """Every vehicle's ``Vehicle.fleet_entry``, in vehicle order (``ScenarioEnv.fleet``)."""
         return tuple(v.fleet_entry() for v in self.vehicles)
 
+    def faults(self, seed: int) -> list[Fault]:
+        """The run's faults with ``seed`` (the run's): vehicles and times drawn, by time."""
+        return resolve_faults(self.spec.faults, self.spec.n_vehicles, seed)
+
     def params_of(self, vehicle: Vehicle) -> dict[str, float]:
         """Autopilot parameters of one vehicle: DEFAULT_PARAMS, BAT1_CAPACITY, then its role's.
 
@@ -501,6 +509,10 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
             except KeyError as exc:
                 loc = ("fleet", k, "launch_area") if group.launch_area else ("launch_area",)
                 raise fail(loc, str(exc.args[0])) from exc
+    for k, entry in enumerate(spec.faults):
+        problem = entry.check_run(spec.n_vehicles, spec.duration_s)
+        if problem is not None:
+            raise fail(("faults", k, problem[0]), problem[1])
     return Scenario(spec, None, text, world_spec, world, links_file)
 
 
