@@ -156,6 +156,19 @@ class KinematicFleet:
         self.set_path(i, np.array([[here[0], here[1], self.ground_m[i]]]))
         self.landing[i] = True
 
+    def crash(self, i: int) -> None:
+        """Motors off: the vehicle lies on its ground below where it was, and stays there.
+
+        The fall itself (about a second from a few metres) is not modelled.
+        """
+        s = self.state
+        s.position_m[i, 2] = self.ground_m[i]
+        s.speed_m_s[i] = 0.0
+        s.climb_m_s[i] = 0.0
+        s.airborne[i] = False
+        self.active[i] = False
+        self.landing[i] = False
+
     # -- queries -----------------------------------------------------------------------------
 
     def path_done(self) -> np.ndarray:

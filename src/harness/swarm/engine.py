@@ -10,7 +10,10 @@ query). Messages travel through the same :class:`sitl.links.network.LinkNetwork`
 in simulation time. Each kinematic step drains every vehicle's pack
 (:class:`sitl.power.hover_drain.HoverDrain`); each decision counts every airborne vehicle's links
 (the other airborne vehicles within ``link_range_m``, one KD-tree query). ``VehicleHandle`` is the
-kinematic adapter a program gets (``companion.swarm.SwarmVehicle``). Deterministic: one generator
+kinematic adapter a program gets (``companion.swarm.SwarmVehicle``). The scenario's faults are
+applied at the first kinematic step at or after their time (``FaultSchedule``): a crashed vehicle
+drops to the ground and stays there, a landed one lands; neither takes commands any more (its
+program keeps deciding); a radio fault silences the node at its port. Deterministic: one generator
 per run, programs called in vehicle order.
 """
 
@@ -18,8 +21,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -68,6 +72,21 @@ def poisson_events(
         Target(f"event_{k}", (float(p[0]), float(p[1])), 0.0, float(t))
         for k, (t, p) in enumerate(zip(times, points, strict=True))
     ]
+
+
+class ScheduledFault(Protocol):
+    """A fault of the scenario as the engine applies it (``harness.scenarios.faults.Fault``)."""
+
+    vehicle: int
+    kinds: tuple[str, ...]
+    time_s: float
+
+    def record(self, applied_s: float) -> dict[str, Any]:
+        """The report's entry for the fault applied at ``applied_s``."""
+
+
+RadioFault = Callable[[str, bool, bool], None]
+"""``(node_id, tx, rx)``: silence a node's radio from now on (sending, hearing)."""
 
 
 @dataclass
@@ -141,16 +160,22 @@ class VehicleHandle:
 
     def takeoff(self, height_m: float, climb_m_s: float | None = None) -> None:
         """Arm and climb to ``height_m`` above the ground."""
+        if self._engine.lost[self.index]:
+            return  # a crashed or landed-by-fault vehicle takes no commands
         self._fleet.takeoff(self.index, height_m, climb_m_s)
         self._engine.path_done[self.index] = False
 
     def fly_path(self, waypoints_enu_m: np.ndarray, speed_m_s: float) -> None:
         """Fly the waypoints at ``speed_m_s``."""
+        if self._engine.lost[self.index]:
+            return  # a crashed or landed-by-fault vehicle takes no commands
         self._fleet.set_path(self.index, waypoints_enu_m, speed_m_s)
         self._engine.path_done[self.index] = False
 
     def land(self) -> None:
         """Land where it is."""
+        if self._engine.lost[self.index]:
+            return  # a crashed or landed-by-fault vehicle takes no commands
         self._fleet.land(self.index)
         self._engine.path_done[self.index] = False
 
@@ -184,6 +209,9 @@ class SwarmEngine:
         power: the vehicles' packs, drained each kinematic step (None: no battery model).
         link_range_m: two airborne vehicles closer than this are linked, m (None:
             ``radio_range_m``).
+        faults: the scenario's faults, in time order (``Scenario.faults``).
+        radio_fault: silences a node's radio (the messaging port's); None: radio faults are
+            recorded but act on nothing.
 
     At each decision the engine counts, for every airborne vehicle, the other airborne vehicles
     within ``link_range_m`` (its links): ``links_total`` sums them per vehicle; ``series_time_s``,
@@ -205,6 +233,8 @@ class SwarmEngine:
         inside_world: Callable[[np.ndarray], np.ndarray] | None = None,
         power: HoverDrain | None = None,
         link_range_m: float | None = None,
+        faults: Sequence[ScheduledFault] = (),
+        radio_fault: RadioFault | None = None,
     ) -> None:
         self.fleet = fleet
         self.node_ids = node_ids
@@ -234,6 +264,13 @@ class SwarmEngine:
         self._before_decisions: list[Callable[[SwarmEngine], None]] = []
         self.samples: list[np.ndarray] = []
         """Positions at each decision, (N, 3) each."""
+        self.faults = sorted(faults, key=lambda f: f.time_s)
+        self.radio_fault = radio_fault
+        self.lost = np.zeros(fleet.n, dtype=bool)
+        """(N,) bool: crashed or landed by a fault (takes no commands)."""
+        self.fault_records: list[dict[str, Any]] = []
+        """The faults applied so far, each ``Fault.record(time applied)`` with ``applied``."""
+        self._next_fault = 0
 
     def on_decision(self, hook: Callable[[SwarmEngine], None]) -> None:
         """Call ``hook(engine)`` at each decision tick before the programs decide."""
@@ -324,6 +361,37 @@ class SwarmEngine:
         self.series_active.append(len(up))
         self.series_links_mean.append(float(links.mean()) if len(up) else 0.0)
 
+    # -- faults ---------------------------------------------------------------------------
+
+    def _apply_faults(self) -> None:
+        """Apply every fault due by now (see the module docstring)."""
+        while self._next_fault < len(self.faults):
+            fault = self.faults[self._next_fault]
+            if fault.time_s > self.time_s + 1e-9:
+                return
+            self._next_fault += 1
+            i = fault.vehicle
+            kinds = set(fault.kinds)
+            if "crash" in kinds:
+                self.fleet.crash(i)
+                self.lost[i] = True
+            elif "land" in kinds:
+                if self.fleet.state.airborne[i]:
+                    self.fleet.land(i)
+                self.lost[i] = True
+            tx = bool(kinds & {"radio", "radio_tx"})
+            rx = bool(kinds & {"radio", "radio_rx"})
+            if (tx or rx) and self.radio_fault is not None:
+                self.radio_fault(self.node_ids[i], tx, rx)
+            self.fault_records.append(fault.record(self.time_s) | {"applied": True})
+
+    def pending_fault_records(self) -> list[dict[str, Any]]:
+        """The faults not applied (due after the run's end): ``time_s`` None, not applied."""
+        return [
+            f.record(0.0) | {"time_s": None, "applied": False}
+            for f in self.faults[self._next_fault :]
+        ]
+
     # -- the loop -------------------------------------------------------------------------
 
     def _decide(self) -> None:
@@ -357,14 +425,16 @@ class SwarmEngine:
     def all_done(self) -> bool:
         """Every program finished (or failed) and every vehicle is on the ground."""
         finished = all(
-            p is None or p.done or i in self.stats.errors for i, p in enumerate(self.programs)
-        )
+            p is None or p.done or i in self.stats.errors or self.lost[i]
+            for i, p in enumerate(self.programs)
+        )  # a lost vehicle's program is not waited for
         return finished and not self.fleet.state.airborne.any()
 
     def run(self, duration_s: float, end_when_done: bool = True) -> str:
         """Run to ``duration_s`` simulated seconds (or until all done); return why it stopped."""
         total = round(duration_s / self.dt_s)
         while self.steps < total:
+            self._apply_faults()
             if self.steps % self.steps_per_decision == 0:
                 self._decide()
                 if end_when_done and self.steps > 0 and self.all_done():

@@ -6,7 +6,8 @@ as the full stack, each airframe's kinematic limits), one messaging node per veh
 scenario's Poisson events, and each role's swarm program (``swarm_program`` of the role's
 module), runs the engine in simulation time and returns the report: the same structure as a
 full-stack run's (``vehicles``, ``fleet`` with ``companions`` totals, ``checks``, ``passed``), plus
-``net`` (link metrics by class) and ``wall`` (wall-clock figures, which no comparison uses).
+``net`` (link metrics by class), ``faults`` (each injected fault with its simulated time) and
+``wall`` (wall-clock figures, which no comparison uses).
 Same scenario and seed, same report apart from ``wall`` and ``wall_time_s``. docs/swarm.md.
 """
 
@@ -199,12 +200,13 @@ def _run(
         [hover_w[v.group.airframe] for v in vehicles],
         [PayloadLoads.preset(sw.loads).total_w] * n,
     )
+    clock = lambda: engine.time_s  # noqa: E731
+    port = InProcessPort(network, clock)
     engine = SwarmEngine(
         fleet, node_ids, sw.step_hz, sw.decision_hz, sw.neighbours, radio_range, tan_half,
         targets, inside if world is not None else None, power, sw.link_range_m,
+        scenario.faults(seed), port.silence,
     )  # fmt: skip
-    clock = lambda: engine.time_s  # noqa: E731
-    port = InProcessPort(network, clock)
     config = NetConfig(
         {
             nid: NodeSpec(nid, role, ("127.0.0.1", 1 + i))
@@ -248,6 +250,12 @@ def _run(
             engine.stats.errors[v.index] = f"{type(exc).__name__}: {exc}"
     stop_reason = engine.run(spec.duration_s, spec.end_when_done)
     report = _report(scenario, seed, engine, network, nodes, stop_reason)
+    report["faults"] = engine.fault_records + engine.pending_fault_records()
+    for record in engine.fault_records:
+        entry = report["vehicles"][record["vehicle"]]
+        entry["fault"] = "+".join(filter(None, (entry.get("fault"), record["kind"])))
+    dropped = sum(port.fault_drops.values())
+    report["fleet"]["datagrams_dropped_by_faults"] = quantity(dropped, "count")
     if write_files:  # a sweep's trial (no run directory) keeps only the report
         _write_outputs(report, scenario, engine, out)
     wall_s = time.monotonic() - wall0

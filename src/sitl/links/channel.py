@@ -44,6 +44,8 @@ class Drop(StrEnum):
     """The node was outside the network's coverage."""
     NO_LINK = "no_link"
     """No link joins the two nodes."""
+    FAULT = "fault"
+    """The node's radio was faulted (a scenario's ``faults:``): it sends or hears nothing."""
 
 
 class DatagramTooLargeError(ValueError):
