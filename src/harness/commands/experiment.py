@@ -10,8 +10,8 @@ from rich.markup import escape
 
 from harness.run.launch import console
 
-EXPERIMENTS = ("seed004",)
-"""The experiments there are (docs/seed004.md, ...)."""
+EXPERIMENTS = ("seed003", "seed004")
+"""The experiments there are (docs/seed003.md, docs/seed004.md)."""
 EXIT_FAILED = 1
 """A trial errored or failed its checks (its row says which); the tables are still written."""
 EXIT_BAD_INPUT = 2
@@ -25,10 +25,16 @@ def experiment(
     ],
     quick: Annotated[
         bool,
-        typer.Option("--quick", help="fewer fleet sizes and seeds (under 5 minutes on 2 cores)"),
+        typer.Option("--quick", help="fewer cells and runs (under 5 minutes on 2 cores)"),
     ] = False,
     seeds: Annotated[
-        int | None, typer.Option(min=1, help="seeds per point [default: 10, --quick 2]")
+        int | None,
+        typer.Option(
+            "--runs",
+            "--seeds",
+            min=1,
+            help="runs (seeds) per cell [seed003: 31, --quick 5; seed004: 10, --quick 2]",
+        ),
     ] = None,
     workers: Annotated[
         int, typer.Option(min=1, help="worker processes of the local Dask cluster")
@@ -48,7 +54,9 @@ def experiment(
     Exit status: 0 when every run passed its checks, 1 when one errored or failed them, 2 for
     bad input (nothing ran).
 
-    Example:  swarmsitl experiment seed004 --quick --out runs/seed004-quick
+    Example:  swarmsitl experiment seed003 --quick --out runs/seed003-quick
+
+    Example:  swarmsitl experiment seed003 --runs 31 --workers 2 --out runs/seed003
 
     Example:  swarmsitl experiment seed004 --seeds 10 --workers 2 --out runs/seed004
     """
@@ -57,15 +65,16 @@ def experiment(
             f"[red]error:[/red] no experiment {escape(name)!r}; one of {list(EXPERIMENTS)}"
         )
         raise typer.Exit(EXIT_BAD_INPUT)
-    from harness.experiments import seed004
+    import importlib
 
+    module = importlib.import_module(f"harness.experiments.{name}")
     try:
-        cfg = seed004.make_config(quick, seeds)
-        status = seed004.run_experiment(
+        cfg = module.make_config(quick, seeds)
+        status = module.run_experiment(
             cfg, out.absolute(), workers=workers, scheduler=scheduler, console=console,
             say=lambda text: console.print(text, markup=False, highlight=False, soft_wrap=True),
         )  # fmt: skip
-    except (seed004.ExperimentError, OSError) as exc:  # a case that cannot be planned (nothing
+    except (module.ExperimentError, OSError) as exc:  # a case that cannot be planned (nothing
         # ran), a bad --seeds, or no scheduler at --scheduler
         console.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(EXIT_BAD_INPUT) from exc
