@@ -229,7 +229,7 @@ class ScenarioRun:
             vehicle_params=tuple(scenario.params_of(v) for v in self.vehicles),
             onboard_link=spec.links.onboard,
             gcs_link=spec.links.gcs,
-            links_file=scenario.links_file,
+            links=scenario.links_config(),
             router=self.net_run.router if self.net_run is not None else None,
             ping_period_s=LOCKSTEP.ping_period_s if self.options.speed is None else 0.0,
         )
@@ -270,7 +270,7 @@ class ScenarioRun:
             cloud=spec.cloud,
             node_base=self.options.ports.net,
             proxy_base=self.options.ports.net_proxy,
-            links_file=self.scenario.links_file,
+            links=self.scenario.links_config(),
         )
         self.net_run = NetRun(plan, self.seed, self.run_dir)
 

@@ -34,7 +34,6 @@ from harness.report.run_report import plot_tracks, quantity
 from harness.report.totals import fleet_totals, metric_checks, versions
 from harness.scenarios.fleet_spawn import fleet_spawn
 from harness.scenarios.spec import Scenario, ScenarioError
-from harness.sim.link_models import links_config
 from harness.swarm.engine import SwarmEngine, Target, poisson_events
 from sitl.kinematic_fleet import KinematicFleet
 from sitl.links.inprocess import InProcessPort
@@ -185,7 +184,7 @@ def _run(
         ]
     )
     # messaging: one node per vehicle on the link network, in simulation time
-    links = links_config(scenario.links_file)
+    links = scenario.links_config()
     network = LinkNetwork(links, seed)
     node_ids = [f"vehicle{v.index + 1}" for v in vehicles]
     roles = [v.group.node or "edge" for v in vehicles]
