@@ -52,7 +52,7 @@ def test_unknown_link_models_are_refused_naming_the_field(tmp_path):
     links.write_text("presets:\n  slow-uart:\n    kind: uart\n    rate_bps: 115200\n"
                      "    bits_per_byte: 10\n    overhead_bytes: 0\n    in_order: true\n"
                      "    queue_bytes: 4096\n    max_datagram_bytes: 2048\n")  # fmt: skip
-    SimulationConfig(onboard_link="slow-uart", links_file=links)
+    SimulationConfig(onboard_link="slow-uart", links=links_config(links))
     with pytest.raises(ValueError, match="onboard_link"):
         SimulationConfig(onboard_link="slow-uart")
     assert datarate_bytes_s("slow-uart", links_config(links)) == pytest.approx(115200 / 20)

@@ -24,6 +24,7 @@ from harness.net.roles import (
 )
 from harness.run.launch import console, open_simulation, run_dir_of
 from harness.run.session import RunSession
+from harness.sim.link_models import links_config
 
 LANDING_S = 60.0
 """Simulated seconds the demo keeps running after the roles stop, for the vehicles to land."""
@@ -100,13 +101,14 @@ def net_demo(
     if not duration > 0 or not speed > 0:
         raise typer.BadParameter("--duration and --speed must be > 0")
     run_dir = run_dir_of(out)
-    plan = NetPlan(
-        roles=("edge", "edge", "fog"),
-        node_base=net_port,
-        proxy_base=proxy_port,
-        links_file=links,
-    )
     try:
+        link_config = links_config(links)
+        plan = NetPlan(
+            roles=("edge", "edge", "fog"),
+            node_base=net_port,
+            proxy_base=proxy_port,
+            links=link_config,
+        )
         net = NetRun(plan, seed, run_dir)
     except (OSError, ValueError) as exc:
         console.print(f"[red]error:[/red] {exc}")
@@ -117,7 +119,7 @@ def net_demo(
         ports=PortPlan(sdk_base=sdk_port, listen_base=listen_port, gcs_port=0, payload_base=0),
         out_dir=run_dir,
         router=net.router,
-        links_file=links,
+        links=link_config,
     )
     sim = open_simulation(cfg)
     attach(net, sim)

@@ -165,7 +165,7 @@ def sweep(
         console.print(f"table: {summary.table}", markup=False, highlight=False)
     if summary.plots:
         console.print(f"plots: {summary.plots[0].parent}/ ({len(summary.plots)} PNG)", markup=False)
-    parameters = list(plan.spec.grid)
+    parameters = plan.parameters
     for row in summary.failing[:SHOWN_FAILURES]:
         console.print(failure_line(row, parameters), markup=False, highlight=False)
     if len(summary.failing) > SHOWN_FAILURES:

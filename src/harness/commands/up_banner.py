@@ -13,7 +13,7 @@ from harness.commands.autopilot import (
 from harness.commands.params import ParamsLoad, print_params_load
 from harness.run.endpoint_table import VehicleEndpoints, endpoint_table
 from harness.run.launch import console
-from harness.sim.link_models import NO_LINK, describe, links_config
+from harness.sim.link_models import NO_LINK, describe
 from harness.sim.simulation import Simulation, SimulationConfig
 from harness.sim.world_setup import WorldSetup
 from sitl.sensors.camera import RENDER_S_PER_PIXEL
@@ -97,8 +97,8 @@ def print_banner(
             if ports.gcs_port:
                 gcs = f"{bind}:{ports.gcs_listen_port(i)} -> {ports.peer_addr}:{ports.gcs_port}"
             models = (
-                f"{describe(cfg.onboard_link, links_config(cfg.links_file))} / "
-                f"{describe(cfg.gcs_link, links_config(cfg.links_file)) if ports.gcs_port else '-'}"
+                f"{describe(cfg.onboard_link, cfg.links)} / "
+                f"{describe(cfg.gcs_link, cfg.links) if ports.gcs_port else '-'}"
             )
             rows.append(
                 VehicleEndpoints(

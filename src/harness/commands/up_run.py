@@ -46,7 +46,7 @@ from harness.run.launch import console, open_simulation, run_dir_of
 from harness.run.lockstep import LOCKSTEP
 from harness.run.session import RunSession
 from harness.sim.client_links import parse_udp_out
-from harness.sim.link_models import NO_LINK
+from harness.sim.link_models import NO_LINK, links_config
 from harness.sim.simulation import EXTERNAL, INTERNAL, PortPlan, SimulationConfig
 from harness.sim.world_setup import WorldSetup, world_config
 from sitl.sensors.camera import MOUNT_PITCH_DEG
@@ -200,7 +200,7 @@ def plan_up(o: UpFlags) -> UpPlan:
         try:
             plan = NetPlan(
                 roles, cloud=o.cloud_node, node_base=o.net_port, proxy_base=o.net_proxy_port,
-                links_file=o.links,
+                links=links_config(o.links),
             )  # fmt: skip
             net_run = NetRun(plan, o.seed, run_dir)
         except (OSError, ValueError) as exc:
@@ -245,7 +245,7 @@ def plan_up(o: UpFlags) -> UpPlan:
         mocap_port=o.mocap_port,
         onboard_link=link,
         gcs_link=gcs_link,
-        links_file=o.links,
+        links=links_config(o.links),
         router=net_run.router if net_run is not None else None,
         signing_key=key,
         autopilot=o.autopilot,

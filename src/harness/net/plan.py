@@ -23,6 +23,7 @@ import numpy as np
 from harness.net.report import net_report, task_intervals
 from harness.sim.link_models import links_config
 from sitl.devices.link_router import LinkRouter, RouterNode
+from sitl.links.config import LinksConfig
 from sitl.links.network import LinkNetwork
 from sitl.power.energy import EnergyLedger
 
@@ -60,8 +61,9 @@ class NetPlan:
     """UDP port of the first node (the cloud if any, then the vehicles in order)."""
     proxy_base: int = 47500
     """UDP port of the router standing for the first node."""
-    links_file: Path | None = None
-    """The user's link file (None: the shipped presets)."""
+    links: LinksConfig | None = None
+    """The link presets and classes (``harness.sim.link_models.links_config``, a scenario's
+    ``Scenario.links_config()``); None: the shipped presets."""
 
     def __post_init__(self) -> None:
         if not self.roles:
@@ -163,7 +165,7 @@ class NetRun:
     def __init__(self, plan: NetPlan, seed: int, out_dir: Path) -> None:
         self.plan = plan
         self.nodes = plan.nodes()
-        self.network = LinkNetwork(links_config(plan.links_file), seed)
+        self.network = LinkNetwork(plan.links or links_config(), seed)
         for node in self.nodes:
             self.network.add_node(node.node_id, node.role)
         self.router = LinkRouter(

@@ -44,6 +44,7 @@ from harness.report.flight_checks import (
     stayed_inside,
 )
 from harness.report.flight_log import FlightLog
+from harness.report.run_metrics import add_run_metrics
 from harness.report.run_report import write_run_report
 from harness.report.swarm_prediction import swarm_prediction
 from harness.report.totals import fleet_totals, metric_checks, versions
@@ -139,6 +140,23 @@ def traceback_in(log_path: Path) -> str | None:
     return body[:TRACEBACK_CHARS]
 
 
+def finish_report(
+    report: dict[str, Any], scenario: Scenario, role_envs: dict[str, ScenarioEnv]
+) -> None:
+    """Add a full-stack report's run-wide parts, in place.
+
+    The companions' fleet totals, the roles' ``run_metrics`` (``fleet.run``), the
+    ``checks.metrics`` bounds, then ``passed``.
+    """
+    report.setdefault("fleet", {})["companions"] = fleet_totals(report)
+    add_run_metrics(report, scenario, role_envs)
+    checks = report.setdefault("checks", {})
+    bounds = scenario.spec.checks.metrics
+    if bounds:
+        checks |= metric_checks(report, bounds)
+    report["passed"] = bool(report.get("complete")) and all(c["ok"] for c in checks.values())
+
+
 class ScenarioRun:
     """One run of a scenario; ``run()`` returns the report (a dict, also in report.json)."""
 
@@ -164,6 +182,8 @@ class ScenarioRun:
         self.sim: Simulation | None = None
         self.manifest: RunManifest | None = None
         self._grpc_ports: list[int] = []
+        self.role_envs: dict[str, ScenarioEnv] = {}
+        """Each role's first started companion's environment (``run_metrics``)."""
         """Each vehicle's companion's mavsdk_server port (the base's, or the next free ones)."""
         self.net_run: NetRun | None = None
         self.setup: WorldSetup | None
@@ -209,7 +229,7 @@ class ScenarioRun:
             vehicle_params=tuple(scenario.params_of(v) for v in self.vehicles),
             onboard_link=spec.links.onboard,
             gcs_link=spec.links.gcs,
-            links_file=scenario.links_file,
+            links=scenario.links_config(),
             router=self.net_run.router if self.net_run is not None else None,
             ping_period_s=LOCKSTEP.ping_period_s if self.options.speed is None else 0.0,
         )
@@ -250,7 +270,7 @@ class ScenarioRun:
             cloud=spec.cloud,
             node_base=self.options.ports.net,
             proxy_base=self.options.ports.net_proxy,
-            links_file=self.scenario.links_file,
+            links=self.scenario.links_config(),
         )
         self.net_run = NetRun(plan, self.seed, self.run_dir)
 
@@ -276,6 +296,7 @@ class ScenarioRun:
             params=role.args,
             fleet=self.fleet_entries,
         )
+        self.role_envs.setdefault(v.group.role, senv)
         env = dict(os.environ) | senv.to_env() | dict(role.env)
         env |= {"PYTHONUNBUFFERED": "1", "SWARMSITL_CLOCK_FILE": str(self.session.clock.path)}
         if self.options.speed is not None:
@@ -579,11 +600,7 @@ class ScenarioRun:
         extra["checks"] = self._checks(log)
         extra["passed"] = complete and all(c["ok"] for c in extra["checks"].values())
         report = write_run_report(self.run_dir, self.scenario.world, None, extra)
-        report.setdefault("fleet", {})["companions"] = fleet_totals(report)
-        bounds = self.scenario.spec.checks.metrics
-        if bounds:
-            report["checks"] |= metric_checks(report, bounds)
-            report["passed"] = complete and all(c["ok"] for c in report["checks"].values())
+        finish_report(report, self.scenario, self.role_envs)
         if self.scenario.spec.swarm_prediction:
             try:
                 report["swarm_prediction"] = swarm_prediction(self.scenario, self.seed, report)

@@ -33,6 +33,7 @@ from harness.options.suggest import did_you_mean
 from harness.run.companion_args import DeclarationError, check_args, declared_params, program_module
 from harness.scenarios.faults import Fault, FaultSpec, resolve_faults
 from harness.sim.link_models import check_link_model, links_config
+from sitl.links.config import LinksConfig
 from sitl.power.loads import LOAD_PRESETS
 from sitl.power.propulsion import load_power_spec
 from sitl.vehicles.multirotor import airframe_yaml_path
@@ -164,6 +165,17 @@ class LinksSpec(_Model):
     """Ground-station path (only with a ground-station port)."""
     file: str | None = None
     """Your link file, relative to the scenario file."""
+    presets: dict[str, dict[str, Any]] = Field(default_factory=dict)
+    """Link presets merged over the shipped ones and ``file``'s, as a link file's ``presets``
+    (docs/links.md, "Inline presets in a scenario")."""
+    classes: dict[str, str | None] = Field(default_factory=dict)
+    """Link classes (``edge-edge: mesh``) over the shipped ones and ``file``'s, as a link file's
+    ``classes``."""
+
+    def inline(self) -> str | None:
+        """``presets`` and ``classes`` as a link file's mapping in JSON text; None without any."""
+        data = {k: v for k, v in (("presets", self.presets), ("classes", self.classes)) if v}
+        return json.dumps(data, sort_keys=True) if data else None
 
 
 class SensorsSpec(_Model):
@@ -371,6 +383,13 @@ class Scenario:
         """Where relative paths of the file start."""
         return self.path.parent if self.path is not None else Path.cwd()
 
+    def links_config(self) -> LinksConfig:
+        """The run's link presets and classes: shipped, ``links.file``'s, then the inline ones.
+
+        The one source of a scenario's link models (swarm engine, full stack, node messaging).
+        """
+        return links_config(self.links_file, self.spec.links.inline())
+
     def config_hash(self) -> str:
         """SHA-256 of the scenario text and the world spec (what determines the run with a seed)."""
         h = hashlib.sha256(self.text.encode())
@@ -480,6 +499,11 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
         links = links_config(links_file)
     except (OSError, ValueError) as exc:
         raise fail(("links", "file"), str(exc)) from exc
+    if spec.links.inline() is not None:
+        try:
+            links = links_config(links_file, spec.links.inline())
+        except ValueError as exc:  # the file alone was fine: the inline presets' field
+            raise _inline_links_error(fail, str(exc)) from exc
     for key in ("onboard", "gcs"):
         try:
             check_link_model(getattr(spec.links, key), key, links)
@@ -514,6 +538,17 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
         if problem is not None:
             raise fail(("faults", k, problem[0]), problem[1])
     return Scenario(spec, None, text, world_spec, world, links_file)
+
+
+def _inline_links_error(fail: Any, message: str) -> ScenarioError:
+    """A link error of the inline ``links.presets`` / ``links.classes``, at its field.
+
+    The link loader's message starts with the field (``presets.mesh.range_m: must be ...``).
+    """
+    field, sep, rest = message.partition(": ")
+    if sep and " " not in field and field.split(".")[0] in ("presets", "classes"):
+        return fail(("links", *field.split(".")), rest)
+    return fail(("links",), message)
 
 
 def _check_role_args(

@@ -35,7 +35,7 @@ from autopilot_emu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
 from autopilot_emu.mavlink.link_hub import LinkHub
 from autopilot_emu.mavlink.streams import StreamProfile
 from autopilot_emu.mavlink.transport import PtyTransport
-from harness.sim.link_models import SERIAL, datarate_bytes_s, links_config, mavlink_shaper
+from harness.sim.link_models import SERIAL, datarate_bytes_s, mavlink_shaper
 
 if TYPE_CHECKING:
     from harness.sim.simulation import Simulation
@@ -96,7 +96,7 @@ def client_links(
     """
     config = sim.config
     out = config.out_dir
-    links_file = links_config(config.links_file)
+    link_config = config.links
     base = EndpointConfig(
         sysid=i + 1,
         compid=1,
@@ -111,7 +111,7 @@ def client_links(
     links: list[MavlinkEndpoint] = []
     try:
         if config.serial:
-            shaper = mavlink_shaper(SERIAL_LINK_MODEL, config.seed, i, SERIAL, links_file)
+            shaper = mavlink_shaper(SERIAL_LINK_MODEL, config.seed, i, SERIAL, link_config)
             rate = config.link_datarate_bytes_s
             serial = replace(
                 base,
@@ -120,7 +120,7 @@ def client_links(
                 tlog_path=None if out is None else out / f"vehicle{i + 1}-serial.tlog",
                 shaper=shaper,
                 datarate_bytes_s=(
-                    datarate_bytes_s(SERIAL_LINK_MODEL, links_file) if rate is None else rate
+                    datarate_bytes_s(SERIAL_LINK_MODEL, link_config) if rate is None else rate
                 ),
             )
             transport = PtyTransport(None if out is None else serial_link_path(out, i))

@@ -25,6 +25,7 @@ from harness.sim.link_models import (
 )
 from sitl.devices.link_router import LinkRouter
 from sitl.hil_server import HIL_PORT_BASE
+from sitl.links.config import LinksConfig
 from sitl.physics.wind import WindConfig
 from sitl.vehicles.multirotor import MultirotorSpec
 from sitl.world import WorldConfig
@@ -167,9 +168,10 @@ class SimulationConfig:
     """Data-rate limit of the MAVLink instances on serial link models, B/s (PX4's MAV_x_RATE):
     their streams are scaled down together to fit. None: PX4's default for MAV_x_RATE = 0,
     baud / 20 (half the line); 0: no limit (what exceeds the line queues and drops)."""
-    links_file: Path | None = None
-    """The user's link file (presets and classes merged over ``sitl/links/presets.yaml``);
-    None: the shipped presets."""
+    links: LinksConfig | None = None
+    """The link presets and classes (``harness.sim.link_models.links_config``: the shipped
+    ``sitl/links/presets.yaml`` with a user's link file merged over; a scenario's
+    ``Scenario.links_config()``); None: the shipped presets."""
     params: dict[str, float] = field(default_factory=dict)
     """Autopilot parameters set on every vehicle after its airframe's (e.g. a GPS-denied world's
     EKF2_EV_CTRL, ``harness.sim.world_setup``); an unknown name raises ValueError naming it."""
@@ -204,16 +206,16 @@ class SimulationConfig:
     0: none."""
 
     def __post_init__(self) -> None:
-        for name in ("out_dir", "links_file"):  # absolute: printed to users, handed to processes
-            path = getattr(self, name)
-            if path is not None:
-                object.__setattr__(self, name, Path(path).absolute())
+        if self.out_dir is not None:  # absolute: printed to users, handed to processes
+            object.__setattr__(self, "out_dir", Path(self.out_dir).absolute())
         if self.world is not None:
             if not isinstance(self.world, WorldConfig):
                 raise ValueError(f"world must be a WorldConfig or None, got {self.world!r}")
             for name, value in _shared_world_settings(self, self.world).items():
                 object.__setattr__(self, name, value)
-        links = links_config(self.links_file)
+        if self.links is None:
+            object.__setattr__(self, "links", links_config())
+        links = self.links
         check_link_model(self.onboard_link, "onboard_link", links)
         check_link_model(self.gcs_link, "gcs_link", links)
         if self.n_vehicles < 1:

@@ -13,6 +13,7 @@ byte rate, baud / 20 B/s, and scales its streams to fit (see ``EndpointConfig.da
 
 from __future__ import annotations
 
+import json
 from functools import lru_cache
 from pathlib import Path
 
@@ -33,9 +34,13 @@ PATH_NAMES = ("onboard", "gcs", "serial")
 
 
 @lru_cache(maxsize=8)
-def links_config(path: Path | None = None) -> LinksConfig:
-    """The shipped presets, with the user's link file merged over them (read once per path)."""
-    return LinksConfig.load(path)
+def links_config(path: Path | None = None, inline: str | None = None) -> LinksConfig:
+    """The shipped presets, the user's link file and ``inline`` merged over them, in turn.
+
+    ``inline``: a link file's mapping as JSON text (a scenario's ``links.presets`` and
+    ``links.classes``; text, so that the result is cached per path and mapping).
+    """
+    return LinksConfig.load(path, None if inline is None else json.loads(inline))
 
 
 def link_models(config: LinksConfig | None = None) -> tuple[str, ...]:

@@ -45,7 +45,6 @@ from harness.sim.link_models import (
     NO_LINK,
     ONBOARD,
     datarate_bytes_s,
-    links_config,
     mavlink_shaper,
 )
 from harness.sim.mocap_publisher import MocapPublisher
@@ -261,9 +260,9 @@ class Simulation:
             for profile, listen_port, peers, suffix in plan:
                 payload = suffix == _PAYLOAD
                 path, model = models.get(suffix, (None, NO_LINK))
-                links_file = links_config(self.config.links_file)
+                link_config = self.config.links
                 shaper = (
-                    mavlink_shaper(model, self.config.seed, i, path, links_file)
+                    mavlink_shaper(model, self.config.seed, i, path, link_config)
                     if path is not None
                     else None
                 )
@@ -292,7 +291,7 @@ class Simulation:
                     ),
                     shaper=shaper,
                     datarate_bytes_s=(
-                        datarate_bytes_s(model, links_file)
+                        datarate_bytes_s(model, link_config)
                         if self.config.link_datarate_bytes_s is None
                         else self.config.link_datarate_bytes_s
                     )

@@ -5,9 +5,9 @@ as the full stack, each airframe's kinematic limits), one messaging node per veh
 :class:`~sitl.links.network.LinkNetwork` seeded with the run's seed, the world's targets and the
 scenario's Poisson events, and each role's swarm program (``swarm_program`` of the role's
 module), runs the engine in simulation time and returns the report: the same structure as a
-full-stack run's (``vehicles``, ``fleet`` with ``companions`` totals, ``checks``, ``passed``), plus
-``net`` (link metrics by class), ``faults`` (each injected fault with its simulated time) and
-``wall`` (wall-clock figures, which no comparison uses).
+full-stack run's (``vehicles``, ``fleet`` with ``companions`` totals and the roles' ``run``
+metrics, ``faults`` (each injected fault with its simulated time), ``checks``, ``passed``), plus
+``net`` (link metrics by class) and ``wall`` (wall-clock figures, which no comparison uses).
 Same scenario and seed, same report apart from ``wall`` and ``wall_time_s``. docs/swarm.md.
 """
 
@@ -29,11 +29,11 @@ from companion.net.config import NetConfig, NodeSpec
 from companion.net.node import Node
 from companion.net.transport import PortTransport
 from companion.scenario_env import ScenarioEnv
+from harness.report.run_metrics import add_run_metrics
 from harness.report.run_report import plot_tracks, quantity
 from harness.report.totals import fleet_totals, metric_checks, versions
 from harness.scenarios.fleet_spawn import fleet_spawn
 from harness.scenarios.spec import Scenario, ScenarioError
-from harness.sim.link_models import links_config
 from harness.swarm.engine import SwarmEngine, Target, poisson_events
 from sitl.kinematic_fleet import KinematicFleet
 from sitl.links.inprocess import InProcessPort
@@ -184,7 +184,7 @@ def _run(
         ]
     )
     # messaging: one node per vehicle on the link network, in simulation time
-    links = links_config(scenario.links_file)
+    links = scenario.links_config()
     network = LinkNetwork(links, seed)
     node_ids = [f"vehicle{v.index + 1}" for v in vehicles]
     roles = [v.group.node or "edge" for v in vehicles]
@@ -224,6 +224,7 @@ def _run(
     if progress is not None:
         engine.on_decision(lambda e: progress(e.time_s))
     fleet_entries = scenario.fleet_entries()
+    role_envs: dict[str, ScenarioEnv] = {}  # each role's first vehicle's, for run_metrics
     for v in vehicles:
         factory = factories[v.group.role]
         if factory is None:
@@ -244,18 +245,13 @@ def _run(
             params=dict(role.args),
             fleet=fleet_entries,
         )
+        role_envs.setdefault(v.group.role, env)
         try:
             engine.programs[v.index] = factory(env, engine.handles[v.index], nodes[v.index])
         except Exception as exc:  # a program that cannot start fails its vehicle, not the run
             engine.stats.errors[v.index] = f"{type(exc).__name__}: {exc}"
     stop_reason = engine.run(spec.duration_s, spec.end_when_done)
-    report = _report(scenario, seed, engine, network, nodes, stop_reason)
-    report["faults"] = engine.fault_records + engine.pending_fault_records()
-    for record in engine.fault_records:
-        entry = report["vehicles"][record["vehicle"]]
-        entry["fault"] = "+".join(filter(None, (entry.get("fault"), record["kind"])))
-    dropped = sum(port.fault_drops.values())
-    report["fleet"]["datagrams_dropped_by_faults"] = quantity(dropped, "count")
+    report = _report(scenario, seed, engine, network, port, stop_reason, role_envs)
     if write_files:  # a sweep's trial (no run directory) keeps only the report
         _write_outputs(report, scenario, engine, out)
     wall_s = time.monotonic() - wall0
@@ -271,8 +267,8 @@ def _run(
 
 
 def _report(
-    scenario: Scenario, seed: int, engine: SwarmEngine, network: LinkNetwork, nodes: list[Node],
-    stop_reason: str,
+    scenario: Scenario, seed: int, engine: SwarmEngine, network: LinkNetwork,
+    port: InProcessPort, stop_reason: str, role_envs: dict[str, ScenarioEnv],
 ) -> dict:  # fmt: skip
     spec = scenario.spec
     fleet = engine.fleet
@@ -352,8 +348,16 @@ def _report(
         "net": net,
         "warnings": [],
     }
+    report["faults"] = engine.fault_records + engine.pending_fault_records()
+    for record in engine.fault_records:
+        entry = vehicles[record["vehicle"]]
+        entry["fault"] = "+".join(filter(None, (entry.get("fault"), record["kind"])))
+    report["fleet"]["datagrams_dropped_by_faults"] = quantity(
+        sum(port.fault_drops.values()), "count"
+    )
     report["fleet"]["companions"] = fleet_totals(report)
     report["checks"] = _checks(scenario, engine)
+    add_run_metrics(report, scenario, role_envs)
     if spec.checks.metrics:
         report["checks"] |= metric_checks(report, spec.checks.metrics)
     if spec.checks.no_failsafe:

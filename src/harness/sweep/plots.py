@@ -228,13 +228,17 @@ def plot_sweep(
     x_name: str,
     metrics: list[str],
     plot_dir: Path,
+    parameters: Iterable[str] = (),
 ) -> tuple[list[Path], list[str]]:
     """A PNG per metric (default: every ``fleet.`` metric) from the ``ok`` rows; paths, warnings.
+
+    ``grid``: one column per axis of the grid -> its values; ``parameters``: every grid
+    parameter's column besides (a coupled key's others), none of which is a metric.
 
     One warning when some plotted point has too few seeds for a band.
     """
     rows = [r for r in table.to_pylist() if r.get("status") == "ok"]
-    columns = set(table.column_names)
+    columns = set(table.column_names) - set(parameters)
     if not metrics:
         metrics = sorted(
             c

@@ -253,7 +253,7 @@ def run_sweep(
         pending = pending[:max_trials]
     runs = (out_dir / "runs").resolve()  # full-fidelity trials' run directories
     pending = [dataclasses.replace(t, run_dir=str(runs / t.trial_id)) for t in pending]
-    kinds = {name: value_type(values) for name, values in plan.spec.grid.items()}
+    kinds = {name: value_type(values) for name, values in plan.spec.parameter_values.items()}
     try:
         if pending:
             with contextlib.ExitStack() as stack:
@@ -271,8 +271,9 @@ def run_sweep(
     summary.failing = [r for r in rows if r.get("status") != "ok" or not r.get("passed")]
     if table is not None and plots:
         summary.plots, summary.warnings = plot_sweep(
-            table, plan.spec.grid, plan.spec.x_parameter, plan.spec.metrics, out_dir / "plots"
-        )
+            table, plan.spec.axes, plan.spec.x_parameter, plan.spec.metrics, out_dir / "plots",
+            plan.parameters,
+        )  # fmt: skip
     return summary
 
 

@@ -29,6 +29,14 @@ from worlds.yaml_source import validate_yaml
 Scalar = bool | int | float | str
 """A grid value: what a YAML scalar holds."""
 
+COUPLE = "="
+"""Joins the parameters of a coupled grid key (``world.agent_count = world.task_count``)."""
+
+
+def coupled(key: str) -> tuple[str, ...]:
+    """The dotted parameters a grid key sets: one, or several joined by `` = ``."""
+    return tuple(part.strip() for part in key.split(COUPLE))
+
 
 class SweepError(ValueError):
     """A sweep that cannot run; the message names the file and what is wrong."""
@@ -45,20 +53,33 @@ class SweepSpec(BaseModel):
     scenario: str
     """The scenario file, relative to the sweep file, or ``example:NAME`` for a shipped one."""
     grid: dict[str, list[Scalar]] = Field(min_length=1)
-    """Dotted scenario parameter -> the values it takes; the trials are every combination."""
+    """Dotted scenario parameter -> the values it takes; the trials are every combination. A key
+    of several parameters joined by `` = `` (``world.agent_count = fleet.0.count``) sets all of
+    them to each of its values (one axis of the grid)."""
     seeds: int | list[int] = 1
     """Seeds of every grid point: N means 0..N-1, or a list of seeds."""
     metrics: list[str] = Field(default_factory=list)
     """Table columns to plot (``fleet.coverage_fraction``) [default: every ``fleet.`` metric]."""
     x: str | None = None
-    """The grid parameter on the plots' x axis [default: the first grid parameter]."""
+    """The grid parameter on the plots' x axis (a grid key, or one parameter of a coupled key)
+    [default: the first grid parameter]."""
     trial_timeout_s: float | None = Field(None, gt=0)
     """Full-fidelity trials: give up a run after this many wall seconds (the trial fails)."""
 
     @field_validator("grid")
     @classmethod
     def _values(cls, grid: dict[str, list[Scalar]]) -> dict[str, list[Scalar]]:
+        seen: set[str] = set()
         for key, values in grid.items():
+            parts = coupled(key)
+            if not all(parts):
+                raise ValueError(
+                    f"{key!r}: an empty parameter name (join dotted parameters with ' = ')"
+                )
+            for part in parts:
+                if part in seen:
+                    raise ValueError(f"{key}: the parameter {part} appears twice in the grid")
+                seen.add(part)
             if not values:
                 raise ValueError(f"{key}: an empty list of values (give at least one)")
             if len({json.dumps(v) for v in values}) != len(values):
@@ -77,9 +98,19 @@ class SweepSpec(BaseModel):
 
     @model_validator(mode="after")
     def _x(self) -> SweepSpec:
-        if self.x is not None and self.x not in self.grid:
+        if self.x is not None and self.x not in self.grid and self.x not in self.parameters:
             raise ValueError(f"x: {self.x!r} is not a grid parameter ({', '.join(self.grid)})")
         return self
+
+    @property
+    def parameters(self) -> list[str]:
+        """Every dotted parameter the grid sets, in file order (a coupled key's each)."""
+        return [part for key in self.grid for part in coupled(key)]
+
+    @property
+    def parameter_values(self) -> dict[str, list[Scalar]]:
+        """Each dotted parameter -> the values it takes (a coupled key's parameters alike)."""
+        return {part: values for key, values in self.grid.items() for part in coupled(key)}
 
     @property
     def seed_list(self) -> list[int]:
@@ -88,8 +119,26 @@ class SweepSpec(BaseModel):
 
     @property
     def x_parameter(self) -> str:
-        """The plots' x axis."""
-        return self.x or next(iter(self.grid))
+        """The plots' x axis: one dotted parameter, a column of the table.
+
+        A coupled key (given as ``x`` or first in the grid) stands for its first parameter.
+        """
+        if self.x is not None and self.x not in self.grid:
+            return self.x
+        return coupled(self.x or next(iter(self.grid)))[0]
+
+    @property
+    def axes(self) -> dict[str, list[Scalar]]:
+        """One table column per grid key -> its values (what the plots vary).
+
+        A coupled key's column is its parameter that is the x axis, else its first one.
+        """
+        x = self.x_parameter
+        out = {}
+        for key, values in self.grid.items():
+            parts = coupled(key)
+            out[x if x in parts else parts[0]] = values
+        return out
 
 
 @dataclass(frozen=True)
@@ -107,8 +156,8 @@ class SweepPlan:
 
     @property
     def parameters(self) -> list[str]:
-        """The grid's dotted parameter names, in file order."""
-        return list(self.spec.grid)
+        """The grid's dotted parameter names, in file order (each of a coupled key's)."""
+        return self.spec.parameters
 
 
 def resolve_scenario(ref: str, base_dir: Path) -> Path:
@@ -127,9 +176,16 @@ def trial_id(scenario_text: str, values: dict[str, Any], seed: int) -> str:
 
 
 def grid_points(grid: dict[str, list[Scalar]]) -> list[dict[str, Scalar]]:
-    """Every combination of the grid's values, the first parameter varying slowest."""
-    keys = list(grid)
-    return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*grid.values())]
+    """Every combination of the grid's values, the first key varying slowest.
+
+    Each point maps every dotted parameter to its value: a coupled key's parameters
+    (``a = b``) all to the same one.
+    """
+    keys = [coupled(key) for key in grid]
+    return [
+        {part: value for parts, value in zip(keys, combo, strict=True) for part in parts}
+        for combo in itertools.product(*grid.values())
+    ]
 
 
 def parse_sweep(text: str, source: str = "<string>") -> SweepSpec:
@@ -161,10 +217,11 @@ def plan(spec: SweepSpec, name: str, base_dir: Path, path: Path | None = None) -
     if not isinstance(data, dict):
         raise SweepError(f"{where}: scenario: {scenario_file} is not a scenario mapping")
     for key, values in spec.grid.items():
-        try:
-            set_parameter(apply_parameters(data, {}), key, values[0])
-        except ParameterError as exc:
-            raise SweepError(f"{where}: grid: {exc}") from exc
+        for part in coupled(key):
+            try:
+                set_parameter(apply_parameters(data, {}), part, values[0])
+            except ParameterError as exc:
+                raise SweepError(f"{where}: grid: {exc}") from exc
     points = grid_points(spec.grid)
     fidelity = "full"
     trials = []

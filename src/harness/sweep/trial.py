@@ -113,7 +113,8 @@ def metric_units(report: dict[str, Any]) -> dict[str, str]:
         if not isinstance(node, dict):
             return
         if "value" in node:
-            if _number(node["value"]) is not None and node.get("unit"):
+            value = node["value"]
+            if (value is None or _number(value) is not None) and node.get("unit"):
                 out[prefix] = str(node["unit"])
             return
         for key, child in node.items():
@@ -123,20 +124,22 @@ def metric_units(report: dict[str, Any]) -> dict[str, str]:
     return out
 
 
-def flatten_metrics(report: dict[str, Any]) -> dict[str, float]:
+def flatten_metrics(report: dict[str, Any]) -> dict[str, float | None]:
     """Every numeric ``fleet`` metric of a report as ``{"fleet.NAME": value}``.
 
     A ``{"value": v, ...}`` entry gives ``v`` under its dotted path, the name
-    ``harness.report.totals.lookup`` (and so ``checks.metrics``) resolves; plain numbers count
-    too; lists and texts are left out. Booleans become 0/1 so that their mean is a share.
+    ``harness.report.totals.lookup`` (and so ``checks.metrics``) resolves; ``{"value": None}``
+    (a metric the run could not compute, or a non-finite one) gives None, a null cell, so that
+    its column exists; plain numbers count too; lists and texts are left out. Booleans become
+    0/1 so that their mean is a share.
     """
-    out: dict[str, float] = {}
+    out: dict[str, float | None] = {}
 
     def walk(node: Any, prefix: str) -> None:
         if isinstance(node, dict):
             if "value" in node:
                 number = _number(node["value"])
-                if number is not None:
+                if number is not None or node["value"] is None:
                     out[prefix] = number
                 return
             for key, child in node.items():

@@ -1,16 +1,18 @@
 """The link file: presets (link parameters, one or two directions) and link classes (role pairs).
 
 ``LinksConfig.load()`` reads the shipped ``presets.yaml``; ``LinksConfig.load(path)`` merges a
-user's file over it (field by field: a user names only what changes) and validates everything at
-load, every error naming its field (``presets.lte.up.loss.mean_loss: ...``,
-``classes.edge-fog: unknown preset 'wifii'``). Format: docs/links.md and presets.yaml.
+user's file over it (field by field: a user names only what changes), ``LinksConfig.load(path,
+inline)`` a mapping of the same form over that (a scenario's ``links.presets`` and
+``links.classes``), and validates everything at load, every error naming its field
+(``presets.lte.up.loss.mean_loss: ...``, ``classes.edge-fog: unknown preset 'wifii'``). Format:
+docs/links.md and presets.yaml.
 """
 
 from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -167,15 +169,38 @@ class LinksConfig:
     """Where the user part came from (errors and reports)."""
 
     @classmethod
-    def load(cls, path: str | Path | None = None) -> LinksConfig:
-        """The shipped presets, with the link file at ``path`` merged over them when given.
+    def load(
+        cls, path: str | Path | None = None, inline: Mapping[str, Any] | None = None
+    ) -> LinksConfig:
+        """The shipped presets, the link file at ``path`` merged over them, then ``inline``.
+
+        ``inline`` is a link file's mapping (``presets``, ``classes``), merged over the file
+        exactly as the file is over the shipped presets.
 
         Raises:
-            LinkConfigError: unreadable file or a bad field (the message names the field).
+            LinkConfigError: unreadable file or a bad field (the message names the field; an
+                error of the file's starts with its path, one of ``inline`` with the field).
         """
         if path is None:
-            return cls.from_dict({}, origin=str(PRESETS_PATH))
-        path = Path(path)
+            if inline is None:
+                return cls.from_dict({}, origin=str(PRESETS_PATH))
+            return cls.from_layers([inline], origin="inline")
+        data = cls._read(Path(path))
+        config = cls._from_file(path, data)  # the file's own errors name the file
+        if inline is None:
+            return config
+        return cls.from_layers([data, inline], origin=f"{path} + inline")
+
+    @classmethod
+    def _from_file(cls, path: str | Path, data: Mapping[str, Any]) -> LinksConfig:
+        try:
+            return cls.from_dict(data, origin=str(path))
+        except LinkConfigError as exc:
+            raise LinkConfigError(f"{path}: {exc}") from None
+
+    @staticmethod
+    def _read(path: Path) -> Mapping[str, Any]:
+        """The link file's mapping ({} for an empty file)."""
         try:
             text = path.read_text()
         except OSError as exc:
@@ -184,29 +209,40 @@ class LinksConfig:
             data = yaml.safe_load(text)
         except yaml.YAMLError as exc:
             raise LinkConfigError(f"{path}: not valid YAML ({exc})") from None
-        try:
-            return cls.from_dict(data if data is not None else {}, origin=str(path))
-        except LinkConfigError as exc:
-            raise LinkConfigError(f"{path}: {exc}") from None
+        return data if data is not None else {}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], origin: str = "<dict>") -> LinksConfig:
         """The shipped presets with ``data`` (a link file's mapping) merged over them."""
-        if not isinstance(data, Mapping):
-            raise LinkConfigError(f"link file must be a mapping, got {type(data).__name__}")
-        for key in data:
-            if key not in _TOP_KEYS:
-                raise LinkConfigError(f"{key}: unknown section (known: {', '.join(_TOP_KEYS)})")
+        return cls.from_layers([data], origin)
+
+    @classmethod
+    def from_layers(
+        cls, layers: Sequence[Mapping[str, Any]], origin: str = "<dict>"
+    ) -> LinksConfig:
+        """The shipped presets with each of ``layers`` (link files' mappings) merged over, in turn.
+
+        Presets merge field by field, layer over layer; each layer's classes replace the earlier
+        ones' (null removes a class).
+        """
+        for data in layers:
+            if not isinstance(data, Mapping):
+                raise LinkConfigError(f"link file must be a mapping, got {type(data).__name__}")
+            for key in data:
+                if key not in _TOP_KEYS:
+                    raise LinkConfigError(f"{key}: unknown section (known: {', '.join(_TOP_KEYS)})")
+            for section in ("presets", "classes"):
+                if section in data and not isinstance(data[section], Mapping):
+                    raise LinkConfigError(f"{section}: must be a mapping")
         shipped = yaml.safe_load(PRESETS_PATH.read_text())
-        for section in ("presets", "classes"):
-            if section in data and not isinstance(data[section], Mapping):
-                raise LinkConfigError(f"{section}: must be a mapping")
-        raw_presets = _merge(shipped["presets"], data.get("presets", {}))
+        raw_presets = shipped["presets"]
+        for data in layers:
+            raw_presets = _merge(raw_presets, data.get("presets", {}))
         presets = {
             name: _build_preset(name, _resolve_base(name, raw_presets)) for name in raw_presets
         }
         classes: dict[str, str] = {}
-        for source in (shipped["classes"], data.get("classes", {})):
+        for source in (shipped["classes"], *(data.get("classes", {}) for data in layers)):
             given: set[str] = set()
             for name, preset in source.items():
                 path = f"classes.{name}"

@@ -135,3 +135,18 @@ def test_no_ok_trial_no_plot(tmp_path):
     paths, warnings = plot_sweep(table(rows), {"duration_s": [10]}, "duration_s", [], tmp_path)
     assert paths == []
     assert warnings == ["no trial finished ok: no plots"]
+
+
+def test_a_coupled_keys_other_parameters_are_no_metrics_and_one_line_per_x(tmp_path):
+    """``duration_s = fleet.0.count``: the axis is duration_s; fleet.0.count is not plotted."""
+    rows = [
+        {"duration_s": n, "fleet.0.count": n, "seed": s, "status": "ok", "fleet.coverage": n + s}
+        for n in (1, 10) for s in (0, 1)
+    ]  # fmt: skip
+    paths, _ = plot_sweep(
+        table(rows), {"duration_s": [1, 10]}, "duration_s", [], tmp_path,
+        ["duration_s", "fleet.0.count"],
+    )  # fmt: skip
+    assert [p.name for p in paths] == ["fleet.coverage.png"]
+    bands = metric_bands(rows, {"duration_s": [1, 10]}, "duration_s", "fleet.coverage")
+    assert [p.mean for p in bands[""]] == [1.5, 10.5]

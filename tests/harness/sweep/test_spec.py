@@ -2,12 +2,15 @@
 
 from pathlib import Path
 
+import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
 from harness.cli import app
 from harness.sweep import runner
 from harness.sweep.spec import SweepError, grid_points, plan_sweep
+from harness.sweep.table import value_type, write_row
+from harness.sweep.trial import build_scenario, run_trial
 
 DATA = Path(__file__).with_name("data")
 
@@ -129,3 +132,71 @@ def test_sweep_help_documents_every_option_with_an_example():
     assert "Example:  swarmsitl sweep" in result.output
     for option in ("--out", "--workers", "--scheduler", "--max-trials", "--dry-run"):
         assert option in result.output
+
+
+COUPLED = "fleet.0.count = duration_s"
+
+
+def test_a_coupled_key_sets_each_of_its_parameters_to_the_same_value(tmp_path):
+    """Issue (seed 003, N_u = N_m): one axis, a column per parameter, first key slowest."""
+    path = write_sweep(
+        tmp_path,
+        f"grid:\n  {COUPLED}: [10, 20]\n  roles.survey.args.speed_m_s: [8, 12]\n",
+    )
+    plan = plan_sweep(path)
+    assert plan.parameters == ["fleet.0.count", "duration_s", "roles.survey.args.speed_m_s"]
+    assert [t.parameters for t in plan.trials] == [
+        {"fleet.0.count": n, "duration_s": n, "roles.survey.args.speed_m_s": v}
+        for n in (10, 20)
+        for v in (8, 12)
+    ]
+    scenario = build_scenario(plan.trials[-1])
+    assert (scenario.spec.n_vehicles, scenario.spec.duration_s) == (20, 20)
+    assert plan.spec.x_parameter == "fleet.0.count"
+    assert plan.spec.axes == {"fleet.0.count": [10, 20], "roles.survey.args.speed_m_s": [8, 12]}
+    assert plan.spec.parameter_values["duration_s"] == [10, 20]
+    # a row, and so results.parquet, has a column per parameter
+    row = run_trial(plan.trials[0], lambda *a: {"fleet": {}, "passed": True})
+    kinds = {k: value_type(v) for k, v in plan.spec.parameter_values.items()}
+    written = pq.read_table(write_row(tmp_path / "out", kinds, row)).to_pylist()[0]
+    assert (written["fleet.0.count"], written["duration_s"]) == (10, 10)
+
+
+@pytest.mark.parametrize(
+    ("x", "column"), [(COUPLED, "fleet.0.count"), ("duration_s", "duration_s")]
+)
+def test_x_names_a_coupled_key_or_one_of_its_parameters(tmp_path, x, column):
+    path = write_sweep(
+        tmp_path, f"grid:\n  swarm.step_hz: [10, 20]\n  {COUPLED}: [10, 20]\nx: {x}\n"
+    )
+    spec = plan_sweep(path).spec
+    assert spec.x_parameter == column
+    assert spec.axes == {"swarm.step_hz": [10, 20], column: [10, 20]}
+
+
+def test_every_parameter_of_a_coupled_key_must_resolve(tmp_path):
+    path = write_sweep(tmp_path, "grid:\n  fleet.0.count = fleet.0.cout: [1, 2]\n")
+    with pytest.raises(SweepError, match=r"grid: fleet.0.cout: fleet.0 has no 'cout'.*count"):
+        plan_sweep(path)
+
+
+@pytest.mark.parametrize(
+    ("grid", "message"),
+    [
+        ("  fleet.0.count = : [1]\n", "an empty parameter name"),
+        ("  duration_s: [10]\n  fleet.0.count = duration_s: [1]\n", "duration_s appears twice"),
+        (f"  {COUPLED}: [1]\nx: fleet.0\n", "x: 'fleet.0' is not a grid parameter"),
+    ],
+)
+def test_a_malformed_coupled_key_is_an_error(tmp_path, grid, message):
+    with pytest.raises(SweepError, match=message):
+        plan_sweep(write_sweep(tmp_path, "grid:\n" + grid))
+
+
+def test_grid_points_of_a_coupled_key_set_all_its_parameters():
+    assert grid_points({"a = b": [1, 2], "c": ["x", "y"]}) == [
+        {"a": 1, "b": 1, "c": "x"},
+        {"a": 1, "b": 1, "c": "y"},
+        {"a": 2, "b": 2, "c": "x"},
+        {"a": 2, "b": 2, "c": "y"},
+    ]

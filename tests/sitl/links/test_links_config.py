@@ -83,3 +83,24 @@ def test_missing_file_is_a_clear_error(tmp_path):
     """A path that does not exist names itself."""
     with pytest.raises(LinkConfigError, match="cannot read the link file"):
         LinksConfig.load(tmp_path / "nope.yaml")
+
+
+def test_an_inline_mapping_merges_over_the_file_as_the_file_over_the_shipped(tmp_path):
+    """Layers: a class either layer names in either role order; an error names its layer."""
+    path = tmp_path / "links.yaml"
+    path.write_text("presets:\n  mesh: {base: wifi, range_m: 50.0}\nclasses:\n  fog-edge: mesh\n")
+    inline = {"presets": {"mesh": {"range_m": 5.0}}, "classes": {"edge-fog": "lte"}}
+    config = LinksConfig.load(path, inline)
+    assert config.presets["mesh"].up.range_m == 5.0
+    assert config.presets["mesh"].up.rate_bps == config.presets["wifi"].up.rate_bps
+    assert config.classes["edge-fog"] == "lte"
+    assert LinksConfig.load(path).classes["edge-fog"] == "mesh"
+    assert (
+        LinksConfig.load(None, inline={"classes": {"edge-edge": None}}).classes.get("edge-edge")
+        is None
+    )
+    with pytest.raises(LinkConfigError, match=r"^presets\.mesh\.range_m: must be"):
+        LinksConfig.load(path, {"presets": {"mesh": {"range_m": -1.0}}})
+    path.write_text("presets:\n  mesh: {base: wiffi}\n")
+    with pytest.raises(LinkConfigError, match=re.escape(f"{path}: presets.mesh.base: unknown")):
+        LinksConfig.load(path, inline)
