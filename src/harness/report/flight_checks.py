@@ -315,7 +315,7 @@ def landed_and_disarmed(
         return CheckResult(False, float(len(problems)), "vehicles", "; ".join(problems))
     who = f"all {len(log.vehicles)} vehicles" if vehicle is None else log.vehicle(vehicle).name
     lost = sorted(log.vehicle(i).name for i in crashed if vehicle in (None, i))
-    but = f" ({', '.join(lost)} crashed: disarmed)" if lost else ""
+    but = f" ({', '.join(lost)} crashed: judged on disarming only)" if lost else ""
     return CheckResult(True, 0.0, "vehicles", f"{who} landed and disarmed at the end{but}")
 
 

@@ -95,3 +95,45 @@ def test_a_vehicle_told_to_land_lands_and_disarms(flight):
     last = flight["telemetry"][-1][1]
     assert not last.armed and last.landed_state == mavlink2.MAV_LANDED_STATE_ON_GROUND
     assert last.system_status == mavlink2.MAV_STATE_STANDBY
+
+
+class StubRouter:
+    def __init__(self) -> None:
+        self.silenced: list[tuple[str, bool, bool]] = []
+
+    def silence(self, node_id: str, *, tx: bool, rx: bool) -> None:
+        self.silenced.append((node_id, tx, rx))
+
+
+class StubSim:
+    """What FaultInjector uses of a Simulation: ``at``, ``router``, ``fleet``."""
+
+    def __init__(self) -> None:
+        self.router = StubRouter()
+        self.fleet = object()
+        self.due: list[tuple[float, object]] = []
+
+    def at(self, time_s, action) -> None:
+        self.due.append((time_s, action))
+
+
+def test_radio_faults_silence_the_vehicles_node_one_way_or_both():
+    """radio_tx mutes, radio_rx deafens, radio both; a vehicle without a node has nothing."""
+    sim = StubSim()
+    faults = [
+        Fault(0, ("radio_tx",), 1.0, 0),
+        Fault(1, ("radio_rx",), 2.0, 1),
+        Fault(2, ("radio",), 3.0, 2),
+        Fault(3, ("radio",), 4.0, 3),  # no node
+    ]
+    injector = FaultInjector(faults, sim, {0: "edge1", 1: "edge2", 2: "fog1"})
+    for time_s, action in sim.due:
+        action(time_s + 0.001)
+    assert sim.router.silenced == [
+        ("edge1", True, False),
+        ("edge2", False, True),
+        ("fog1", True, True),
+    ]
+    assert [r["time_s"] for r in injector.records()] == [1.001, 2.001, 3.001, 4.001]
+    assert all(r["applied"] for r in injector.records())
+    assert injector.lost() == {}
