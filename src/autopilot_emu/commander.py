@@ -106,6 +106,9 @@ class Commander:
         """The fleet's view of this vehicle's smoothed setpoint (None while it is not smoothing):
         Hold stops where that setpoint can stop."""
         self.killed = False
+        self.terminated = False
+        """Flight termination ran (MAV_CMD_DO_FLIGHTTERMINATION): HEARTBEAT reports
+        MAV_STATE_FLIGHT_TERMINATION until the vehicle is armed again."""
         self.missions = MissionStore()
         self.mission = MissionExecutor()
         self.mission_reached: list[int] = []
@@ -208,6 +211,7 @@ class Commander:
             self._hold_here()
         self.armed = True
         self.killed = False
+        self.terminated = False
         self._arm_time_s = self._now()
         if not self.in_air:
             self.set_home_here()
@@ -337,10 +341,11 @@ class Commander:
         return ACCEPTED
 
     def terminate(self) -> int:
-        """Flight termination: motors off now."""
+        """Flight termination: motors off now (PX4 then reports MAV_STATE_FLIGHT_TERMINATION)."""
         if self.armed:
             self._disarm("Flight termination active")
             self.killed = True
+            self.terminated = True
         return ACCEPTED
 
     # -- offboard ------------------------------------------------------------------------------

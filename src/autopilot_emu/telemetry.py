@@ -30,6 +30,7 @@ from autopilot_emu.mavlink.vehicle_port import (
 )
 
 if TYPE_CHECKING:
+    from autopilot_emu.commander import Commander
     from autopilot_emu.fleet import AutopilotFleet
 
 SENSORS = (
@@ -226,7 +227,7 @@ class FleetTelemetry:
         snap.main_mode = int(cmd.main_mode)
         snap.sub_mode = int(cmd.sub_mode)
         snap.landed_state = int(cmd.landed_state)
-        snap.system_status = 4 if armed else 3
+        snap.system_status = system_status(cmd)
         snap.throttle = float(f.thrust[i])
         snap.takeoff_alt_amsl_m = math.nan
         snap.distance_sensors = f.rangefinders.readings(i)
@@ -437,6 +438,17 @@ _GROUPS: dict[Callable[[FleetTelemetry, _LazySnapshot], None], tuple[str, ...]] 
 """Which fields of a snapshot each group read fills."""
 _FILLER_OF = {name: fill for fill, names in _GROUPS.items() for name in names}
 _FIELD_NAMES = tuple(field.name for field in dataclasses.fields(TelemetrySnapshot))
+
+
+def system_status(commander: Commander) -> int:
+    """HEARTBEAT's MAV_STATE as PX4 sends it.
+
+    ACTIVE armed, STANDBY disarmed; FLIGHT_TERMINATION after a flight termination (PX4's
+    HEARTBEAT stream lets termination override the arming state).
+    """
+    if commander.terminated:
+        return mavlink2.MAV_STATE_FLIGHT_TERMINATION
+    return mavlink2.MAV_STATE_ACTIVE if commander.armed else mavlink2.MAV_STATE_STANDBY
 
 
 def _imu_sample(

@@ -17,6 +17,7 @@ from autopilot_emu.mission.items import MissionItem, MissionState, MissionType
 from autopilot_emu.modes import AutoSubMode, LandedState, MainMode
 from autopilot_emu.modes.takeoff import MIN_TAKEOFF_HEIGHT_M
 from autopilot_emu.params import ParamStore
+from autopilot_emu.telemetry import system_status
 
 
 def nav(t, z=0.0, vz=0.0, ok=True, thrust=0.0):
@@ -66,6 +67,19 @@ def test_disarm_in_air_denied_but_kill_works(cmd):
     assert cmd.in_air
     assert cmd.disarm(False) == DENIED and cmd.armed
     assert cmd.disarm(True) == ACCEPTED and not cmd.armed and cmd.killed
+
+
+def test_flight_termination_disarms_and_is_reported_until_armed_again(cmd):
+    """PX4's HEARTBEAT says MAV_STATE_FLIGHT_TERMINATION after a termination; a kill does not."""
+    cmd.arm(False)
+    cmd.takeoff(None)
+    cmd.update(nav(1.0, z=-1.0, vz=-1.0, thrust=0.3))
+    assert system_status(cmd) == mavlink2.MAV_STATE_ACTIVE
+    assert cmd.terminate() == ACCEPTED and not cmd.armed and cmd.terminated
+    assert system_status(cmd) == mavlink2.MAV_STATE_FLIGHT_TERMINATION
+    assert cmd.arm(False) == ACCEPTED and not cmd.terminated
+    assert cmd.disarm(True) == ACCEPTED and not cmd.terminated
+    assert system_status(cmd) == mavlink2.MAV_STATE_STANDBY
 
 
 def test_land_detection_then_auto_disarm_after_com_disarm_land(cmd):

@@ -181,6 +181,21 @@ def test_sinking_on_the_ground_is_not_landed(tmp_path):
     assert landed_and_disarmed(log, max_vertical_speed_m_s=0.6).ok
 
 
+def test_a_crashed_vehicle_needs_only_to_be_disarmed(tmp_path):
+    """A fault's crash is no landing: still falling at the end is fine, still armed is not."""
+    log = make_log(tmp_path)
+    tr = log.vehicles[1].track
+    tr.columns["landed_state"][-1] = IN_AIR
+    tr.columns["v_up_m_s"][-1] = -9.0
+    assert not landed_and_disarmed(log).ok
+    r = landed_and_disarmed(log, crashed=(1,))
+    assert r.ok and r.message.endswith("(vehicle2 crashed: judged on disarming only)")
+    assert not landed_and_disarmed(log, crashed=(0,)).ok  # the other one is judged as ever
+    tr.columns["armed"][-1] = 1.0
+    r = landed_and_disarmed(log, crashed=(1,))
+    assert not r.ok and "still armed" in r.message and "ON_GROUND" not in r.message
+
+
 # -- failsafes -----------------------------------------------------------------------------------
 
 
@@ -219,6 +234,20 @@ def test_a_datalink_loss_counts_in_the_air_not_after_disarming(tmp_path):
     assert not r.ok and r.value == 1 and "vehicle1 at t = 12.0 s" in r.message
     log.vehicles[0].state_changes.clear()  # armed state unknown: counted
     assert no_failsafe(log).value == 1
+
+
+def test_failsafes_after_a_fault_took_the_vehicle_are_excused(tmp_path):
+    """What a vehicle announces from its injected fault on is the fault's; before, the flight's."""
+    texts = [
+        (1, 10.0, 4, "Low battery level, return advised"),
+        (1, 30.0, 2, "Failsafe activated: switching to Land"),
+    ]
+    log = make_log(tmp_path, texts=texts)
+    assert no_failsafe(log).value == 2
+    r = no_failsafe(log, excused_from_s={1: 30.0})
+    assert not r.ok and r.value == 1 and "t = 10.0 s" in r.message
+    assert no_failsafe(log, excused_from_s={1: 5.0}).ok
+    assert no_failsafe(log, excused_from_s={0: 5.0}).value == 2  # another vehicle's fault
 
 
 def test_a_quiet_flight_has_no_failsafe(log):

@@ -14,6 +14,8 @@ sysid and the run directory's file names). Times are simulation seconds.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -276,12 +278,17 @@ def assert_reached_altitude(
 
 
 def landed_and_disarmed(
-    log: FlightLog, vehicle: int | None = None, max_vertical_speed_m_s: float = 0.3
+    log: FlightLog,
+    vehicle: int | None = None,
+    max_vertical_speed_m_s: float = 0.3,
+    crashed: Collection[int] = (),
 ) -> CheckResult:
     """At its last truth sample each vehicle is on the ground, disarmed and not moving vertically.
 
     On the ground = the autopilot's landed_state ON_GROUND; disarmed = the armed column; and the
     true vertical speed within ``max_vertical_speed_m_s``. ``value`` counts vehicles that are not.
+    ``crashed``: vehicles a fault terminated (0-based); they must only be disarmed (a crash is no
+    landing, and one late in the run may still be falling at its end).
     """
     problems = []
     for v in log.selected(vehicle):
@@ -291,13 +298,14 @@ def landed_and_disarmed(
         c = v.track.columns
         t = float(c["time_s"][-1])
         issues = []
-        if c["landed_state"][-1] != ON_GROUND:
-            issues.append(f"landed_state {c['landed_state'][-1]:g} (not ON_GROUND)")
         if c["armed"][-1] > 0.5:
             issues.append("still armed")
-        vz = float(c["v_up_m_s"][-1])
-        if not abs(vz) <= max_vertical_speed_m_s:
-            issues.append(f"vertical speed {vz:+.2f} m/s")
+        if v.index not in crashed:
+            if c["landed_state"][-1] != ON_GROUND:
+                issues.insert(0, f"landed_state {c['landed_state'][-1]:g} (not ON_GROUND)")
+            vz = float(c["v_up_m_s"][-1])
+            if not abs(vz) <= max_vertical_speed_m_s:
+                issues.append(f"vertical speed {vz:+.2f} m/s")
         if issues:
             problems.append(
                 f"{v.name} at the end (t = {t:.1f} s, {c['up_m'][-1]:.2f} m up): "
@@ -306,14 +314,19 @@ def landed_and_disarmed(
     if problems:
         return CheckResult(False, float(len(problems)), "vehicles", "; ".join(problems))
     who = f"all {len(log.vehicles)} vehicles" if vehicle is None else log.vehicle(vehicle).name
-    return CheckResult(True, 0.0, "vehicles", f"{who} landed and disarmed at the end")
+    lost = sorted(log.vehicle(i).name for i in crashed if vehicle in (None, i))
+    but = f" ({', '.join(lost)} crashed: judged on disarming only)" if lost else ""
+    return CheckResult(True, 0.0, "vehicles", f"{who} landed and disarmed at the end{but}")
 
 
 def assert_landed_and_disarmed(
-    log: FlightLog, vehicle: int | None = None, max_vertical_speed_m_s: float = 0.3
+    log: FlightLog,
+    vehicle: int | None = None,
+    max_vertical_speed_m_s: float = 0.3,
+    crashed: Collection[int] = (),
 ) -> CheckResult:
     """:func:`landed_and_disarmed`, raising AssertionError when it fails."""
-    return _raise_unless(landed_and_disarmed(log, vehicle, max_vertical_speed_m_s))
+    return _raise_unless(landed_and_disarmed(log, vehicle, max_vertical_speed_m_s, crashed))
 
 
 # -- failsafes ---------------------------------------------------------------------------------
@@ -328,9 +341,17 @@ def failsafe_kind(text: str) -> str | None:
 
 
 def failsafe_texts(
-    log: FlightLog, vehicle: int | None = None, allow: tuple[str, ...] = ()
+    log: FlightLog,
+    vehicle: int | None = None,
+    allow: tuple[str, ...] = (),
+    excused_from_s: Mapping[int, float] | None = None,
 ) -> list[tuple[VehicleLog, StatusText]]:
-    """Every failsafe STATUSTEXT (except the kinds in ``allow``), in each vehicle's time order."""
+    """Every failsafe STATUSTEXT (except the kinds in ``allow``), in each vehicle's time order.
+
+    ``excused_from_s``: texts a vehicle (0-based) sent from that simulated time on are left out
+    (a fault injected then took the vehicle: what follows is the fault's, not the flight's).
+    """
+    excused = excused_from_s or {}
     unknown = set(allow) - set(FAILSAFE_TEXTS)
     if unknown:
         raise ValueError(
@@ -343,6 +364,8 @@ def failsafe_texts(
             if kind is None or kind in allow:
                 continue
             if kind == "datalink_lost" and _armed_at(v, s.time_s) is False:
+                continue
+            if s.time_s >= excused.get(v.index, math.inf):
                 continue
             out.append((v, s))
     return out
@@ -359,10 +382,17 @@ def _armed_at(v: VehicleLog, time_s: float) -> bool | None:
 
 
 def no_failsafe(
-    log: FlightLog, vehicle: int | None = None, allow: tuple[str, ...] = ()
+    log: FlightLog,
+    vehicle: int | None = None,
+    allow: tuple[str, ...] = (),
+    excused_from_s: Mapping[int, float] | None = None,
 ) -> CheckResult:
-    """No vehicle announced a failsafe (``allow``: kinds of :data:`FAILSAFE_TEXTS` tolerated)."""
-    found = failsafe_texts(log, vehicle, allow)
+    """No vehicle announced a failsafe.
+
+    ``allow``: kinds of :data:`FAILSAFE_TEXTS` tolerated; ``excused_from_s``: as
+    :func:`failsafe_texts`.
+    """
+    found = failsafe_texts(log, vehicle, allow, excused_from_s)
     if not found:
         return CheckResult(True, 0.0, "texts", "no failsafe announced")
     listed = "; ".join(f'{v.name} at t = {s.time_s:.1f} s: "{s.text}"' for v, s in found[:5])

@@ -126,14 +126,19 @@ class Fault:
         """What it takes from the vehicle (``lost``, ``tx``, ``rx``)."""
         return frozenset().union(*(EFFECTS[k] for k in self.kinds))
 
-    def record(self, applied_s: float) -> dict[str, Any]:
-        """The report's entry: which vehicle, what, when it was applied (simulated s)."""
+    def record(self, applied_s: float | None) -> dict[str, Any]:
+        """The report's entry: which vehicle, what, when it was applied (simulated s).
+
+        ``applied_s`` None: the run ended before the fault was due (``time_s`` null,
+        ``applied`` false).
+        """
         return {
             "vehicle": f"vehicle{self.vehicle + 1}",
             "kind": "+".join(self.kinds),
-            "time_s": round(float(applied_s), 6),
+            "time_s": None if applied_s is None else round(float(applied_s), 6),
             "due_s": round(self.time_s, 6),
             "entry": self.entry,
+            "applied": applied_s is not None,
         }
 
 

@@ -8,6 +8,16 @@ truth while it runs; manifest, report, time series, plots and camera samples at 
 after Ctrl-C (marked incomplete) or a crashed companion (its traceback is in the report, its
 vehicle's autopilot runs PX4's data-link-loss failsafe).
 
+Faults (the scenario's ``faults:``, drawn from the run's seed) are applied inside the simulation's
+step, in simulated time (:mod:`harness.scenarios.fault_injection`); the report lists them
+(``faults``) and marks each faulted vehicle (``vehicles.vehicleN.fault``). A vehicle a fault
+took (crash, land) is not held to what its flight can no longer do: ``landed_and_disarmed``
+asks a crashed vehicle only to be disarmed (termination disarms it; it may still be falling
+when a late crash ends the run); ``no_failsafe`` leaves out what a lost vehicle announces from
+its fault on (the injected termination is no failsafe text anyway); ``companions_succeeded``
+accepts a failed exit of a lost vehicle's companion noticed after the fault (its program found
+a vehicle that would no longer fly); a failure before the fault still fails the run.
+
 Time: the simulation's clock is published to the companions in ``SWARMSITL_CLOCK_FILE``
 (``companion.clock``), paced or not. A lockstep run goes as fast as its slowest live
 participant allows once every companion has reached its vehicle (:mod:`harness.run.lockstep`: the
@@ -52,6 +62,7 @@ from harness.run.lockstep import LOCKSTEP, GatedLink, LockstepGate, gated_links
 from harness.run.manifest import RunManifest, write_manifest
 from harness.run.ports import RunPorts, free_tcp_ports
 from harness.run.session import RunSession
+from harness.scenarios.fault_injection import FaultInjector
 from harness.scenarios.fleet_spawn import fleet_spawn
 from harness.scenarios.spec import Scenario
 from harness.sim.simulation import PortPlan, Simulation, SimulationConfig
@@ -182,10 +193,14 @@ class ScenarioRun:
         self.sim: Simulation | None = None
         self.manifest: RunManifest | None = None
         self._grpc_ports: list[int] = []
+        """Each vehicle's companion's mavsdk_server port (the base's, or the next free ones)."""
         self.role_envs: dict[str, ScenarioEnv] = {}
         """Each role's first started companion's environment (``run_metrics``)."""
-        """Each vehicle's companion's mavsdk_server port (the base's, or the next free ones)."""
         self.net_run: NetRun | None = None
+        self.faults = scenario.faults(self.seed)
+        """The run's faults (``faults:`` with the run's seed), in time order."""
+        self.injector: FaultInjector | None = None
+        """Applies them in the simulation's step and notes when (once the simulation runs)."""
         self.setup: WorldSetup | None
         """What the world asks of the simulation (scene, spawn points, wind, mocap, params)."""
         self.spawn_enu_m: Any
@@ -486,6 +501,10 @@ class ScenarioRun:
                 self.sim.on_frames(self._sample_frames)
             if self.net_run is not None:
                 attach(self.net_run, self.sim)
+            nodes = {}
+            if self.net_run is not None:
+                nodes = {n.vehicle: n.node_id for n in self.net_run.nodes if n.vehicle is not None}
+            self.injector = FaultInjector(self.faults, self.sim, nodes)
             # The signals are the caller's (``swarmsitl run`` calls request_stop).
             session = RunSession(
                 self.sim, self.run_dir, speed=self.options.speed, handle_signals=False
@@ -543,20 +562,14 @@ class ScenarioRun:
         def put(name: str, result: Any) -> None:
             out[name] = {"ok": bool(result.ok), "value": result.value, "message": result.message}
 
+        lost = self.injector.lost() if self.injector is not None else {}
+        crashed = self.injector.lost("crash") if self.injector is not None else {}
         if checks.companions_succeeded:
-            bad = [c for c in self.companions if c.exit_code != 0]
-            out["companions_succeeded"] = {
-                "ok": not bad,
-                "value": len(bad),
-                "message": "; ".join(
-                    f"vehicle {c.vehicle + 1} ({c.role}) exited with {c.exit_code}" for c in bad
-                )
-                or "every companion exited with status 0",
-            }
+            out["companions_succeeded"] = self._companions_check(lost)
         if checks.landed_and_disarmed:
-            put("landed_and_disarmed", landed_and_disarmed(log))
+            put("landed_and_disarmed", landed_and_disarmed(log, crashed=tuple(crashed)))
         if checks.no_failsafe:
-            put("no_failsafe", no_failsafe(log))
+            put("no_failsafe", no_failsafe(log, excused_from_s=lost))
         if checks.min_separation_m is not None:
             put("min_separation", min_separation(log, checks.min_separation_m))
         if checks.max_tilt_deg is not None:
@@ -564,6 +577,27 @@ class ScenarioRun:
         if checks.stay_inside_world and self.scenario.world is not None:
             put("stay_inside_world", stayed_inside(log, self.scenario.world.boundary))
         return out
+
+    def _companions_check(self, lost: dict[int, float]) -> dict[str, Any]:
+        """Every companion exited with 0, or failed only after a fault took its vehicle."""
+        bad, excused = [], []
+        for c in self.companions:
+            if c.exit_code == 0:
+                continue
+            since = lost.get(c.vehicle)
+            late = since is not None and c.exit_code is not None and c.exit_time_s is not None
+            (excused if late and c.exit_time_s >= since else bad).append(c)
+        notes = [f"vehicle {c.vehicle + 1} ({c.role}) exited with {c.exit_code}" for c in bad]
+        notes += [
+            f"vehicle {c.vehicle + 1} ({c.role}) exited with {c.exit_code} after its vehicle was "
+            f"lost to a fault at t = {lost[c.vehicle]:.1f} s (accepted)"
+            for c in excused
+        ]
+        return {
+            "ok": not bad,
+            "value": len(bad),
+            "message": "; ".join(notes) or "every companion exited with status 0",
+        }
 
     def _finish(self) -> dict[str, Any]:
         sim = self.sim
@@ -585,6 +619,11 @@ class ScenarioRun:
             "config_hash": self.scenario.config_hash(),
             "versions": versions(),
             "companions": {f"vehicle{c.vehicle + 1}": c.summary() for c in self.companions},
+            "faults": (
+                self.injector.records()
+                if self.injector is not None
+                else [f.record(None) for f in self.faults]
+            ),
         }
         if self._gate is not None:
             extra["lockstep"] = self._gate.summary()
@@ -600,6 +639,9 @@ class ScenarioRun:
         extra["checks"] = self._checks(log)
         extra["passed"] = complete and all(c["ok"] for c in extra["checks"].values())
         report = write_run_report(self.run_dir, self.scenario.world, None, extra)
+        if self.injector is not None:
+            for i, kinds in self.injector.kinds_of().items():
+                report.get("vehicles", {}).get(f"vehicle{i + 1}", {})["fault"] = kinds
         finish_report(report, self.scenario, self.role_envs)
         if self.scenario.spec.swarm_prediction:
             try:

@@ -13,7 +13,10 @@ from __future__ import annotations
 import contextlib
 import errno
 import functools
+import heapq
+import itertools
 import logging
+import math
 import select
 import tempfile
 import time
@@ -82,6 +85,8 @@ PAYLOAD_STREAM_RATES_HZ: dict[str, float] = {
 """Streams of the payload link: HEARTBEAT only. PX4 runs it in the onboard mode at 4000 B/s,
 which scales its streams down to a trickle; the camera here geotags from the rendered frame's
 pose and needs no telemetry, and commands for it arrive by forwarding."""
+EVENT_SLACK_S = 1e-9
+"""An event due this close after a step's time runs at that step (a time read from a file)."""
 
 
 def _close_logging_errors(link: MavlinkEndpoint) -> None:
@@ -122,6 +127,10 @@ class Simulation:
         self._position_hooks: list[Callable[[float, np.ndarray], None]] = []
         self._frame_hooks: list[Callable[[list[CameraFrame]], None]] = []
         self._next_positions_s = 0.0
+        self._events: list[tuple[float, int, Callable[[float], None]]] = []
+        """Actions due at a simulated time (:meth:`at`): a heap of (due s, order, action)."""
+        self._event_order = itertools.count()
+        self._next_event_s = math.inf
         self._payload_links: list[MavlinkEndpoint | None] = [None] * n
         """Every MAVLink link: vehicle 0's onboard link, its GCS link (if any), vehicle 1's ..."""
         self.ftp_roots: list[Path] = []
@@ -421,14 +430,15 @@ class Simulation:
         The stages, in order (the same with the autopilots in memory or across TCP):
 
         1. physics: the world steps under the last actuator commands;
-        2. measure: the world's sensors, motion capture, cameras, battery and rangefinders
+        2. events: the actions due by the new time run (:meth:`at`);
+        3. measure: the world's sensors, motion capture, cameras, battery and rangefinders
            (polled in this order: their random draws depend on it);
-        3. deliver: the readings go to the autopilots (:class:`AutopilotSide`);
-        4. observe: motion capture is published, camera frames go to their servers and hooks
+        4. deliver: the readings go to the autopilots (:class:`AutopilotSide`);
+        5. observe: motion capture is published, camera frames go to their servers and hooks
            (an external autopilot computes meanwhile);
-        5. actuate: the autopilots' commands for the next step;
-        6. links: the MAVLink links are polled every ``_poll_every`` steps;
-        7. record.
+        6. actuate: the autopilots' commands for the next step;
+        7. links: the MAVLink links are polled every ``_poll_every`` steps;
+        8. record.
 
         Each stage is a method without arguments (what one hands the next is kept on the
         simulation); :meth:`time_phases` swaps in timed wrappers of the same methods.
@@ -438,6 +448,29 @@ class Simulation:
 
     def _stage_physics(self) -> None:
         self.world.step(self._actuators)
+
+    def _stage_events(self) -> None:
+        now = self.world.time_s
+        if now + EVENT_SLACK_S < self._next_event_s:
+            return
+        events = self._events
+        while events and events[0][0] <= now + EVENT_SLACK_S:
+            _, _, action = heapq.heappop(events)
+            action(now)
+        self._next_event_s = events[0][0] if events else math.inf
+
+    def at(self, time_s: float, action: Callable[[float], None]) -> None:
+        """Call ``action(now_s)`` at the first physics step at or after ``time_s`` (simulated s).
+
+        It runs right after that step's physics, before the step's readings reach the
+        autopilots, so what it changes (an autopilot terminated or landing, a node silenced)
+        shapes that step's commands; ``now_s`` is the step's time. Actions due at the same step
+        run in the order of their times, then of their registration. One due already runs at
+        the next step. How a scenario's ``faults:`` are injected
+        (``harness.scenarios.fault_injection``).
+        """
+        heapq.heappush(self._events, (float(time_s), next(self._event_order), action))
+        self._next_event_s = self._events[0][0]
 
     def _stage_measure(self) -> None:
         world = self.world
@@ -473,6 +506,7 @@ class Simulation:
         """The stages of :meth:`step` by name, in order."""
         return (
             ("physics", self._stage_physics),
+            ("events", self._stage_events),
             ("measure", self._stage_measure),
             ("deliver", self._stage_deliver),
             ("observe", self._stage_observe),

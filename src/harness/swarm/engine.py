@@ -81,8 +81,8 @@ class ScheduledFault(Protocol):
     kinds: tuple[str, ...]
     time_s: float
 
-    def record(self, applied_s: float) -> dict[str, Any]:
-        """The report's entry for the fault applied at ``applied_s``."""
+    def record(self, applied_s: float | None) -> dict[str, Any]:
+        """The report's entry for the fault applied at ``applied_s`` (None: not applied)."""
 
 
 RadioFault = Callable[[str, bool, bool], None]
@@ -383,14 +383,11 @@ class SwarmEngine:
             rx = bool(kinds & {"radio", "radio_rx"})
             if (tx or rx) and self.radio_fault is not None:
                 self.radio_fault(self.node_ids[i], tx, rx)
-            self.fault_records.append(fault.record(self.time_s) | {"applied": True})
+            self.fault_records.append(fault.record(self.time_s))
 
     def pending_fault_records(self) -> list[dict[str, Any]]:
         """The faults not applied (due after the run's end): ``time_s`` None, not applied."""
-        return [
-            f.record(0.0) | {"time_s": None, "applied": False}
-            for f in self.faults[self._next_fault :]
-        ]
+        return [f.record(None) for f in self.faults[self._next_fault :]]
 
     # -- the loop -------------------------------------------------------------------------
 

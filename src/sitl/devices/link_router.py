@@ -16,6 +16,11 @@ any network. Time is whatever the driver passes to :meth:`LinkRouter.poll`: the 
 A datagram from an address that is no node's is counted and dropped; one above the link's
 ``max_datagram_bytes`` is dropped, counted and logged (UDP cannot tell its sender). Nothing
 blocks: a poll reads what is ready and sends what is due.
+
+A node's radio can fail (:meth:`LinkRouter.silence`, a scenario's ``radio`` faults): from then on
+what it sends is dropped as it reaches the router (before the network: nothing is transmitted),
+and what is sent to it is dropped when it would reach its port (the network carried it; the
+dead receiver loses it), both counted under :data:`FAULT`.
 """
 
 from __future__ import annotations
@@ -44,6 +49,8 @@ SELF = "self"
 """Drop reason of a datagram a node sent to its own proxy port."""
 REFUSED = "refused"
 """Drop reason of a datagram the network refused (it does not know the node)."""
+FAULT = "fault"
+"""Drop reason of a datagram a silenced radio lost: its sender's, or its destination's."""
 MAX_DATAGRAM_BYTES = 65535
 MAX_READS_PER_SOCKET = 256
 """Datagrams read from one proxy socket per poll; the rest wait for the next poll."""
@@ -87,7 +94,7 @@ class PairStats:
     forwarded_bytes: int = 0
     dropped: dict[str, int] = field(default_factory=dict)
     """Dropped by reason: the network's (``loss``, ``queue``, ``range``, ...), or the router's
-    (``oversize``, ``self``, ``refused``)."""
+    (``oversize``, ``self``, ``refused``, ``fault``)."""
     send_errors: int = 0
     """Failed ``sendto`` towards the destination (nobody listening there)."""
 
@@ -149,6 +156,10 @@ class LinkRouter:
         self._readiness = select.poll()
         self._queue = DeliveryQueue()
         self._refusals_logged: set[tuple[str, str, str]] = set()
+        self._deaf: set[str] = set()
+        """Nodes whose receiver failed (:meth:`silence`)."""
+        self._mute: set[str] = set()
+        """Nodes whose transmitter failed."""
         try:
             for node in self.nodes:
                 sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -172,6 +183,22 @@ class LinkRouter:
         """(host, port) other nodes send to in order to reach ``node_id``."""
         host, port = self._socks[node_id].getsockname()[:2]
         return (host, port)
+
+    def silence(self, node_id: str, *, tx: bool, rx: bool) -> None:
+        """From now on drop what ``node_id`` sends (``tx``) and what is sent to it (``rx``).
+
+        Counted as :data:`FAULT` per pair. What it sent that is already in flight still
+        arrives; what is in flight towards it is dropped on arrival.
+
+        Raises:
+            KeyError: no node has that id.
+        """
+        if node_id not in self._address:
+            raise KeyError(f"router: no node {node_id!r} (nodes: {sorted(self._address)})")
+        if tx:
+            self._mute.add(node_id)
+        if rx:
+            self._deaf.add(node_id)
 
     def filenos(self) -> list[int]:
         """File descriptors of the proxy sockets (for a driver's readiness wait)."""
@@ -227,6 +254,9 @@ class LinkRouter:
             if src == dst:
                 self._refuse(pair, src, dst, SELF, "a node sent to its own proxy port")
                 continue
+            if src in self._mute:
+                pair.dropped[FAULT] = pair.dropped.get(FAULT, 0) + 1
+                continue
             try:
                 arrival, reason = self._submit(now_s, src, dst, len(data))
             except DatagramTooLargeError as exc:
@@ -251,6 +281,9 @@ class LinkRouter:
 
     def _forward(self, src: str, dst: str, data: bytes) -> None:
         pair = self.stats.pair(src, dst)
+        if dst in self._deaf:
+            pair.dropped[FAULT] = pair.dropped.get(FAULT, 0) + 1
+            return
         sock = self._socks.get(src)
         if sock is None:
             return

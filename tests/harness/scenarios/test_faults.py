@@ -74,6 +74,16 @@ def test_faults_are_ordered_by_time_and_a_vehicle_is_lost_once():
         "time_s": 20.05,
         "due_s": 20.0,
         "entry": 1,
+        "applied": True,
+    }
+    # a run that ends before a fault is due reports it with no time, not applied
+    assert faults[3].record(None) == {
+        "vehicle": "vehicle2",
+        "kind": "radio_tx",
+        "time_s": None,
+        "due_s": 30.0,
+        "entry": 5,
+        "applied": False,
     }
 
 

@@ -16,6 +16,7 @@ import pytest
 
 from harness.run.ports import free_port_block
 from sitl.devices.link_router import (
+    FAULT,
     OVERSIZE,
     REFUSED,
     SELF,
@@ -183,6 +184,58 @@ def test_the_network_drops_what_it_says_and_counts_it(net):
     assert nodes["a"].inbox == []
     pair = router.stats.pairs[("b", "a")]
     assert (pair.received, pair.forwarded, pair.dropped) == (5, 0, {"loss": 5})
+
+
+def test_a_silenced_transmitter_drops_what_its_node_sends_from_then_on(net):
+    """a's radio_tx fails at 1 s: what it sent before still arrives, what it sends after never
+    leaves (not submitted to the network), counted as fault; a still receives."""
+    nodes, network, router = net
+    send(nodes, router, "a", "c", b"before")
+    settle(router, 1, 0.0)
+    router.silence("a", tx=True, rx=False)
+    send(nodes, router, "a", "c", b"after 1")
+    send(nodes, router, "a", "b", b"after 2")
+    send(nodes, router, "c", "a", b"to a")
+    settle(router, 4, 1.0)
+    router.poll(2.0)
+    nodes["c"].receive(1.0)
+    nodes["a"].receive(1.0)
+    assert [d for d, _ in nodes["c"].inbox] == [b"before"]
+    assert [d for d, _ in nodes["a"].inbox] == [b"to a"]
+    assert [(s, d) for _, s, d, _ in network.submitted] == [("a", "c"), ("c", "a")]
+    stats = router.stats.pairs
+    assert stats[("a", "c")].dropped == {FAULT: 1} and stats[("a", "c")].forwarded == 1
+    assert stats[("a", "b")].dropped == {FAULT: 1}
+
+
+def test_a_silenced_receiver_loses_what_reaches_its_port_from_then_on(net):
+    """c's radio_rx fails at 0.1 s: a->c in flight (due 0.3 s) is dropped on arrival, b->c sent
+    after too; c still sends; radio (both) silences both ways."""
+    nodes, _, router = net
+    send(nodes, router, "a", "c", b"in flight")
+    settle(router, 1, 0.0)
+    router.silence("c", tx=False, rx=True)
+    send(nodes, router, "b", "c", b"after")
+    send(nodes, router, "c", "b", b"from c")
+    settle(router, 3, 0.1)
+    router.poll(1.0)
+    nodes["b"].receive(1.0)
+    nodes["c"].receive(0.05)  # loopback: what the router sent is there already
+    assert nodes["c"].inbox == []
+    assert [d for d, _ in nodes["b"].inbox] == [b"from c"]
+    stats = router.stats.pairs
+    assert stats[("a", "c")].dropped == {FAULT: 1} and stats[("a", "c")].forwarded == 0
+    assert stats[("b", "c")].dropped == {FAULT: 1}
+    router.silence("b", tx=True, rx=True)
+    send(nodes, router, "b", "a", b"x")
+    send(nodes, router, "a", "b", b"y")
+    settle(router, 5, 1.0)
+    router.poll(2.0)
+    nodes["b"].receive(0.05)
+    assert [d for d, _ in nodes["b"].inbox] == [b"from c"]
+    assert stats[("b", "a")].dropped == {FAULT: 1} and stats[("a", "b")].dropped == {FAULT: 1}
+    with pytest.raises(KeyError, match="no node 'z'"):
+        router.silence("z", tx=True, rx=True)
 
 
 def test_unknown_senders_and_oversize_datagrams_are_counted_and_dropped(net):
