@@ -26,7 +26,7 @@ from companion.planning.caravan.optimum import (
 )
 from companion.planning.caravan.scores import CaravanParams
 from companion.scenario_env import ScenarioEnv
-from companion.swarm.caravan import caravan_params, task_graph, task_map
+from companion.swarm.caravan import caravan_params, task_map
 
 PARAMS = CaravanParams
 """The dataclass of this program's ``args`` (checked when ``swarmsitl run`` loads a scenario)."""
@@ -44,15 +44,18 @@ def run_metrics(env: ScenarioEnv, report: dict[str, Any]) -> dict[str, tuple[Any
 
     A task's completion time T_j is its first completion, counted from the completing vehicle's
     ``mission_start`` (when it had climbed: seed 003's agents start in the plane at time 0);
-    ``optimality_gap`` compares J = sum a exp(-lambda T_j) over completed tasks with J* from the
-    vehicles' start points on the lattice (``companion.planning.caravan.optimum``);
+    ``optimality_gap`` compares J = sum a exp(-lambda T_j) over completed tasks with J*, the best
+    single assignment (Eq. 1) from the vehicles' start points flying straight at the role's
+    speed: full information, no loss, no lattice detour (the vehicles cut the lattice's corners,
+    so lattice times would let a run beat its "optimum"); J can still exceed J* when a vehicle
+    that finished its task takes a second one sooner than its holder would reach it (Eq. 14),
+    which no single assignment expresses (``companion.planning.caravan.optimum``);
     ``execution_time`` is Eq. (29), the latest T_j (None if no task was completed).
     """
     if env.world is None:
         raise ValueError("run_metrics: the run's world (a taskmap) is needed")
     params = caravan_params(env)
-    tasks_xy, size, spacing = task_map(str(env.world))
-    graph = task_graph(size, spacing)
+    tasks_xy, _, _ = task_map(str(env.world))
     m = len(tasks_xy)
     rows = []
     for name in sorted(report["vehicles"], key=lambda s: int(s.removeprefix("vehicle"))):
@@ -67,7 +70,7 @@ def run_metrics(env: ScenarioEnv, report: dict[str, Any]) -> dict[str, tuple[Any
             count[j] += 1
             first[j] = np.fmin(first[j], max(float(t) - start, 0.0))
     starts = np.array([r["start_xy"] for r in rows], dtype=float).reshape(-1, 2)
-    j_star = optimal_score(score_matrix(graph, starts, tasks_xy, params)) if len(rows) else 0.0
+    j_star = optimal_score(score_matrix(None, starts, tasks_xy, params)) if len(rows) else 0.0
     j = achieved_score(first, params)
     done = np.isfinite(first)
     released = set().union(*(set(r["tasks_released"]) for r in rows)) if rows else set()

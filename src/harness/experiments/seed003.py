@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import yaml
@@ -48,10 +49,13 @@ ALTITUDE_M = 2.0
 """Every vehicle's flight height, m: one height, so range is the paper's 2-D disk (the swarm
 engine does not collide vehicles; the paper assumes staggered altitudes)."""
 LOSS_FRACTION = 0.1
-"""Vehicles lost during the mission (Sec. 4.1: 10 %), stochastically rounded per run."""
-LOSS_WINDOW_S = (0.0, 7.0)
-"""When a lost vehicle is lost, uniform, s after the take-off: the first half of the time to
-cross the map's diagonal at SPEED_M_S (not given)."""
+"""Vehicles lost during the mission (Sec. 4.1: 10 %), stochastically rounded per run (5 agents:
+one lost in half the runs, none in the others; the mean is 10 %)."""
+CLIMB_S = 0.8
+"""When the vehicles are at their height and the allocation starts, s (the take-off to
+ALTITUDE_M; the role's ``mission_start``)."""
+LOSS_STREAM = 3003
+"""Mixed into the run seed for the losses' draws (they depend on nothing else)."""
 RANGE_EDGE_M = 0.01
 """Half-width of the link's range edge, m: a sharp disk (the paper's connectivity model)."""
 DURATION_S = 150.0
@@ -99,7 +103,7 @@ def range_m(fraction: float) -> float:
     return round(fraction * diagonal_m(), 4)
 
 
-def scenario_text(n: int, cfg: Seed003Config) -> str:
+def scenario_text(n: int, cfg: Seed003Config, faults: list[dict[str, Any]]) -> str:
     """The swarm-fidelity scenario of N agents and N tasks (S and CL are trial values)."""
     data = {
         "name": f"seed003-n{n}",
@@ -140,18 +144,57 @@ def scenario_text(n: int, cfg: Seed003Config) -> str:
             },
             "classes": {"edge-edge": "mesh"},
         },
-        "faults": [
-            {
-                "kind": ["crash", "radio"],
-                "fraction": LOSS_FRACTION,
-                "rounding": "stochastic",
-                "between_s": list(LOSS_WINDOW_S),
-            }
-        ],
+        "faults": faults,
         "sensors": {"cameras": False, "rangefinders": False},
         "checks": {"companions_succeeded": True, "landed_and_disarmed": True},
     }
     return yaml.safe_dump(data, sort_keys=False)
+
+
+def task_map(n: int, run: int) -> tuple[np.ndarray, np.ndarray]:
+    """(agent starts, tasks), (N, 2) m each, of run ``run``'s map (the world the run builds)."""
+    import worlds
+
+    spec = worlds.parse_world(
+        yaml.safe_dump(
+            {"kind": "taskmap", "seed": run, "size_m": [MAP_SIZE_M, MAP_SIZE_M],
+             "grid_spacing_m": GRID_SPACING_M, "task_count": n, "agent_count": n}
+        ),
+        "seed003 task map",
+    )  # fmt: skip
+    world = worlds.build(spec)
+    starts = np.array([a.center_enu_m[:2] for a in world.launch_areas], dtype=float)
+    tasks = np.array([t.position_xy_m for t in world.targets], dtype=float)
+    return starts, tasks
+
+
+def losses(n: int, run: int) -> list[dict[str, Any]]:
+    """The run's lost vehicles, each lost while it flies to its task of the optimal assignment.
+
+    The count is LOSS_FRACTION x n stochastically rounded; the vehicles are drawn without
+    repeats; each is lost at CLIMB_S + u x its straight travel time to the task J* gives it
+    (Hungarian on the full information, ``companion.planning.caravan.optimum``), u uniform:
+    the loss always orphans a task of the best plan (the loss-time distribution is not given).
+    Every draw comes from the run seed alone, so the three solutions meet the same losses.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    from harness.scenarios.faults import fault_count
+
+    rng = np.random.default_rng([run, LOSS_STREAM])
+    u = float(rng.uniform())
+    order = rng.permutation(n)
+    when = rng.uniform(0.0, 1.0, n)
+    starts, tasks = task_map(n, run)
+    travel = np.linalg.norm(starts[:, None, :] - tasks[None, :, :], axis=2) / SPEED_M_S
+    rows, cols = linear_sum_assignment(-np.exp(-0.1 * travel))  # Eq. (26), a and lambda of 4.1
+    own = dict(zip(rows.tolist(), travel[rows, cols].tolist(), strict=True))
+    lost = sorted(int(k) for k in order[: fault_count(LOSS_FRACTION, n, "stochastic", u)])
+    return [
+        {"kind": ["crash", "radio"], "vehicle": k + 1,
+         "at_s": round(CLIMB_S + float(when[k]) * own[k], 3)}
+        for k in lost
+    ]  # fmt: skip
 
 
 RANGE_KEY = "links.presets.mesh.range_m"
@@ -162,12 +205,13 @@ def sweep_plan(cfg: Seed003Config, source: Path) -> SweepPlan:
     """Every trial of the experiment as one sweep plan (``harness.sweep``)."""
     trials = []
     for n in cfg.scales:
-        text = scenario_text(n, cfg)
+        texts = {run: scenario_text(n, cfg, losses(n, run)) for run in cfg.runs}
         for fraction in cfg.ranges:
             for algorithm in cfg.algorithms:
                 values = {"fleet.0.count": n, RANGE_KEY: range_m(fraction),
                           ALGORITHM_KEY: algorithm}  # fmt: skip
                 for run in cfg.runs:
+                    text = texts[run]
                     trials.append(
                         Trial(trial_id(text, values, run), str(source), text,
                               tuple(values.items()), run)
