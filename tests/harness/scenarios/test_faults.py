@@ -123,3 +123,24 @@ def test_stochastic_rounding_keeps_the_mean_fraction():
     lost = [len(resolve_faults([entry], 5, seed)) for seed in range(2000)]
     assert abs(sum(lost) / len(lost) - 0.5) < 0.05
     assert set(lost) == {0, 1}
+
+
+def test_a_sweep_sets_fault_values_and_a_bad_one_fails_at_planning(tmp_path):
+    from harness.sweep.spec import SweepError, plan_sweep
+    from harness.sweep.trial import build_scenario
+
+    (tmp_path / "s.yaml").write_text(
+        BASE + "faults:\n  - {kind: crash, fraction: 0.1, between_s: [5, 20]}\n"
+    )
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text(
+        "scenario: s.yaml\ngrid:\n"
+        "  faults.0.fraction: [0.0, 0.5]\n  faults.0.kind: [crash, radio]\n"
+    )
+    plan = plan_sweep(sweep)
+    assert len(plan.trials) == 4
+    half = [t for t in plan.trials if dict(t.values)["faults.0.fraction"] == 0.5]
+    assert {len(build_scenario(t).faults(t.seed)) for t in half} == {5}
+    sweep.write_text("scenario: s.yaml\ngrid:\n  faults.0.fraction: [0.5, 2.0]\n")
+    with pytest.raises(SweepError, match=r"faults\.0\.fraction"):
+        plan_sweep(sweep)
