@@ -11,10 +11,11 @@ in simulation time. Each kinematic step drains every vehicle's pack
 (:class:`sitl.power.hover_drain.HoverDrain`); each decision counts every airborne vehicle's links
 (the other airborne vehicles within ``link_range_m``, one KD-tree query). ``VehicleHandle`` is the
 kinematic adapter a program gets (``companion.swarm.SwarmVehicle``). The scenario's faults are
-applied at the first kinematic step at or after their time (``FaultSchedule``): a crashed vehicle
-drops to the ground and stays there, a landed one lands; neither takes commands any more (its
-program keeps deciding); a radio fault silences the node at its port. Deterministic: one generator
-per run, programs called in vehicle order.
+applied at the first kinematic step at or after their time: a crashed vehicle drops to the
+ground and stays there, taking no commands (its program keeps deciding, and the run waits for
+it as the full stack waits for its companion); a land fault lands the vehicle as the autopilot's
+Land mode does (a later command flies it again); a radio fault silences the node at its port.
+Deterministic: one generator per run, programs called in vehicle order.
 """
 
 from __future__ import annotations
@@ -160,22 +161,22 @@ class VehicleHandle:
 
     def takeoff(self, height_m: float, climb_m_s: float | None = None) -> None:
         """Arm and climb to ``height_m`` above the ground."""
-        if self._engine.lost[self.index]:
-            return  # a crashed or landed-by-fault vehicle takes no commands
+        if self._engine.crashed[self.index]:
+            return  # a crashed vehicle takes no commands
         self._fleet.takeoff(self.index, height_m, climb_m_s)
         self._engine.path_done[self.index] = False
 
     def fly_path(self, waypoints_enu_m: np.ndarray, speed_m_s: float) -> None:
         """Fly the waypoints at ``speed_m_s``."""
-        if self._engine.lost[self.index]:
-            return  # a crashed or landed-by-fault vehicle takes no commands
+        if self._engine.crashed[self.index]:
+            return  # a crashed vehicle takes no commands
         self._fleet.set_path(self.index, waypoints_enu_m, speed_m_s)
         self._engine.path_done[self.index] = False
 
     def land(self) -> None:
         """Land where it is."""
-        if self._engine.lost[self.index]:
-            return  # a crashed or landed-by-fault vehicle takes no commands
+        if self._engine.crashed[self.index]:
+            return  # a crashed vehicle takes no commands
         self._fleet.land(self.index)
         self._engine.path_done[self.index] = False
 
@@ -266,8 +267,8 @@ class SwarmEngine:
         """Positions at each decision, (N, 3) each."""
         self.faults = sorted(faults, key=lambda f: f.time_s)
         self.radio_fault = radio_fault
-        self.lost = np.zeros(fleet.n, dtype=bool)
-        """(N,) bool: crashed or landed by a fault (takes no commands)."""
+        self.crashed = np.zeros(fleet.n, dtype=bool)
+        """(N,) bool: crashed by a fault (lies on the ground, takes no commands)."""
         self.fault_records: list[dict[str, Any]] = []
         """The faults applied so far, each ``Fault.record(time applied)`` with ``applied``."""
         self._next_fault = 0
@@ -374,11 +375,9 @@ class SwarmEngine:
             kinds = set(fault.kinds)
             if "crash" in kinds:
                 self.fleet.crash(i)
-                self.lost[i] = True
-            elif "land" in kinds:
-                if self.fleet.state.airborne[i]:
-                    self.fleet.land(i)
-                self.lost[i] = True
+                self.crashed[i] = True
+            elif "land" in kinds and self.fleet.state.airborne[i]:
+                self.fleet.land(i)  # as the autopilot's Land mode: a later command flies again
             tx = bool(kinds & {"radio", "radio_tx"})
             rx = bool(kinds & {"radio", "radio_rx"})
             if (tx or rx) and self.radio_fault is not None:
@@ -422,9 +421,8 @@ class SwarmEngine:
     def all_done(self) -> bool:
         """Every program finished (or failed) and every vehicle is on the ground."""
         finished = all(
-            p is None or p.done or i in self.stats.errors or self.lost[i]
-            for i, p in enumerate(self.programs)
-        )  # a lost vehicle's program is not waited for
+            p is None or p.done or i in self.stats.errors for i, p in enumerate(self.programs)
+        )
         return finished and not self.fleet.state.airborne.any()
 
     def run(self, duration_s: float, end_when_done: bool = True) -> str:

@@ -114,3 +114,47 @@ def test_the_same_seed_draws_the_same_fraction_whatever_the_programs(chatter):
     b = run_swarm(scenario(chatter, faults), seed=7)["faults"]
     assert a == b and len(a) in (1, 2)
     assert all(2.0 <= f["time_s"] <= 15.1 and f["kind"] == "crash+radio" for f in a)
+
+
+LANDER = """
+def swarm_program(env, vehicle, node):
+    return Again(vehicle)
+
+
+class Again:
+    '''Take off; if something lands it, take off again at 12 s; land for good at 20 s.'''
+
+    error = None
+
+    def __init__(self, vehicle):
+        self.vehicle = vehicle
+        self.heights = {}
+        self.finished = False
+
+    @property
+    def done(self):
+        return self.finished and not self.vehicle.airborne
+
+    def decide(self, now_s):
+        self.heights[now_s] = float(self.vehicle.position_enu_m[2])
+        if now_s in (0.0, 12.0) and not self.vehicle.airborne:
+            self.vehicle.takeoff(5.0)
+        elif now_s >= 20.0 and not self.finished:
+            self.vehicle.land()
+            self.finished = True
+
+    def metrics(self):
+        return {"h10": (self.heights[10.0], "m"), "h18": (self.heights[18.0], "m")}
+"""
+
+
+def test_a_land_fault_lands_the_vehicle_and_a_later_command_flies_it_again(tmp_path, monkeypatch):
+    (tmp_path / "swarm_again_role.py").write_text(LANDER)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    s = scenario("swarm_again_role", [{"kind": "land", "vehicle": 1, "at_s": 4.0}])
+    report = run_swarm(s, seed=0)
+    assert report["passed"], report["checks"]
+    v1, v2 = report["vehicles"]["vehicle1"], report["vehicles"]["vehicle2"]
+    assert v1["fault"] == "land" and report["faults"][0]["time_s"] == 4.0
+    assert v1["companion"]["h10"]["value"] < 0.1 < 4.0 < v1["companion"]["h18"]["value"]
+    assert v2["companion"]["h10"]["value"] > 4.0  # the others fly on
