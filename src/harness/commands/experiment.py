@@ -33,7 +33,7 @@ def experiment(
             "--runs",
             "--seeds",
             min=1,
-            help="runs (seeds) per cell [seed003: 31, --quick 5; seed004: 10, --quick 2]",
+            help="runs (seeds) per cell: seed003 31 (--quick 5), seed004 10 (--quick 2)",
         ),
     ] = None,
     workers: Annotated[
@@ -57,6 +57,8 @@ def experiment(
     Example:  swarmsitl experiment seed003 --quick --out runs/seed003-quick
 
     Example:  swarmsitl experiment seed003 --runs 31 --workers 2 --out runs/seed003
+
+    Example:  swarmsitl experiment seed004 --quick --out runs/seed004-quick
 
     Example:  swarmsitl experiment seed004 --seeds 10 --workers 2 --out runs/seed004
     """

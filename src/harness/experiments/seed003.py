@@ -13,7 +13,6 @@ every choice.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -22,9 +21,9 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 import yaml
 
+from harness.experiments.pipeline import last_error_line
 from harness.report.totals import number_of
 from harness.sweep.spec import SweepPlan, SweepSpec, trial_id
 from harness.sweep.trial import Trial
@@ -264,8 +263,7 @@ def results_table(sweep: pa.Table, cfg: Seed003Config) -> pa.Table:
         rec["vehicles_lost"] = number_of(row.get("fleet.seed003.vehicles_lost"))
         rec["status"] = row.get("status")
         rec["passed"] = bool(row.get("passed"))
-        error_lines = (row.get("error") or "").strip().splitlines()
-        rec["error"] = error_lines[-1] if error_lines else ""
+        rec["error"] = last_error_line(row)
         out.append(rec)
     order = {a: i for i, a in enumerate(ALGORITHMS)}
     out.sort(key=lambda r: (order.get(r["algorithm"], 99), r["agents"], r["range_frac"], r["run"]))
@@ -285,30 +283,16 @@ def run_experiment(
 
     Returns the exit status: 0 when every trial ran and passed its checks, 1 otherwise.
     """
+    from harness.experiments.pipeline import run_plan
     from harness.experiments.seed003_report import write_report
-    from harness.sweep.runner import run_sweep
 
-    out_dir = Path(out_dir)
-    source = Path(__file__).with_name("seed003.py")
-    plan = sweep_plan(cfg, source)
-    say(
-        f"seed003: {len(plan.trials)} trials ({'quick' if cfg.quick else 'full'}); output {out_dir}"
-    )
-    summary = run_sweep(
-        plan, out_dir / "sweep", scheduler=scheduler, workers=workers, execute=execute,
-        console=console, plots=False,
+    plan = sweep_plan(cfg, Path(__file__).with_name("seed003.py"))
+    config = {"quick": cfg.quick, "runs": list(cfg.runs), "scales": list(cfg.scales),
+              "range_fractions": list(cfg.ranges), "algorithms": list(cfg.algorithms),
+              "map_size_m": MAP_SIZE_M, "speed_m_s": SPEED_M_S,
+              "decision_hz": cfg.decision_hz}  # fmt: skip
+    return run_plan(
+        plan, out_dir, execute=execute, tabulate=lambda t: results_table(t, cfg),
+        report=lambda results, out, say_: write_report(results, cfg, out, say_), config=config,
+        quick=cfg.quick, workers=workers, scheduler=scheduler, console=console, say=say,
     )  # fmt: skip
-    say(summary.describe())
-    table = pq.read_table(out_dir / "sweep" / "results.parquet")
-    results = results_table(table, cfg)
-    pq.write_table(results, out_dir / "results.parquet")
-    result_line = write_report(results, cfg, out_dir, say)
-    (out_dir / "config.json").write_text(
-        json.dumps({"quick": cfg.quick, "runs": list(cfg.runs), "scales": list(cfg.scales),
-                    "range_fractions": list(cfg.ranges), "algorithms": list(cfg.algorithms),
-                    "map_size_m": MAP_SIZE_M, "speed_m_s": SPEED_M_S,
-                    "decision_hz": cfg.decision_hz}, indent=2) + "\n"
-    )  # fmt: skip
-    failed = summary.outcome.errored + summary.outcome.checks_failed + summary.outcome.missing
-    say(result_line)
-    return 0 if failed == 0 else 1

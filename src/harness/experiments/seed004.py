@@ -12,7 +12,6 @@ links over time. docs/seed004.md gives every choice.
 from __future__ import annotations
 
 import functools
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -21,9 +20,9 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 import yaml
 
+from harness.experiments.pipeline import last_error_line
 from harness.report.totals import number_of
 from harness.sweep.spec import SweepPlan, SweepSpec, trial_id
 from harness.sweep.trial import Trial
@@ -308,8 +307,7 @@ def results_table(sweep: pa.Table, cfg: Seed004Config) -> pa.Table:
             float(np.std(waypoints)) if waypoints and all(map(math.isfinite, waypoints))
             else math.nan
         )  # fmt: skip
-        error_lines = (row.get("error") or "").strip().splitlines()
-        rec["error"] = error_lines[-1] if error_lines else ""
+        rec["error"] = last_error_line(row)
         out.append(rec)
     order = {c.name: i for i, c in enumerate(cfg.cases)}
     out.sort(key=lambda r: (order.get(r["workspace"], 99), PLANNERS.index(r["planner"])
@@ -333,30 +331,15 @@ def run_experiment(
     Raises:
         ExperimentError: a case cannot be planned (``check_inputs``): nothing ran.
     """
+    from harness.experiments.pipeline import run_plan
     from harness.experiments.seed004_report import write_report
-    from harness.sweep.runner import run_sweep
 
-    out_dir = Path(out_dir)
     check_inputs(cfg)
-    source = Path(__file__).with_name("seed004.py")
-    plan = sweep_plan(cfg, source)
-    say(
-        f"seed004: {len(plan.trials)} trials ({'quick' if cfg.quick else 'full'}); output {out_dir}"
-    )
-    summary = run_sweep(
-        plan, out_dir / "sweep", scheduler=scheduler, workers=workers, execute=execute,
-        console=console, plots=False,
+    plan = sweep_plan(cfg, Path(__file__).with_name("seed004.py"))
+    config = {"quick": cfg.quick, "seeds": list(cfg.seeds), "n_values": cfg.n_values,
+              "fa_population": cfg.fa_population, "fa_iterations": cfg.fa_iterations}  # fmt: skip
+    return run_plan(
+        plan, out_dir, execute=execute, tabulate=lambda t: results_table(t, cfg),
+        report=lambda results, out, say_: write_report(results, cfg, out, say_), config=config,
+        quick=cfg.quick, workers=workers, scheduler=scheduler, console=console, say=say,
     )  # fmt: skip
-    say(summary.describe())
-    table = pq.read_table(out_dir / "sweep" / "results.parquet")
-    results = results_table(table, cfg)
-    pq.write_table(results, out_dir / "results.parquet")
-    result_line = write_report(results, cfg, out_dir, say)
-    (out_dir / "config.json").write_text(
-        json.dumps({"quick": cfg.quick, "seeds": list(cfg.seeds), "n_values": cfg.n_values,
-                    "fa_population": cfg.fa_population, "fa_iterations": cfg.fa_iterations},
-                   indent=2) + "\n"
-    )  # fmt: skip
-    failed = summary.outcome.errored + summary.outcome.checks_failed + summary.outcome.missing
-    say(result_line)
-    return 0 if failed == 0 else 1

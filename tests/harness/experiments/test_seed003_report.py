@@ -84,3 +84,14 @@ def test_the_design_has_837_runs_with_common_random_numbers():
     assert all(len({text for text, _ in v}) == 1 and len(v) == 3 for v in by_alg.values())
     with pytest.raises(seed003.ExperimentError, match="--runs"):
         seed003.make_config(quick=True, runs=0)
+
+
+def test_the_cli_offers_seed003_with_an_example(tmp_path):
+    from typer.testing import CliRunner
+
+    from harness.cli import app
+
+    result = CliRunner().invoke(app, ["experiment", "seed999", "--out", str(tmp_path)])
+    assert result.exit_code == 2 and "seed003" in result.output
+    help_text = CliRunner().invoke(app, ["experiment", "--help"]).output
+    assert "seed003 --quick" in help_text and "--runs" in help_text
