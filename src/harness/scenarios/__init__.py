@@ -12,6 +12,7 @@ NAMES = (
     "taskmap",
     "swarm_coverage",
     "mco_urban",
+    "caravan_kill",
 )
 
 

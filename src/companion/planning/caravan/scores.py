@@ -55,6 +55,11 @@ class CaravanParams:
     """Flight height of the role's first vehicle, m (swarm adapter)."""
     altitude_step_m: float = 0.5
     """Height added per role index, m: the paper's staggered altitudes (Sec. 4.1)."""
+    decision_period_s: float = 0.2
+    """Time between two consensus steps of the MAVSDK adapter (``python -m
+    companion.scripts.caravan``), vehicle (simulated) s. At swarm fidelity the engine's
+    ``decision_hz`` sets it instead and this field is not read; 0.2 s is the 5 Hz of seed 003's
+    experiment (``harness.experiments.seed003``), so both fidelities step alike by default."""
 
     def __post_init__(self) -> None:
         if self.algorithm not in ALGORITHMS:
@@ -68,6 +73,7 @@ class CaravanParams:
             ("arrive_tolerance_m", lambda v: v > 0, "> 0"),
             ("altitude_m", lambda v: v > 0, "> 0"),
             ("altitude_step_m", lambda v: v >= 0, ">= 0"),
+            ("decision_period_s", lambda v: v > 0, "> 0"),
         )
         for name, ok, want in checks:
             value = getattr(self, name)

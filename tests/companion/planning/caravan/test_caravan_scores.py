@@ -34,6 +34,7 @@ def test_bids_count_the_visit_time_from_the_mission_start() -> None:
         ("arrive_tolerance_m", -0.1),
         ("altitude_m", 0.0),
         ("altitude_step_m", "high"),
+        ("decision_period_s", 0.0),
     ],
 )
 def test_bad_parameters_raise_naming_the_field(field: str, value: object) -> None:
