@@ -13,7 +13,9 @@ and the task it heads to, relayed multi-hop (each agent keeps the newest entry o
 has heard of, directly or through relays), and the completed tasks (OR-relayed). An agent solves
 max sum s_kj x_kj (Eq. 1) with ``scipy.optimize.linear_sum_assignment`` over the agents whose entry
 is not older than delta (``release_timeout_s``; so a lost agent drops out and its task is picked
-up) and the tasks it believes open, and heads to the task of its own row. It solves again when
+up) and the tasks it believes open, each vector taken back to the same clock (its bids are
+from the mission's start, so a vector's age alone would rank it), and heads to the task of its
+own row. It solves again when
 that set of agents or of open tasks changes (a completion, an agent heard of or dropped), or
 when an agent reports (newer than the plan) heading elsewhere than the plan sends it (agents
 whose information differed at the last event made different plans), and keeps its plan in
@@ -111,7 +113,13 @@ class Ica:
             self._key, self._plan_s = key, now_s
             self._plan = {}
             if tasks.size:
-                sub = self.scores[np.ix_(agents, tasks)]
+                # every vector back to the same clock: a bid taken at stamp s is
+                # a e^(-lambda (s + travel)), so e^(lambda s) x bid = a e^(-lambda travel)
+                # whenever it was taken: copies of the awareness that hold vectors of different
+                # ages still rank the agents alike (else each defers to the agent whose vector it
+                # holds oldest, and nobody goes)
+                age = np.exp(self.params.discount_per_s * self.stamp[agents])[:, None]
+                sub = self.scores[np.ix_(agents, tasks)] * age
                 rows, cols = linear_sum_assignment(sub, maximize=True)
                 self._plan = {
                     int(tasks[c]): int(agents[r]) for r, c in zip(rows, cols, strict=True)

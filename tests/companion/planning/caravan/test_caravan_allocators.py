@@ -136,3 +136,17 @@ def test_message_loss_needs_a_generator_and_still_completes() -> None:
     r = simulate(agents, tasks, CaravanParams(), loss=0.2, rng=np.random.default_rng(4))
     assert np.isfinite(r.first_completion_s).all()
     assert math.isfinite(r.time_s)
+
+
+def test_ica_ranks_vectors_of_different_ages_as_if_taken_at_once() -> None:
+    """Agent 0 holds its own vector from t = 0 and agent 1's from t = 2 s; agent 1 is 1 s from
+    the task, agent 0 2 s: agent 1 must get it. Ranking the raw bids (from the mission's start)
+    would favour the older vector; copies of the awareness of different ages then disagree and
+    a task can be left to nobody (seed 003's experiment found runs that never finished)."""
+    params = CaravanParams(algorithm="ica")
+    a = make_allocator(params, 0, 2, 1)
+    assert a.step(0.0, params.bids(0.0, np.array([2.0]))) == 0  # alone: it takes the task
+    bids = params.bids(2.0, np.array([1.0]))
+    heard = {"agents": [1], "stamp": [2.0], "scores": [bids.tolist()], "heading": [-1], "done": [0]}
+    a.inbox(1, heard, 2.0)
+    assert a.step(2.0, params.bids(2.0, np.array([2.0]))) is None  # it defers to agent 1
