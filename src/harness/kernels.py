@@ -112,6 +112,10 @@ SIGNATURES: dict[str, tuple[Signature, ...]] = {
     "autopilot_emu.nan_scalar:sign": ((F,),),
     # -- companion: planners ----------------------------------------------------------------------
     "companion.planning.mco.firefly:firefly_kernel": ((F2, I2, I2, INT, F, F, F, F, INT, INT),),
+    "companion.planning.aco.colony:colony_kernel": (
+        (I1, I1, I1, F1, F1, F1, F, F, INT, INT, INT, INT, INT),
+    ),
+    "companion.planning.aco.colony:pheromone_update": ((F1, I2, I1, F1, F),),
 }
 """Every lazily compiled kernel (``module:function``) and the argument types it is called with."""
 
