@@ -155,7 +155,7 @@ def build_roadmap(
             f"target {tuple(target.tolist())} is unreachable from start {tuple(start.tolist())} "
             f"on the roadmap ({n} nodes, {len(pairs)} edges, {len(solids)} solids)"
         )
-    return _csr(points, pairs)
+    return roadmap_from_edges(points, pairs)
 
 
 def _point(value: np.ndarray, name: str) -> np.ndarray:
@@ -197,8 +197,13 @@ def _blocked(points: np.ndarray, pairs: np.ndarray, solids: tuple[Prism, ...]) -
     return blocked
 
 
-def _csr(points: np.ndarray, pairs: np.ndarray) -> Roadmap:
-    """CSR arrays of the undirected edges ``pairs`` (i < j), both directions, sorted by node."""
+def roadmap_from_edges(points: np.ndarray, pairs: np.ndarray) -> Roadmap:
+    """The :class:`Roadmap` of ``(n, 3)`` points and ``(E, 2)`` undirected edges (i < j, unique).
+
+    Node 0 must be the start and node 1 the target. For hand-built graphs and map exports.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     m = len(pairs)
     src = np.concatenate([pairs[:, 0], pairs[:, 1]])
     dst = np.concatenate([pairs[:, 1], pairs[:, 0]])
