@@ -9,10 +9,12 @@ the edge rule, nor whether points are 3-D (digest 004_001 §6 item 1). Choices h
   altitude band of its moving obstacles, 10-60 m (the paper gives no altitude bound). A 2-D
   roadmap is the same box with ``z_min_m == z_max_m``.
 * **Nodes.** :attr:`RoadmapParams.nodes` = 200 random points (plus the start, node 0, and the
-  target, node 1): at 1 km x 1 km one point per ~70 m x 70 m, ~15 hops across the arena. Denser
-  roadmaps let A* find slightly shorter paths but the colony's 50 iterations of 20 ants find
-  them less well (``benchmarks/aco_plan.py``: ACO/A* ~1.01 at 200 nodes, ~1.06 at 500, ~1.1 at
-  1000) and cost more (80 plans in ~0.15 s at 200 nodes, ~0.5 s at 500, against Eq. 11's 0.833 s).
+  target, node 1): at 1 km x 1 km one point per ~70 m x 70 m, ~15 hops across the arena. Larger
+  roadmaps do not pay here: with k fixed their shortest paths zigzag more (A*/straight 1.06 at
+  200 nodes, 1.08 at 500, 1.11 at 2000), the colony's 50 iterations find them less well (ACO/A*
+  1.02 at 200 nodes, 1.06 at 500, 1.16 at 1000, 20 ants) and cost more (2.3 ms per colony at
+  200, 10 ms at 500, 21 ms at 1000); 80 plans at 200 nodes, roadmap built per UAV, take ~0.5 s
+  of Eq. 11's 0.833 s on one loaded core (``benchmarks/aco_plan.py``).
 * **Edges.** Symmetrised k-nearest neighbours (``scipy.spatial.cKDTree``; an edge i-j when j is
   among i's k nearest or i among j's), k = :attr:`RoadmapParams.neighbours` = 10, so every node has
   degree >= k and the graph does not fall apart in sparse corners as a fixed radius would.
@@ -145,7 +147,8 @@ def build_roadmap(
     rows = np.repeat(np.arange(n), k)
     cols = near[:, 1:].reshape(-1)
     i, j = np.minimum(rows, cols), np.maximum(rows, cols)
-    pairs = np.unique(np.column_stack([i, j])[i != j], axis=0)
+    key = np.unique((i * n + j)[i != j])  # one int per edge: faster than unique rows
+    pairs = np.column_stack([key // n, key % n])
     if solids:
         pairs = pairs[~_blocked(points, pairs, solids)]
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))

@@ -40,7 +40,8 @@ def test_straight_path_on_a_trivial_roadmap():
 @pytest.mark.parametrize("seed", range(4))
 def test_within_a_few_percent_of_astar_on_a_random_roadmap(seed):
     """Default parameters on the default roadmap: the colony's path is a valid start ->
-    target walk at most 4 % longer than A*'s shortest path (benchmarks/aco_plan.py: ~1 %)."""
+    target walk at most 4 % longer than A*'s shortest path (benchmarks/aco_plan.py: ~2 % on
+    average)."""
     rng = np.random.default_rng(seed)
     rm = build_roadmap(A, B, RoadmapParams(), rng)
     result = aco_path(rm, AcoParams(), rng)
