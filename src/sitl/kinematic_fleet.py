@@ -12,6 +12,11 @@ setpoint within the climb and descent rates and the vertical acceleration limit.
 Each vehicle flies a path: waypoints (ENU, m) held in one padded (N, L, 3) array; a waypoint
 closer than ``acceptance_m`` horizontally (and within 1 m in height) is passed and the next one
 taken, as PX4 passes a fly-through mission item. Every operation is one numpy call over the fleet.
+
+Or a vehicle holds a velocity (``set_velocity``, an offboard velocity setpoint): its course turns
+toward the setpoint's direction and its speed follows the setpoint's horizontal speed (capped by
+``max_speed``) with the same limits, and its climb rate the setpoint's vertical speed (clipped to
+the climb and descent rates), until another command. ``velocity_mode`` says which vehicles do.
 """
 
 from __future__ import annotations
@@ -113,6 +118,10 @@ class KinematicFleet:
         self.active = np.zeros(n, dtype=bool)
         """(N,) bool: the vehicle is flying its path (else it holds or rests)."""
         self.landing = np.zeros(n, dtype=bool)
+        self.velocity_mode = np.zeros(n, dtype=bool)
+        """(N,) bool: the vehicle holds ``velocity_set`` instead of flying its path."""
+        self.velocity_set = np.zeros((n, 3))
+        """(N, 3) ENU velocity setpoint of the vehicles in velocity mode, m/s."""
         self.distance_m = np.zeros(n)
         """(N,) horizontal and vertical distance flown, m."""
         self.airborne_s = np.zeros(n)
@@ -139,8 +148,27 @@ class KinematicFleet:
         self.index[i] = 0
         self.active[i] = True
         self.landing[i] = False
+        self.velocity_mode[i] = False
         if cruise_m_s is not None:
             self.cruise_m_s[i] = min(float(cruise_m_s), self.max_speed[i])
+
+    def set_velocity(self, i: int, velocity_enu_m_s: np.ndarray) -> None:
+        """Vehicle ``i`` holds ``velocity_enu_m_s`` (ENU, m/s) within its limits until told else.
+
+        The horizontal part is scaled down to ``max_speed``; the vertical part is clipped to the
+        climb and descent limits. A vehicle on the ground stays there (take off first).
+        """
+        v = np.asarray(velocity_enu_m_s, dtype=float).reshape(3)
+        if not np.isfinite(v).all():
+            raise ValueError(f"vehicle {i}: a velocity setpoint must be finite, got {v}")
+        h = float(np.hypot(v[0], v[1]))
+        if h > self.max_speed[i]:
+            v[:2] *= self.max_speed[i] / h
+        v[2] = min(max(v[2], -self.max_descent[i]), self.max_climb[i])
+        self.velocity_set[i] = v
+        self.velocity_mode[i] = True
+        self.active[i] = True
+        self.landing[i] = False
 
     def takeoff(self, i: int, height_m: float, climb_m_s: float | None = None) -> None:
         """Climb straight up to ``height_m`` above the vehicle's ground."""
@@ -168,16 +196,18 @@ class KinematicFleet:
         s.airborne[i] = False
         self.active[i] = False
         self.landing[i] = False
+        self.velocity_mode[i] = False
 
     # -- queries -----------------------------------------------------------------------------
 
     def path_done(self) -> np.ndarray:
-        """(N,) bool: the vehicle is at its last waypoint (or not flying a path)."""
+        """(N,) bool: at its last waypoint, or not flying (False while holding a velocity)."""
         s = self.state
         last = self.paths[self._rows, self.path_len - 1]
         d = np.hypot(*(last[:, :2] - s.position_m[:, :2]).T)
         return (~self.active) | (
-            (self.index >= self.path_len - 1)
+            ~self.velocity_mode
+            & (self.index >= self.path_len - 1)
             & (d < self.acceptance_m)
             & (np.abs(last[:, 2] - s.position_m[:, 2]) < HEIGHT_TOLERANCE_M)
         )
@@ -189,12 +219,14 @@ class KinematicFleet:
         s = self.state
         pos = s.position_m
         fly = self.active & s.airborne
+        vel = self.velocity_mode
         target = self.paths[self._rows, self.index]
         delta = target - pos
         dist_xy = np.hypot(delta[:, 0], delta[:, 1])
         # pass fly-through waypoints (one per step is enough at the engine's step rates)
         passed = (
             fly
+            & ~vel
             & (dist_xy < self.acceptance_m)
             & (np.abs(delta[:, 2]) < HEIGHT_TOLERANCE_M)
             & (self.index < self.path_len - 1)
@@ -204,17 +236,22 @@ class KinematicFleet:
             target = self.paths[self._rows, self.index]
             delta = target - pos
             dist_xy = np.hypot(delta[:, 0], delta[:, 1])
-        last = self.index >= self.path_len - 1
-        # course toward the waypoint, turn-rate limited (Eq. (19): theta = atan(dy / dx))
-        wanted = np.arctan2(delta[:, 1], delta[:, 0])
+        last = (self.index >= self.path_len - 1) & ~vel
+        # course toward the waypoint, turn-rate limited (Eq. (19): theta = atan(dy / dx)); in
+        # velocity mode toward the setpoint's direction
+        vset = self.velocity_set
+        wanted = np.where(
+            vel, np.arctan2(vset[:, 1], vset[:, 0]), np.arctan2(delta[:, 1], delta[:, 0])
+        )
         error = (wanted - s.course_rad + np.pi) % (2.0 * np.pi) - np.pi
         turn = np.minimum(self.max_turn, self.max_accel / np.maximum(s.speed_m_s, 1e-6)) * dt_s
         hovering = s.speed_m_s < HOVER_SPEED_M_S
         step_turn = np.where(hovering, error, np.clip(error, -turn, turn))
-        far = dist_xy > 1e-3
+        v_hold = np.hypot(vset[:, 0], vset[:, 1])
+        far = np.where(vel, v_hold > 1e-3, dist_xy > 1e-3)
         s.course_rad = np.where(far & fly, s.course_rad + step_turn, s.course_rad)
         # speed: the cruise setpoint, less when facing away, stopping at the last waypoint
-        v_set = self.cruise_m_s * np.maximum(np.cos(error), 0.0)
+        v_set = np.where(vel, v_hold, self.cruise_m_s) * np.maximum(np.cos(error), 0.0)
         half = 0.5 * self.max_accel * dt_s  # the speed that stops in d at max_accel, per step
         v_stop = np.sqrt(half * half + 2.0 * self.max_accel * dist_xy) - half
         v_set = np.where(last, np.minimum(v_set, v_stop), v_set)
@@ -230,9 +267,11 @@ class KinematicFleet:
         w_cap = np.where(dz >= 0.0, self.climb_rate_m_s, self.max_descent)
         w_stop = np.sqrt(2.0 * self.max_vaccel * np.abs(dz))
         w_set = np.sign(dz) * np.minimum(w_cap, w_stop)
+        w_set = np.where(vel & fly, vset[:, 2], w_set)
         dw = np.clip(w_set - s.climb_m_s, -self.max_vaccel * dt_s, self.max_vaccel * dt_s)
         s.climb_m_s = s.climb_m_s + dw
-        s.climb_m_s = np.where(np.abs(s.climb_m_s * dt_s) > np.abs(dz), dz / dt_s, s.climb_m_s)
+        overshoot = ~vel & (np.abs(s.climb_m_s * dt_s) > np.abs(dz))
+        s.climb_m_s = np.where(overshoot, dz / dt_s, s.climb_m_s)
         # move (Eq. (20))
         vx = s.speed_m_s * np.cos(s.course_rad)
         vy = s.speed_m_s * np.sin(s.course_rad)

@@ -10,6 +10,7 @@ moving demand hotspots, spills appearing) is a pure function of simulation time 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -82,15 +83,8 @@ class Solid:
         """Centre at simulation time ``t_s``, ENU, m."""
         if self.motion is None:
             return self.center_enu_m
-        m = self.motion
-        b = np.asarray(m.bounds_xy_m, dtype=float)
-        xy = bounce(
-            np.asarray(self.center_enu_m[:2]), np.asarray(m.velocity_xy_m_s), b[:2], b[2:], t_s
-        )
-        z = self.center_enu_m[2] + m.vertical_amplitude_m * math.sin(
-            2.0 * math.pi * t_s / m.vertical_period_s + m.phase_rad
-        )
-        return (float(xy[0]), float(xy[1]), float(z))
+        x, y, z = motion_centers([self], t_s)[0]
+        return (float(x), float(y), float(z))
 
     def z_range_at(self, t_s: float) -> tuple[float, float]:
         """(bottom, top) at ``t_s``, m."""
@@ -106,6 +100,26 @@ class Solid:
         c, s = math.cos(math.radians(self.yaw_deg)), math.sin(math.radians(self.yaw_deg))
         corners = [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)]
         return Polygon([(cx + c * x - s * y, cy + s * x + c * y) for x, y in corners])
+
+
+def motion_centers(solids: Sequence[Solid], t_s: float) -> np.ndarray:
+    """(K, 3) centres at ``t_s`` of moving solids (each with a ``motion``), m; vectorised.
+
+    The one motion law of moving solids (:class:`SolidMotion`): straight lines reflecting off the
+    bounds (:func:`bounce`), plus the vertical sine.
+    """
+    motions = [s.motion for s in solids if s.motion is not None]
+    if len(motions) != len(solids):
+        raise ValueError("motion_centers takes moving solids only")
+    c0 = np.array([s.center_enu_m for s in solids], dtype=float).reshape(-1, 3)
+    vel = np.array([m.velocity_xy_m_s for m in motions], dtype=float).reshape(-1, 2)
+    b = np.array([m.bounds_xy_m for m in motions], dtype=float).reshape(-1, 4)
+    amp = np.array([m.vertical_amplitude_m for m in motions], dtype=float)
+    period = np.array([m.vertical_period_s for m in motions], dtype=float)
+    phase = np.array([m.phase_rad for m in motions], dtype=float)
+    xy = bounce(c0[:, :2], vel, b[:, :2], b[:, 2:], t_s)
+    z = c0[:, 2] + amp * np.sin(2.0 * np.pi * t_s / period + phase)
+    return np.column_stack((xy, z))
 
 
 @dataclass(frozen=True)

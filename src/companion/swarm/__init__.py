@@ -5,6 +5,6 @@ swarm-scale engine (``fidelity: swarm``, docs/swarm.md) calls it once per vehicl
 program's ``decide`` at the scenario's decision rate, in simulation time, in-process.
 """
 
-from companion.swarm.vehicle import Detection, SwarmProgram, SwarmVehicle
+from companion.swarm.vehicle import Detection, Sensed, SwarmProgram, SwarmVehicle
 
-__all__ = ["Detection", "SwarmProgram", "SwarmVehicle"]
+__all__ = ["Detection", "Sensed", "SwarmProgram", "SwarmVehicle"]

@@ -4,13 +4,15 @@ The full stack hands a program a MAVSDK ``System``; the swarm-scale engine hands
 ``SwarmVehicle``: the same commands a mission-flying companion gives (take off, fly these
 waypoints, land) and the same observations (position, progress, what the camera detected), in
 the world's ENU frame and simulation time, without MAVLink. ``neighbours()`` stands for the mesh
-radio's neighbour table (the nodes whose beacons it hears, nearest first).
+radio's neighbour table (the nodes whose beacons it hears, nearest first); ``sense(radius)`` for an
+obstacle sensor that sees solids and other vehicles around it (seed 001's R_s); ``set_velocity``
+and ``goto`` for MAVSDK's offboard velocity and position setpoints.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Literal, Protocol
 
 import numpy as np
 
@@ -29,6 +31,23 @@ class Detection:
     """When this vehicle first saw it, simulated s."""
 
 
+@dataclass(frozen=True)
+class Sensed:
+    """Something near the vehicle (``SwarmVehicle.sense``): a world solid or another vehicle."""
+
+    kind: Literal["solid", "vehicle"]
+    name: str
+    """The solid's name (``obstacle_3``, ``mover_0``) or the vehicle's node id."""
+    position_enu_m: tuple[float, float, float]
+    """A solid's point nearest to this vehicle, or the other vehicle's centre, ENU m."""
+    velocity_enu_m_s: tuple[float, float, float]
+    """Its velocity, ENU m/s (zeros for a static solid)."""
+    distance_m: float
+    """Clearance between the bodies, m: from this vehicle's sphere (its airframe's diameter) to
+    the solid's surface, or to the other vehicle's sphere (centre distance minus both radii).
+    Negative: in contact (a collision, as the report counts them)."""
+
+
 class SwarmVehicle(Protocol):
     """One kinematic vehicle, as its companion program commands and observes it."""
 
@@ -36,6 +55,9 @@ class SwarmVehicle(Protocol):
     """0-based vehicle index in the fleet."""
     node_id: str
     """The vehicle's messaging node id."""
+    priority: int
+    """The scenario's priority of the vehicle (``fleet[].priority``; default its vehicle number,
+    1-based, so that every vehicle has a distinct one); the harness does not interpret it."""
 
     @property
     def time_s(self) -> float:
@@ -74,8 +96,30 @@ class SwarmVehicle(Protocol):
     def fly_path(self, waypoints_enu_m: np.ndarray, speed_m_s: float) -> None:
         """Fly through ``waypoints_enu_m`` ((K, 3), ENU m) at ``speed_m_s``; stop at the last."""
 
+    def set_velocity(self, velocity_enu_m_s: np.ndarray) -> None:
+        """Hold this ENU velocity (m/s) until another command, within the vehicle's limits.
+
+        As an offboard velocity setpoint: the speed and course change at most as the kinematic
+        limits allow; a horizontal speed above the limit is scaled down, the vertical speed is
+        clipped to the climb and descent rates. ``path_done`` is False meanwhile.
+        """
+
+    def goto(self, position_enu_m: np.ndarray, speed_m_s: float) -> None:
+        """Fly straight to ``position_enu_m`` (ENU m) at ``speed_m_s`` and hold there.
+
+        As an offboard position setpoint; the same as ``fly_path`` with one waypoint.
+        """
+
     def land(self) -> None:
         """Descend where it is, touch down, disarm."""
+
+    def sense(self, radius_m: float) -> list[Sensed]:
+        """The world's solids and the airborne vehicles within ``radius_m`` of its body, now.
+
+        Within: ``Sensed.distance_m <= radius_m`` (clearance between the bodies); nearest first.
+        Solids where they are at the current simulated time (moving ones too), heights
+        included (a vehicle above a solid's top sees it only within ``radius_m`` of the top).
+        """
 
     def neighbours(self) -> list[str]:
         """Node ids of the nearest vehicles within radio range, nearest first."""

@@ -46,6 +46,7 @@ from companion.scenario_env import ScenarioEnv
 from harness.net.plan import NetPlan, NetRun
 from harness.net.roles import attach, role_process
 from harness.net.roles import write_report as write_net_report
+from harness.report.collisions import CollisionCounter, scenario_collisions
 from harness.report.flight_checks import (
     landed_and_disarmed,
     max_tilt,
@@ -555,7 +556,7 @@ class ScenarioRun:
 
     # ---- report ------------------------------------------------------------------------------
 
-    def _checks(self, log: FlightLog) -> dict[str, dict[str, Any]]:
+    def _checks(self, log: FlightLog, collisions: CollisionCounter) -> dict[str, dict[str, Any]]:
         checks = self.scenario.spec.checks
         out: dict[str, dict[str, Any]] = {}
 
@@ -576,6 +577,8 @@ class ScenarioRun:
             put("max_tilt", max_tilt(log, checks.max_tilt_deg))
         if checks.stay_inside_world and self.scenario.world is not None:
             put("stay_inside_world", stayed_inside(log, self.scenario.world.boundary))
+        if checks.max_collisions is not None:
+            out["max_collisions"] = collisions.check(checks.max_collisions)
         return out
 
     def _companions_check(self, lost: dict[int, float]) -> dict[str, Any]:
@@ -636,9 +639,18 @@ class ScenarioRun:
             (self.run_dir / "report.json").write_text(json.dumps(report, indent=2) + "\n")
             return report
         log = FlightLog.load(self.run_dir)
-        extra["checks"] = self._checks(log)
+        collisions = scenario_collisions(log, self.scenario)
+        extra["checks"] = self._checks(log, collisions)
         extra["passed"] = complete and all(c["ok"] for c in extra["checks"].values())
         report = write_run_report(self.run_dir, self.scenario.world, None, extra)
+        report.setdefault("fleet", {}).update(collisions.fleet_metrics())
+        for v in log.vehicles:
+            entry = report.get("vehicles", {}).get(v.name)
+            if entry is not None:
+                entry["collisions"] = {
+                    "value": int(collisions.per_vehicle[v.index]),
+                    "unit": "count",
+                }
         if self.injector is not None:
             for i, kinds in self.injector.kinds_of().items():
                 report.get("vehicles", {}).get(f"vehicle{i + 1}", {})["fault"] = kinds

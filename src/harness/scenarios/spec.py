@@ -114,6 +114,11 @@ class FleetGroup(_Model):
     """Free-form capabilities of the vehicles (``decision``, ``communication``,
     ``flight_time_s``, ...): one value for the group or a list of one per vehicle. The companions
     read them in ``ScenarioEnv.fleet``; the simulator does not."""
+    priority: int | list[int] | None = None
+    """The vehicles' priority (e.g. seed 001's ground-station priority for collision
+    avoidance): one for the group or one per vehicle; None: each vehicle's number (1-based), so
+    that every vehicle has a distinct one. Companions read it (``ScenarioEnv.fleet``,
+    ``SwarmVehicle.priority``); the harness does not interpret it."""
 
     @model_validator(mode="after")
     def _starts(self) -> FleetGroup:
@@ -132,6 +137,11 @@ class FleetGroup(_Model):
             bad = [v for v in values if not v > 0.0]
             if bad:
                 raise ValueError(f"battery_capacity_mah must be > 0 mAh, got {bad[0]!r}")
+        if isinstance(self.priority, list) and len(self.priority) != self.count:
+            raise ValueError(
+                f"priority has {len(self.priority)} values for count {self.count} "
+                "(give one for the group or one per vehicle)"
+            )
         for name, value in self.traits.items():
             if isinstance(value, list) and len(value) != self.count:
                 raise ValueError(
@@ -147,6 +157,11 @@ class FleetGroup(_Model):
         """The pack capacity the file gives the group's ``k``-th vehicle, mAh (None: airframe's)."""
         cap = self.battery_capacity_mah
         return float(cap[k]) if isinstance(cap, list) else None if cap is None else float(cap)
+
+    def priority_of(self, k: int) -> int | None:
+        """The priority the file gives the group's ``k``-th vehicle (None: its number)."""
+        p = self.priority
+        return int(p[k]) if isinstance(p, list) else None if p is None else int(p)
 
     def traits_of(self, k: int) -> dict[str, float]:
         """The traits of the group's ``k``-th vehicle."""
@@ -205,6 +220,13 @@ class SwarmSpec(_Model):
     link_range_m: float | None = Field(None, gt=0)
     """Range within which two airborne vehicles count as linked (the report's ``links_*``), m;
     None: the edge-edge link's range (as the neighbour tables)."""
+    max_speed_m_s: float | None = Field(None, gt=0)
+    """Horizontal speed limit of every vehicle, m/s, under its airframe's (the smaller of the
+    two); None: the airframe's ``kinematics.max_speed_m_s``."""
+    max_turn_rate_deg_s: float | None = Field(None, gt=0)
+    """Largest change of course (the horizontal velocity's direction) per second of flight,
+    deg/s, under the airframe's ``kinematics.max_turn_rate_deg_s`` (the smaller); None: the
+    airframe's. Seed 001's "theta_max 30 deg" per one-second tick is 30."""
 
     @model_validator(mode="after")
     def _rates(self) -> SwarmSpec:
@@ -232,6 +254,9 @@ class ChecksSpec(_Model):
     max_tilt_deg: float | None = Field(None, gt=0)
     stay_inside_world: bool = False
     """Every vehicle stayed inside the world's boundary."""
+    max_collisions: int | None = Field(None, ge=0)
+    """At most this many collision events (vehicle-vehicle and vehicle-solid; report
+    ``fleet.collisions``, docs/swarm.md "Collisions"); 0: none allowed; None: not checked."""
     metrics: dict[str, tuple[float | None, float | None]] = Field(default_factory=dict)
     """``name: [min, max]`` bounds on report metrics (``null`` for no bound), e.g.
     ``fleet.spills_seen: [1, null]``."""
@@ -338,6 +363,12 @@ class Vehicle:
         """The vehicle's traits from its fleet group."""
         return self.group.traits_of(self.group_index)
 
+    @property
+    def priority(self) -> int:
+        """The vehicle's priority: its group's, else its vehicle number (``index + 1``)."""
+        p = self.group.priority_of(self.group_index)
+        return self.index + 1 if p is None else p
+
     def fleet_entry(self) -> dict[str, Any]:
         """What the companions learn of this vehicle (one entry of ``SWARMSITL_FLEET``)."""
         return {
@@ -347,6 +378,7 @@ class Vehicle:
             "airframe": self.group.airframe,
             "battery_capacity_mah": self.battery_capacity_mah,
             "traits": self.traits,
+            "priority": self.priority,
         }
 
 

@@ -29,9 +29,11 @@ from typing import Any, Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
-from companion.swarm.vehicle import Detection, SwarmProgram
+from companion.swarm.vehicle import Detection, Sensed, SwarmProgram
+from harness.report.collisions import CollisionCounter, contacts
 from sitl.kinematic_fleet import KinematicFleet
 from sitl.power.hover_drain import HoverDrain
+from worlds.solid_set import SolidSet
 
 
 @dataclass(frozen=True)
@@ -121,6 +123,7 @@ class VehicleHandle:
         self._fleet = engine.fleet
         self.index = index
         self.node_id = node_id
+        self.priority = int(engine.priority[index])
         self._seen: list[Detection] = []
 
     @property
@@ -173,6 +176,21 @@ class VehicleHandle:
         self._fleet.set_path(self.index, waypoints_enu_m, speed_m_s)
         self._engine.path_done[self.index] = False
 
+    def set_velocity(self, velocity_enu_m_s: np.ndarray) -> None:
+        """Hold this ENU velocity, m/s, within the limits, until another command."""
+        if self._engine.crashed[self.index]:
+            return  # a crashed vehicle takes no commands
+        self._fleet.set_velocity(self.index, velocity_enu_m_s)
+        self._engine.path_done[self.index] = False
+
+    def goto(self, position_enu_m: np.ndarray, speed_m_s: float) -> None:
+        """Fly straight to ``position_enu_m`` at ``speed_m_s`` and hold there."""
+        self.fly_path(np.asarray(position_enu_m, dtype=float).reshape(1, 3), speed_m_s)
+
+    def sense(self, radius_m: float) -> list[Sensed]:
+        """Solids and airborne vehicles within ``radius_m`` of the body, nearest first."""
+        return self._engine.sense(self.index, radius_m)
+
     def land(self) -> None:
         """Land where it is."""
         if self._engine.crashed[self.index]:
@@ -213,12 +231,21 @@ class SwarmEngine:
         faults: the scenario's faults, in time order (``Scenario.faults``).
         radio_fault: silences a node's radio (the messaging port's); None: radio faults are
             recorded but act on nothing.
+        radius_m: (N,) each vehicle's radius (half its airframe's diameter), m, for sensing and
+            collisions (None: 0, points).
+        solids: the world's solids (None: none), for sensing and collisions.
+        priority: each vehicle's priority (None: its vehicle number, ``index + 1``).
 
     At each decision the engine counts, for every airborne vehicle, the other airborne vehicles
     within ``link_range_m`` (its links): ``links_total`` sums them per vehicle; ``series_time_s``,
     ``series_active`` (airborne vehicles) and ``series_links_mean`` (mean links per airborne
     vehicle, 0 with none) hold one entry per position sample (each decision, then the end of a
     run that reached its duration).
+
+    After every kinematic step the engine counts collisions (``harness.report.collisions``:
+    contact events of airborne vehicles with each other and with the solids) in ``collisions``.
+    ``sense(i, radius)`` answers a program's obstacle query from a KD-tree over the vehicles
+    (built once per simulated instant) and one over the solids' centres at that instant.
     """
 
     def __init__(
@@ -236,6 +263,9 @@ class SwarmEngine:
         link_range_m: float | None = None,
         faults: Sequence[ScheduledFault] = (),
         radio_fault: RadioFault | None = None,
+        radius_m: np.ndarray | None = None,
+        solids: SolidSet | None = None,
+        priority: Sequence[int] | None = None,
     ) -> None:
         self.fleet = fleet
         self.node_ids = node_ids
@@ -254,6 +284,21 @@ class SwarmEngine:
         self.series_active: list[int] = []
         self.series_links_mean: list[float] = []
         self.home_m = fleet.state.position_m.copy()
+        self.radius_m = (
+            np.zeros(fleet.n) if radius_m is None else np.asarray(radius_m, dtype=float).copy()
+        )
+        self.solids = solids if solids is not None and len(solids) else None
+        self.priority = list(range(1, fleet.n + 1)) if priority is None else list(priority)
+        if len(self.priority) != fleet.n or len(self.radius_m) != fleet.n:
+            raise ValueError(f"radius_m and priority: one per vehicle ({fleet.n})")
+        self.collisions = CollisionCounter(
+            fleet.n, self.solids.names if self.solids else [], list(node_ids)
+        )
+        """Contact events so far (see the class docstring)."""
+        self._sense_at = -1
+        self._vehicle_tree: cKDTree | None = None
+        self._airborne_rows = np.zeros(0, dtype=int)
+        self._solid_velocity = np.zeros((0, 3))
         self.steps = 0
         self.time_s = 0.0
         self.path_done = np.ones(fleet.n, dtype=bool)
@@ -282,6 +327,54 @@ class SwarmEngine:
     def neighbour_ids(self, i: int) -> list[str]:
         """Node ids of vehicle ``i``'s neighbour table."""
         return [self.node_ids[j] for j in self._neighbours[i] if j >= 0]
+
+    def _sense_state(self) -> None:
+        """The KD-tree of the airborne vehicles and the solids' velocities, once per step."""
+        if self._sense_at == self.steps:
+            return
+        self._sense_at = self.steps
+        up = np.flatnonzero(self.fleet.state.airborne)
+        self._airborne_rows = up
+        self._vehicle_tree = cKDTree(self.fleet.state.position_m[up]) if len(up) else None
+        if self.solids is not None:
+            self._solid_velocity = self.solids.velocities_at(self.time_s)
+
+    def sense(self, i: int, radius_m: float) -> list[Sensed]:
+        """What vehicle ``i`` senses within ``radius_m`` (``SwarmVehicle.sense``), nearest first."""
+        self._sense_state()
+        s = self.fleet.state
+        me = s.position_m[i]
+        r_me = float(self.radius_m[i])
+        out: list[Sensed] = []
+        if self._vehicle_tree is not None:
+            reach = radius_m + r_me + float(self.radius_m.max())
+            for row in self._vehicle_tree.query_ball_point(me, reach):
+                j = int(self._airborne_rows[row])
+                if j == i:
+                    continue
+                p = s.position_m[j]
+                d = math.dist(p, me) - r_me - float(self.radius_m[j])
+                if d <= radius_m:
+                    c, sn = math.cos(s.course_rad[j]), math.sin(s.course_rad[j])
+                    v = (
+                        float(s.speed_m_s[j] * c),
+                        float(s.speed_m_s[j] * sn),
+                        float(s.climb_m_s[j]),
+                    )
+                    out.append(Sensed("vehicle", self.node_ids[j], tuple(map(float, p)), v, d))
+        if self.solids is not None:
+            _, ks, closest = self.solids.near(me[None, :], radius_m + r_me, self.time_s)
+            for k, c in zip(ks, closest, strict=True):
+                d = math.dist(c, me) - r_me
+                v = tuple(float(x) for x in self._solid_velocity[k])
+                out.append(Sensed("solid", self.solids.names[k], tuple(map(float, c)), v, d))
+        out.sort(key=lambda x: x.distance_m)
+        return out
+
+    def _count_collisions(self) -> None:
+        s = self.fleet.state
+        vv, vs = contacts(s.position_m, s.airborne, self.radius_m, self.solids, self.time_s)
+        self.collisions.update(self.time_s, vv, vs)
 
     def _refresh_neighbours(self, pos: np.ndarray) -> None:
         n, k = self.fleet.n, self.k_neighbours
@@ -444,6 +537,7 @@ class SwarmEngine:
                 self.stats.last_landing_s = end_s
             self.steps += 1
             self.time_s = end_s
+            self._count_collisions()
         self.path_done = self.fleet.path_done()
         self._sample(self.fleet.state.position_m, decision=False)
         return "duration"

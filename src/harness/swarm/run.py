@@ -19,6 +19,7 @@ import math
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -29,11 +30,12 @@ from companion.net.config import NetConfig, NodeSpec
 from companion.net.node import Node
 from companion.net.transport import PortTransport
 from companion.scenario_env import ScenarioEnv
+from harness.report.collisions import airframe_diameter_m
 from harness.report.run_metrics import add_run_metrics
 from harness.report.run_report import plot_tracks, quantity
 from harness.report.totals import fleet_totals, metric_checks, versions
 from harness.scenarios.fleet_spawn import fleet_spawn
-from harness.scenarios.spec import Scenario, ScenarioError
+from harness.scenarios.spec import Scenario, ScenarioError, SwarmSpec
 from harness.swarm.engine import SwarmEngine, Target, poisson_events
 from sitl.kinematic_fleet import KinematicFleet
 from sitl.links.inprocess import InProcessPort
@@ -44,6 +46,7 @@ from sitl.power.loads import PayloadLoads
 from sitl.power.propulsion import PowerSpec, load_power_spec
 from sitl.vehicles.kinematics import KinematicLimits, load_kinematic_limits
 from sitl.vehicles.multirotor import MultirotorSpec, load_airframe
+from worlds.solid_set import SolidSet
 
 AIR_DENSITY_KG_M3 = 1.225
 """ISA sea-level air density for the hover power, kg/m^3."""
@@ -100,6 +103,17 @@ def hover_power_w(airframe: MultirotorSpec, power: PowerSpec) -> float:
     return float(power.propulsion.hover_power_w(thrust, AIR_DENSITY_KG_M3))
 
 
+def scenario_limits(limits: KinematicLimits, sw: SwarmSpec) -> KinematicLimits:
+    """An airframe's limits capped by the scenario's ``swarm.max_speed_m_s`` and turn rate."""
+    out = limits
+    if sw.max_speed_m_s is not None:
+        out = replace(out, max_speed_m_s=min(out.max_speed_m_s, sw.max_speed_m_s))
+    if sw.max_turn_rate_deg_s is not None:
+        turn = min(out.max_turn_rate_deg_s, sw.max_turn_rate_deg_s)
+        out = replace(out, max_turn_rate_deg_s=turn)
+    return out
+
+
 def run_swarm(
     scenario: Scenario,
     seed: int | None = None,
@@ -145,7 +159,7 @@ def _run(
         if g.airframe not in airframes:
             airframes[g.airframe] = load_airframe(g.airframe)
             try:
-                limits[g.airframe] = load_kinematic_limits(g.airframe)
+                limits[g.airframe] = scenario_limits(load_kinematic_limits(g.airframe), sw)
             except ValueError as exc:
                 raise ScenarioError(f"fleet: airframe {g.airframe}: {exc}") from exc
     try:
@@ -202,10 +216,13 @@ def _run(
     )
     clock = lambda: engine.time_s  # noqa: E731
     port = InProcessPort(network, clock)
+    radius = np.array([airframe_diameter_m(v.group.airframe) / 2.0 for v in vehicles])
     engine = SwarmEngine(
         fleet, node_ids, sw.step_hz, sw.decision_hz, sw.neighbours, radio_range, tan_half,
         targets, inside if world is not None else None, power, sw.link_range_m,
-        scenario.faults(seed), port.silence,
+        scenario.faults(seed), port.silence, radius,
+        SolidSet(world.solids) if world is not None else None,
+        [v.priority for v in vehicles],
     )  # fmt: skip
     config = NetConfig(
         {
@@ -286,6 +303,7 @@ def _report(
             "energy": quantity(float(power.energy_j[i]), "J"),
             "battery_remaining": quantity(float(remaining[i]), "%"),
             "links_total": quantity(int(engine.links_total[i]), "count"),
+            "collisions": quantity(int(engine.collisions.per_vehicle[i]), "count"),
             "landed": quantity(bool(not fleet.state.airborne[i]), "bool"),
         }
         program = engine.programs[i]
@@ -315,24 +333,30 @@ def _report(
                          weights=[c["datagrams_delivered"] for c in carried]))
         if carried else None
     )  # fmt: skip
-    fleet_metrics = {
-        "vehicles": quantity(len(vehicles), "count"),
-        "simulated_time": quantity(sim_s, "s"),
-        "min_separation": quantity(_finite(st.min_separation_m), "m"),
-        "min_separation_airborne": quantity(_finite(st.min_separation_airborne_m), "m"),
-        "distance_flown": quantity(float(fleet.distance_m.sum()), "m"),
-        "energy": quantity(float(power.energy_j.sum()), "J"),
-        "battery_remaining_mean": quantity(float(remaining.mean()), "%"),
-        "battery_remaining_min": quantity(float(remaining.min()), "%"),
-        "decisions": quantity(st.decisions, "count"),
-        "targets_appeared": quantity(len(appeared), "count"),
-        "targets_seen": quantity(len(latencies), "count"),
-        "detection_latency": quantity(float(np.mean(latencies)) if latencies else None, "s"),
-        "datagrams_submitted": quantity(submitted, "count"),
-        "datagrams_delivered": quantity(delivered, "count"),
-        "message_loss": quantity(100.0 * (1 - delivered / submitted) if submitted else 0.0, "%"),
-        "message_latency": quantity(latency_ms, "ms"),
-    } | _link_metrics(engine)
+    fleet_metrics = (
+        {
+            "vehicles": quantity(len(vehicles), "count"),
+            "simulated_time": quantity(sim_s, "s"),
+            "min_separation": quantity(_finite(st.min_separation_m), "m"),
+            "min_separation_airborne": quantity(_finite(st.min_separation_airborne_m), "m"),
+            "distance_flown": quantity(float(fleet.distance_m.sum()), "m"),
+            "energy": quantity(float(power.energy_j.sum()), "J"),
+            "battery_remaining_mean": quantity(float(remaining.mean()), "%"),
+            "battery_remaining_min": quantity(float(remaining.min()), "%"),
+            "decisions": quantity(st.decisions, "count"),
+            "targets_appeared": quantity(len(appeared), "count"),
+            "targets_seen": quantity(len(latencies), "count"),
+            "detection_latency": quantity(float(np.mean(latencies)) if latencies else None, "s"),
+            "datagrams_submitted": quantity(submitted, "count"),
+            "datagrams_delivered": quantity(delivered, "count"),
+            "message_loss": quantity(
+                100.0 * (1 - delivered / submitted) if submitted else 0.0, "%"
+            ),
+            "message_latency": quantity(latency_ms, "ms"),
+        }
+        | _link_metrics(engine)
+        | engine.collisions.fleet_metrics()
+    )
     report: dict[str, Any] = {
         "scenario": spec.name,
         "fidelity": "swarm",
@@ -466,6 +490,8 @@ def _checks(scenario: Scenario, engine: SwarmEngine) -> dict[str, dict[str, Any]
             "message": f"max tilt {tilt:.1f} deg (the accelerations' tilt), limit "
             f"{checks.max_tilt_deg:g} deg",
         }
+    if checks.max_collisions is not None:
+        out["max_collisions"] = engine.collisions.check(checks.max_collisions)
     if checks.stay_inside_world and scenario.world is not None:
         outside = sorted(st.outside_world)
         out["stay_inside_world"] = {
