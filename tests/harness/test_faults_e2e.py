@@ -2,7 +2,7 @@
 
 One lockstep ``swarmsitl run`` (free ports, the project's pytest plugin): two hexacopters take
 off and hover under a small MAVSDK companion (written beside the scenario); vehicle 2 crashes
-at 15 s. Its autopilot terminates the flight, it falls to the ground and stays there; its
+at 18 s. Its autopilot terminates the flight, it falls to the ground and stays there; its
 companion keeps running to its end and says what it saw; vehicle 1 flies on, lands and the run
 passes. A second fault, due after the run is done, is reported not applied.
 """
@@ -17,8 +17,8 @@ import yaml
 
 pytestmark = pytest.mark.e2e
 
-CRASH_S = 15.0
-HOVER_UNTIL_S = 24.0
+CRASH_S = 18.0
+HOVER_UNTIL_S = 27.0
 ALTITUDE_M = 6.0
 
 COMPANION = '''
@@ -118,13 +118,14 @@ def test_a_crashed_vehicle_falls_its_companion_runs_on_the_other_lands(swarmsitl
     assert report["vehicles"]["vehicle2"]["fault"] == "crash"
     assert "fault" not in report["vehicles"]["vehicle1"]
 
-    # vehicle 2 was flying (near the end of its climb), then fell to the ground within 2 s of
-    # the crash and stayed there
+    # vehicle 2 was flying (how far up its climb depends on when its companion got to take off,
+    # which a loaded machine delays), then fell to the ground within 2 s of the crash and stayed
+    # there
     track = result.log.vehicle(1).track
     t, up = track.time_s, track.enu_m[:, 2]
     ground = up[0]
     before = (t > CRASH_S - 2.0) & (t < CRASH_S)
-    assert np.all(up[before] - ground > 0.6 * ALTITUDE_M), up[before] - ground
+    assert np.all(up[before] - ground > 1.0), up[before] - ground
     after = t >= CRASH_S + 2.0
     assert np.all(np.isfinite(up)) and np.all(np.abs(up[after] - ground) < 0.5)
     assert track.columns["armed"][after].max() == 0.0

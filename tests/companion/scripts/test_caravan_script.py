@@ -60,8 +60,8 @@ def _program(tmp_path: Path, role_count: int = 1) -> tuple[CaravanProgram, Mavsd
     path.write_text(yaml.safe_dump(world))
     params = full_stack_params(CaravanParams(speed_m_s=2.0), top_speed_m_s=12.0)
     env = ScenarioEnv(
-        mavlink_url="udpin://0.0.0.0:14540",
-        grpc_port=50051,
+        mavlink_url="swarm://",  # never connected: the vehicle and radio are fakes
+        grpc_port=0,
         vehicle=1,
         vehicles=role_count,
         role="caravan",
