@@ -149,9 +149,9 @@ def potential_collisions(
     params: AvoidanceParams,
 ) -> list[Obstacle]:
     """The sensed objects whose closest approach within ``T_h = R_s / v`` is below D_min."""
-    u = _course(here, aim, speed_m_s)
+    u = course(here, aim, speed_m_s)
     horizon = params.sense_m / speed_m_s
-    return [ob for ob in sensed if _min_gap(here, u, ob, 0.0, horizon) < params.d_min_m]
+    return [ob for ob in sensed if min_gap(here, u, ob, 0.0, horizon) < params.d_min_m]
 
 
 def outranks(priority: int, conflicts: list[Obstacle]) -> bool:
@@ -184,13 +184,13 @@ def feasible(
     """Does ``point`` clear every sensed object on the way and remove the conflict (a), (b)?"""
     leg = float(np.linalg.norm(point - here))
     t_a = leg / speed_m_s
-    u = _course(here, point, speed_m_s)
-    u2 = _course(point, target, speed_m_s)
+    u = course(here, point, speed_m_s)
+    u2 = course(point, target, speed_m_s)
     horizon = params.sense_m / speed_m_s
     for ob in sensed:
-        if _min_gap(here, u, ob, 0.0, t_a) < min(params.d_min_m, ob.distance_m):
+        if min_gap(here, u, ob, 0.0, t_a) < min(params.d_min_m, ob.distance_m):
             return False
-        if _min_gap(point, u2, ob, t_a, t_a + horizon) < params.d_min_m:
+        if min_gap(point, u2, ob, t_a, t_a + horizon) < params.d_min_m:
             return False
     return True
 
@@ -246,13 +246,14 @@ def _detour(here: np.ndarray, p: np.ndarray, target: np.ndarray) -> float:
     return float(np.linalg.norm(p - here) + np.linalg.norm(target - p))
 
 
-def _course(a: np.ndarray, b: np.ndarray, speed_m_s: float) -> np.ndarray:
+def course(a: np.ndarray, b: np.ndarray, speed_m_s: float) -> np.ndarray:
+    """(3,) the velocity flying straight from ``a`` to ``b`` at ``speed_m_s`` (zero at b)."""
     d = np.asarray(b, float) - np.asarray(a, float)
     n = float(np.linalg.norm(d))
     return np.zeros(3) if n < 1e-9 else d * (speed_m_s / n)
 
 
-def _min_gap(here: np.ndarray, u: np.ndarray, ob: Obstacle, t0: float, t1: float) -> float:
+def min_gap(here: np.ndarray, u: np.ndarray, ob: Obstacle, t0: float, t1: float) -> float:
     """Least gap to ``ob`` for t in [t0, t1] s from now, this UAV at ``here + u (t - t0)``."""
     r0 = ob.position_enu_m + ob.velocity_enu_m_s * t0 - here
     vr = ob.velocity_enu_m_s - u
