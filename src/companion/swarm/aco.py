@@ -1,0 +1,455 @@
+"""Seed 001's ACO swarm (options 1 and 2, Algs. 2-4) behind the kinematic adapter.
+
+One :class:`AcoProgram` per vehicle, deciding at the engine's decision rate:
+
+* **Layout.** The vehicle's start is its spawn point (which must lie in the world's launch area
+  ``start``) at ``altitude_m``; its target is the *mirror point in the goal zone*: the spawn's
+  offset from the start zone's centre, east component negated, added to the goal zone's centre
+  (``arena_aco``: the zones are mirror images about the arena's north-south centre line). The
+  fleet's targets are thus its starts mirrored, every pairwise distance kept (the formation of
+  option 2 is reachable at the goal), and paths do not all cross one point.
+* **Plan** (Alg. 3 lines 2-3, Alg. 4 line 4). Before the flight, each vehicle plans its own path
+  over its own seeded roadmap of the arena (``RoadmapParams``: the world's extent, heights
+  ``altitude_m`` to ``altitude_m + altitude_band_m``), ACO or the A* baseline
+  (:func:`companion.planning.aco.plan.plan_path`). The world's *static* solids, grown by
+  ``roadmap_margin_m``, are given to the roadmap (edges and nodes inside them are dropped): with
+  R_s = 5 m, reactive avoidance alone would have to walk around a 60 m building by 5 m hops;
+  the moving drums are left to Alg. 2 (the paper's obstacles are "unknown to the UAVs").
+* **Fly.** Take off to ``altitude_m``, then ``fly_path`` the waypoints at ``speed_m_s``.
+  Every decision: poll the messages (topic ``aco``: node, role index, priority, start, position,
+  velocity), broadcast its own, sense R_s, and run Alg. 2 (:func:`avoidance.avoid`) against
+  the current waypoint. DIVERT: ``goto`` the point (one divergence), then, when there, restore
+  the rest of the path (``fly_path`` from the current waypoint); HOLD: ``set_velocity(0)``
+  (brake) and decide again. Option 2 adds Alg. 4 while on the path and clear of conflicts:
+  out of formation (own row, ``threshold_m``) -> ``goto`` the restoring point (one divergence).
+  The reference array comes from the starts the others broadcast (Alg. 4 line 1).
+* **Arrive.** At the path's end (within the autopilot's acceptance radius, phase ``arrive``)
+  it closes on the target; within ``ARRIVE_M`` of it: reached; land there. A vehicle that has
+  not arrived when the run ends is not ``reached``.
+
+Metrics per vehicle (:meth:`AcoProgram.metrics`): ``reached``, ``min_dist_m`` (straight
+start -> target at altitude, Eq. 4's MinDist), ``total_dist_m`` (flown from the mission start
+to the arrival, Eq. 4's TotalDist), ``travel_time_s``, ``mission_start_s`` and ``arrived_s``
+(simulated), ``divergences``, ``holds``, ``avg_dist_change_m`` (option 2, Eq. 8's input),
+``plan_ms``, ``path_length_m``, ``phase``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from companion.planning.aco.avoidance import Action, AvoidanceParams, Obstacle, avoid, obstacle
+from companion.planning.aco.colony import AcoParams
+from companion.planning.aco.formation import (
+    FormationTracker,
+    current_distances,
+    in_formation,
+    reference_distances,
+    restoring_point,
+)
+from companion.planning.aco.plan import Planner, plan_path, straight_line_length
+from companion.planning.aco.roadmap import Prism, RoadmapParams
+from companion.role_params import params_from_mapping
+from companion.scenario_env import ScenarioEnv
+from companion.swarm.vehicle import SwarmVehicle
+
+TOPIC = "aco"
+"""Message topic of the positions (and priorities, starts) the vehicles broadcast."""
+CLIMB_M_S = 2.0
+"""Climb rate of the take-off, m/s."""
+ARRIVE_M = 1.0
+"""Distance to the target within which it counts as reached, m."""
+START_AREA = "start"
+"""The world's launch area of the starts."""
+GOAL_AREA = "goal"
+"""The world's launch area of the targets."""
+
+
+@dataclass(frozen=True)
+class AcoRoleParams:
+    """The ``aco_swarm`` role's ``args`` (seed 001; defaults from Sec. 4.1 and Table 1)."""
+
+    option: int = 1
+    """1: shortest path + collision avoidance (Alg. 3); 2: + formation conservation (Alg. 4)."""
+    planner: str = "aco"
+    """``aco`` (seed 001's Ant System) or ``astar`` (the baseline on the same roadmap)."""
+    d_min_m: float = 1.0
+    """D_min, the safe gap, m (Sec. 4.2's default)."""
+    sense_m: float = 5.0
+    """R_s, the detection range and avoidance sampling radius, m (Sec. 4.1)."""
+    speed_m_s: float = 6.0
+    """Commanded speed, m/s (Sec. 4.1)."""
+    threshold_m: float = 0.1
+    """Option 2's allowable distance change, m (Table 2's 0.1)."""
+    points: int = 25
+    """Avoidance points per draw (Sec. 4.1)."""
+    attempts: int = 3
+    """Draws of ``points`` before holding."""
+    altitude_m: float = 15.0
+    """Flight height above the start's ground, m (the paper gives none)."""
+    altitude_band_m: float = 10.0
+    """Roadmap nodes between ``altitude_m`` and this much higher, m (0: a 2-D roadmap)."""
+    min_altitude_m: float = 5.0
+    """Lowest avoidance point, m above ground."""
+    roadmap_nodes: int = 200
+    """Random roadmap points besides start and target (``RoadmapParams.nodes``)."""
+    roadmap_neighbours: int = 10
+    """k of the roadmap's k-nearest-neighbour edges."""
+    roadmap_margin_m: float = 3.0
+    """Static solids are grown by this much for the roadmap, m."""
+    ants: int = 20
+    """Ants per colony iteration (Table 1 gives none)."""
+    iterations: int = 50
+    """Colony iterations (Table 1)."""
+
+    def __post_init__(self) -> None:
+        if self.option not in (1, 2):
+            raise ValueError(f"option: {self.option!r} must be 1 or 2")
+        if self.planner not in tuple(p.value for p in Planner):
+            raise ValueError(
+                f"planner: {self.planner!r} is not one of {[p.value for p in Planner]}"
+            )
+        for name in ("d_min_m", "sense_m", "speed_m_s", "threshold_m", "altitude_m"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: {value!r} must be a positive number")
+        for name in ("altitude_band_m", "min_altitude_m", "roadmap_margin_m"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name}: {value!r} must be a number >= 0")
+        for name in ("points", "attempts", "roadmap_neighbours", "ants", "iterations"):
+            if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
+                raise ValueError(f"{name}: {getattr(self, name)!r} must be an integer >= 1")
+        if not (isinstance(self.roadmap_nodes, int) and self.roadmap_nodes >= 0):
+            raise ValueError(f"roadmap_nodes: {self.roadmap_nodes!r} must be an integer >= 0")
+        if self.min_altitude_m > self.altitude_m:
+            raise ValueError(
+                f"min_altitude_m: {self.min_altitude_m} must be <= altitude_m {self.altitude_m}"
+            )
+
+    def check_run(self, vehicles: int, world: Any) -> None:
+        """Does the world have the zones, and does the start zone hold ``vehicles`` vehicles?
+
+        The vehicles must stand at least ``d_min_m`` + 1 m apart (0.5 m bodies with D_min
+        between them) inside the ``start`` area (``worlds.launch.spawn_points``' lattice).
+
+        Raises:
+            ValueError: no world, no ``start``/``goal`` areas, or the start zone is too small.
+        """
+        if world is None:
+            raise ValueError("the aco_swarm role needs the scenario's world (arena_aco)")
+        start, _ = zones(world)
+        from worlds.launch import spawn_points
+
+        try:
+            spawn_points(start, vehicles, self.d_min_m + 1.0)
+        except ValueError as exc:
+            raise ValueError(
+                f"the start zone (radius {start.radius_m} m) cannot hold {vehicles} vehicles "
+                f"{self.d_min_m + 1.0} m apart: {exc}"
+            ) from exc
+
+    @property
+    def avoidance(self) -> AvoidanceParams:
+        """Alg. 2's parameters."""
+        return AvoidanceParams(
+            sense_m=self.sense_m,
+            d_min_m=self.d_min_m,
+            points=self.points,
+            attempts=self.attempts,
+            z_min_m=self.min_altitude_m,
+        )
+
+
+def zones(world: Any) -> tuple[Any, Any]:
+    """The world's ``start`` and ``goal`` launch areas (ValueError naming what is missing)."""
+    areas = {a.name: a for a in world.launch_areas}
+    missing = [n for n in (START_AREA, GOAL_AREA) if n not in areas]
+    if missing:
+        raise ValueError(
+            f"the world has no launch area(s) {missing} (an arena_aco world has 'start', 'goal')"
+        )
+    return areas[START_AREA], areas[GOAL_AREA]
+
+
+@functools.lru_cache(maxsize=8)
+def arena(world_path: str) -> Any:
+    """The built world of a run (one per process and file)."""
+    import worlds
+
+    return worlds.build(worlds.load_world(Path(world_path)))
+
+
+def aco_params(env: ScenarioEnv) -> AcoRoleParams:
+    """The role's ``args`` as AcoRoleParams (unknown keys and bad values name themselves)."""
+    return params_from_mapping(AcoRoleParams, env.params)
+
+
+def mirror_target(
+    home: np.ndarray, start_center: np.ndarray, goal_center: np.ndarray
+) -> np.ndarray:
+    """The goal-zone point mirroring ``home`` (east offset negated), ENU m (surface z)."""
+    off = np.asarray(home, float)[:2] - np.asarray(start_center, float)[:2]
+    gx, gy = np.asarray(goal_center, float)[:2]
+    return np.array([gx - off[0], gy + off[1], float(goal_center[2])])
+
+
+def static_prisms(world: Any, margin_m: float) -> tuple[Prism, ...]:
+    """The world's static solids for the roadmap, grown by ``margin_m``."""
+    out = []
+    for s in world.solids:
+        if s.motion is not None:
+            continue
+        top = float(s.center_enu_m[2]) + float(s.size_m[2]) / 2.0 + margin_m
+        out.append(Prism(s.footprint_at().buffer(margin_m), top))
+    return tuple(out)
+
+
+@dataclass
+class _Peer:
+    index: int
+    priority: int
+    start: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+
+
+class AcoProgram:
+    """One vehicle of seed 001's swarm (see the module docstring)."""
+
+    def __init__(self, env: ScenarioEnv, vehicle: SwarmVehicle, node: Any) -> None:
+        if env.world is None:
+            raise ValueError("the aco_swarm role needs the run's world (arena_aco)")
+        self.env, self.vehicle, self.node = env, vehicle, node
+        self.params = p = aco_params(env)
+        self.avoid_params = p.avoidance
+        world = arena(str(env.world))
+        start_area, goal_area = zones(world)
+        home = np.asarray(vehicle.home_enu_m, float)
+        if math.dist(home[:2], start_area.center_enu_m[:2]) > start_area.radius_m + 1e-6:
+            raise ValueError(
+                f"vehicle {env.vehicle} starts at {np.round(home[:2], 2).tolist()}, outside the "
+                f"start zone (centre {list(start_area.center_enu_m[:2])}, radius "
+                f"{start_area.radius_m} m)"
+            )
+        self.start = home + np.array([0.0, 0.0, p.altitude_m])
+        goal = mirror_target(home, np.asarray(start_area.center_enu_m), goal_area.center_enu_m)
+        self.target = goal + np.array([0.0, 0.0, p.altitude_m])
+        self.rng = np.random.default_rng([env.seed, env.vehicle])
+        sx, sy = world.size_m
+        z0 = float(home[2]) + p.altitude_m
+        roadmap = RoadmapParams(
+            nodes=p.roadmap_nodes,
+            neighbours=p.roadmap_neighbours,
+            min_enu_m=(-sx / 2.0, -sy / 2.0, z0),
+            max_enu_m=(sx / 2.0, sy / 2.0, z0 + p.altitude_band_m),
+        )
+        plan = plan_path(
+            self.start, self.target, roadmap, self.rng, p.planner,
+            AcoParams(ants=p.ants, iterations=p.iterations),
+            static_prisms(world, p.roadmap_margin_m),
+        )  # fmt: skip
+        self.waypoints = plan.waypoints_enu_m
+        self.plan_ms = plan.plan_ms
+        self.path_length_m = plan.length_m
+        self.phase = "takeoff"
+        self.error: str | None = None
+        self.base = 0
+        """Index in ``waypoints`` of the first waypoint of the path last given to fly_path."""
+        self._resume_at = 0
+        """Index of the waypoint to resume the path at after a diversion or a hold."""
+        self.point: np.ndarray | None = None
+        self.divergences = 0
+        self.holds = 0
+        self.total_dist_m = 0.0
+        self.mission_start_s = math.nan
+        self.arrived_s = math.nan
+        self.reached = False
+        self.peers: dict[str, _Peer] = {}
+        self.tracker = FormationTracker()
+        self._last: tuple[float, np.ndarray] | None = None
+        self._velocity = np.zeros(3)
+
+    @property
+    def done(self) -> bool:
+        """Landed at the target, or the vehicle is down."""
+        return self.phase in ("done", "down")
+
+    @property
+    def waypoint(self) -> np.ndarray:
+        """The current path waypoint (the one Alg. 2 scores avoidance points against)."""
+        k = self.base + self.vehicle.path_index if self.phase == "path" else self._resume_at
+        return self.waypoints[min(k, len(self.waypoints) - 1)]
+
+    def decide(self, now_s: float) -> None:
+        """One tick of Alg. 3 (option 1) or Alg. 4 (option 2)."""
+        v, p = self.vehicle, self.params
+        if self.done:
+            return
+        if self.phase == "takeoff":
+            v.takeoff(p.altitude_m, CLIMB_M_S)
+            self.phase = "climb"
+            return
+        if not v.airborne:
+            self.phase = "done" if self.phase == "land" else "down"
+            return
+        if self.phase == "land":
+            return
+        here = np.asarray(v.position_enu_m, float)
+        self._odometry(now_s, here)
+        self._messages(here)
+        if self.phase == "climb":
+            if v.path_done:
+                self.mission_start_s = now_s
+                self._fly_from(0)
+            return
+        if self.phase == "path" and v.path_done:  # within the autopilot's acceptance radius
+            self._resume_at = len(self.waypoints) - 1
+            self.phase = "arrive"
+        if self.phase == "arrive" and math.dist(here, self.target) <= ARRIVE_M:
+            self.reached = True
+            self.arrived_s = now_s
+            v.land()
+            self.phase = "land"
+            return
+        self._avoid(now_s, here)
+
+    def _avoid(self, now_s: float, here: np.ndarray) -> None:
+        v, p = self.vehicle, self.params
+        waypoint = self.waypoint
+        aim = self.point if self.phase == "divert" and self.point is not None else waypoint
+        sensed = self._sensed(here)
+        d = avoid(here, aim, waypoint, v.priority, sensed, p.speed_m_s, self.rng, self.avoid_params)
+        if d.action is Action.DIVERT:
+            self._divert(d.point)
+            return
+        if d.action is Action.HOLD:
+            if self.phase == "path":
+                self._resume_at = self.base + v.path_index
+            if self.phase != "hold":
+                self.holds += 1
+            v.set_velocity(np.zeros(3))
+            self.phase = "hold"
+            return
+        if self.phase == "hold" or (self.phase == "divert" and v.path_done):  # restore the path
+            self._fly_from(self._resume_at)
+            return
+        if p.option == 2 and self.phase == "path":
+            self._formation(here, sensed)
+
+    def _formation(self, here: np.ndarray, sensed: list[Obstacle]) -> None:
+        """Alg. 4: this UAV's row against the reference; divert to a restoring point if broken."""
+        n = self.env.role_count
+        i = self.env.role_index
+        starts = np.full((n, 3), np.nan)
+        pos = np.full((n, 3), np.nan)
+        vel = np.zeros((n, 3))
+        starts[i], pos[i], vel[i] = self.start, here, self._velocity
+        for peer in self.peers.values():
+            if 0 <= peer.index < n:
+                starts[peer.index], pos[peer.index] = peer.start, peer.position
+                vel[peer.index] = peer.velocity
+        ref = reference_distances(starts)
+        cur = current_distances(pos)
+        self.tracker.add(i, cur, ref)
+        if in_formation(i, cur, ref, self.params.threshold_m):
+            return
+        point = restoring_point(
+            i, here, pos, vel, ref, self.params.speed_m_s, sensed, self.rng, self.avoid_params
+        )
+        if point is not None:
+            self._divert(point)
+
+    def _divert(self, point: np.ndarray) -> None:
+        v = self.vehicle
+        if self.phase == "path":
+            self._resume_at = self.base + v.path_index
+        self.point = np.asarray(point, float)
+        v.goto(self.point, self.params.speed_m_s)
+        self.divergences += 1
+        self.phase = "divert"
+
+    def _fly_from(self, k: int) -> None:
+        k = min(k, len(self.waypoints) - 1)
+        self.base = k
+        self._resume_at = k
+        self.point = None
+        self.vehicle.fly_path(self.waypoints[k:], self.params.speed_m_s)
+        self.phase = "path"
+
+    def _odometry(self, now_s: float, here: np.ndarray) -> None:
+        if self._last is not None:
+            t0, x0 = self._last
+            if now_s > t0:
+                self._velocity = (here - x0) / (now_s - t0)
+            if self.phase in ("path", "divert", "hold", "arrive"):
+                self.total_dist_m += float(np.linalg.norm(here - x0))
+        self._last = (now_s, here)
+
+    def _messages(self, here: np.ndarray) -> None:
+        if self.node is None:
+            return
+        for env in self.node.poll():
+            if env.topic != TOPIC or not isinstance(env.body, dict):
+                continue
+            b = env.body
+            self.peers[env.src] = _Peer(
+                int(b["k"]), int(b["prio"]), np.asarray(b["s"], float),
+                np.asarray(b["p"], float), np.asarray(b["v"], float),
+            )  # fmt: skip
+        self.node.broadcast(
+            TOPIC,
+            {
+                "k": self.env.role_index,
+                "prio": int(self.vehicle.priority),
+                "s": [round(float(c), 3) for c in self.start],
+                "p": [round(float(c), 3) for c in here],
+                "v": [round(float(c), 3) for c in self._velocity],
+            },
+        )
+
+    def _sensed(self, here: np.ndarray) -> list[Obstacle]:
+        out = []
+        for s in self.vehicle.sense(self.params.sense_m):
+            peer = self.peers.get(s.name) if s.kind == "vehicle" else None
+            out.append(
+                obstacle(
+                    here,
+                    s.position_enu_m,
+                    s.velocity_enu_m_s,
+                    s.distance_m,
+                    s.kind,
+                    s.name,
+                    None if peer is None else peer.priority,
+                )
+            )
+        return out
+
+    def metrics(self) -> dict[str, tuple[Any, str]]:
+        """This vehicle's seed-001 quantities (``companion.scripts.aco_swarm.run_metrics``)."""
+        travel = self.arrived_s - self.mission_start_s
+
+        def num(x: float, nd: int = 3) -> float | None:
+            return None if not math.isfinite(x) else round(float(x), nd)
+
+        return {
+            "reached": (bool(self.reached), "bool"),
+            "min_dist_m": (num(straight_line_length(self.start, self.target)), "m"),
+            "total_dist_m": (num(self.total_dist_m), "m"),
+            "travel_time_s": (num(travel), "s"),
+            "mission_start_s": (num(self.mission_start_s), "s"),
+            "arrived_s": (num(self.arrived_s), "s"),
+            "divergences": (self.divergences, "count"),
+            "holds": (self.holds, "count"),
+            "avg_dist_change_m": (num(self.tracker.avg_dist_change_m, 4), "m"),
+            "plan_ms": (num(self.plan_ms), "ms"),
+            "path_length_m": (num(self.path_length_m), "m"),
+            "option": (self.params.option, "count"),
+            "phase": (self.phase, "name"),
+        }

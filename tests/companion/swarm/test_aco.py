@@ -1,0 +1,115 @@
+"""Seed 001's ACO swarm role at swarm fidelity: plan, fly, avoid, land at the mirrored targets."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from companion.scenario_env import ScenarioEnv
+from companion.scripts.aco_swarm import run_metrics
+from companion.swarm.aco import AcoRoleParams, mirror_target
+from harness.scenarios.spec import ScenarioError, parse_scenario
+from harness.swarm.run import run_swarm
+
+WORLD = {
+    "kind": "arena_aco",
+    "seed": 1,
+    "size_m": [300, 300],
+    "static_obstacle_count": 4,
+    "moving_obstacle_count": 3,
+    "zone_radius_m": 20,
+}
+
+
+def _spec(args: dict, count: int = 5, spacing: float = 6.0) -> dict:
+    return {
+        "name": "aco-small",
+        "fidelity": "swarm",
+        "seed": 2,
+        "duration_s": 120,
+        "world": WORLD,
+        "launch_area": "start",
+        "spacing_m": spacing,
+        "fleet": [{"role": "aco", "count": count, "airframe": "x500"}],
+        "roles": {"aco": {"module": "companion.scripts.aco_swarm", "args": args}},
+        "sensors": {"cameras": False, "rangefinders": False},
+        "swarm": {"step_hz": 20, "decision_hz": 10},
+        "checks": {"landed_and_disarmed": True, "companions_succeeded": True, "max_collisions": 0},
+    }
+
+
+ARGS = {"roadmap_nodes": 60, "altitude_band_m": 0}
+
+
+@pytest.mark.parametrize("planner", ["aco", "astar"])
+def test_five_vehicles_reach_their_mirrored_targets_without_collisions(
+    planner: str, tmp_path: Path
+) -> None:
+    """Every vehicle reaches and lands at its target, no contact, run metrics all present and in
+    range (PQ <= 100, MC 100, FT = makespan / 60 s), in under 10 s of wall time."""
+    scenario = parse_scenario(
+        yaml.safe_dump(_spec(ARGS | {"planner": planner})), "a.yaml", tmp_path
+    )
+    t0 = time.monotonic()
+    report = run_swarm(scenario, run_dir=tmp_path / "run")
+    wall = time.monotonic() - t0
+    assert report["passed"], report["checks"]
+    assert report["fleet"]["collisions"]["value"] == 0
+    rows = [
+        {k: v["value"] for k, v in veh["companion"].items()} for veh in report["vehicles"].values()
+    ]
+    assert all(r["reached"] and r["phase"] == "done" for r in rows), rows
+    for r in rows:
+        assert r["total_dist_m"] >= r["min_dist_m"] - ARRIVE_SLACK_M
+        assert r["path_length_m"] >= r["min_dist_m"] - 1e-6
+    env = ScenarioEnv(
+        mavlink_url="swarm://", grpc_port=0, vehicle=1, vehicles=5, role="aco", role_index=0,
+        role_count=5, seed=2, out_dir=tmp_path, world=tmp_path / "run" / "world.yaml",
+        params=ARGS | {"planner": planner},
+    )  # fmt: skip
+    m = run_metrics(env, report)
+    assert m["mc"] == (100.0, "%")
+    assert 50.0 < m["pq"][0] <= 100.0
+    makespan = max(r["arrived_s"] for r in rows) - min(r["mission_start_s"] for r in rows)
+    assert m["ft"][0] == pytest.approx(makespan / 60.0, abs=1e-3)
+    assert m["cf"][0] is not None and m["fc"][0] is None
+    assert report["fleet"]["run"]["pq"]["value"] == pytest.approx(m["pq"][0])
+    assert wall < 10.0, wall
+
+
+ARRIVE_SLACK_M = 1.0
+
+
+def test_mirror_target_keeps_pairwise_distances() -> None:
+    """The targets are the starts mirrored (east offset negated): every pairwise distance kept."""
+    rng = np.random.default_rng(0)
+    homes = np.c_[rng.uniform(-130, -110, (6, 2)), np.zeros(6)]
+    s, g = np.array([-120.0, 0, 0]), np.array([120.0, 0, 0])
+    targets = np.array([mirror_target(h, s, g) for h in homes])
+    for i in range(6):
+        assert math.dist(targets[i][:2], g[:2]) == pytest.approx(math.dist(homes[i][:2], s[:2]))
+        for j in range(6):
+            assert math.dist(targets[i], targets[j]) == pytest.approx(math.dist(homes[i], homes[j]))
+
+
+def test_params_validation_names_the_field() -> None:
+    """Bad values fail with the field's name; threshold <= 0 is an error."""
+    with pytest.raises(ValueError, match="threshold_m"):
+        AcoRoleParams(threshold_m=0.0)
+    with pytest.raises(ValueError, match="option"):
+        AcoRoleParams(option=3)
+    with pytest.raises(ValueError, match="planner"):
+        AcoRoleParams(planner="rrt")
+    with pytest.raises(ValueError, match="points"):
+        AcoRoleParams(points=0)
+
+
+def test_a_fleet_the_start_zone_cannot_hold_fails_at_load(tmp_path: Path) -> None:
+    """60 vehicles 2 m apart do not fit a 20 m start zone: the scenario fails when it loads."""
+    with pytest.raises(ScenarioError, match="start zone"):
+        parse_scenario(yaml.safe_dump(_spec(ARGS, count=600)), "a.yaml", tmp_path)
