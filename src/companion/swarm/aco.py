@@ -18,10 +18,12 @@ One :class:`AcoProgram` per vehicle, deciding at the engine's decision rate:
 * **Fly.** Take off to ``altitude_m``, then ``fly_path`` the waypoints at ``speed_m_s``.
   Every decision: poll the messages (topic ``aco``: node, role index, priority, start, position,
   velocity), broadcast its own, sense R_s, and run Alg. 2 (:func:`avoidance.avoid`) against
-  the current waypoint. DIVERT: ``goto`` the point (one divergence), then, when there, restore
-  the rest of the path (``fly_path`` from the current waypoint); HOLD: ``set_velocity(0)``
-  (brake) and decide again. Option 2 adds Alg. 4 while on the path and clear of conflicts:
-  out of formation (own row, ``threshold_m``) -> ``goto`` the restoring point (one divergence).
+  the current waypoint. DIVERT (one divergence): fly to the point and then restore the path,
+  as one ``fly_path`` through the point and on from the current waypoint (the vehicle does not
+  stop at the point, as a ``goto`` would: a swarm of stop-and-go hops crawls); HOLD:
+  ``set_velocity(0)`` (brake) and decide again, then restore the path from its waypoint.
+  Option 2 adds Alg. 4 while on the path (not heading to a point) and clear of conflicts: out
+  of formation (own row, ``threshold_m``) -> the restoring point, the same way (one divergence).
   The reference array comes from the starts the others broadcast (Alg. 4 line 1).
 * **Arrive.** At the path's end (within the autopilot's acceptance radius, phase ``arrive``)
   it closes on the target; within ``ARRIVE_M`` of it: reached; land there. A vehicle that has
@@ -263,7 +265,9 @@ class AcoProgram:
         self.base = 0
         """Index in ``waypoints`` of the first waypoint of the path last given to fly_path."""
         self._resume_at = 0
-        """Index of the waypoint to resume the path at after a diversion or a hold."""
+        """Index of the waypoint to resume the path at after a hold."""
+        self.lead = 0
+        """Avoidance points ahead of ``waypoints[base]`` in the path given to fly_path (0, 1)."""
         self.point: np.ndarray | None = None
         self.divergences = 0
         self.holds = 0
@@ -282,10 +286,23 @@ class AcoProgram:
         return self.phase in ("done", "down")
 
     @property
+    def index(self) -> int:
+        """Index in ``waypoints`` of the current path waypoint."""
+        if self.phase in ("path", "arrive"):
+            k = self.base + max(self.vehicle.path_index - self.lead, 0)
+        else:
+            k = self._resume_at
+        return min(k, len(self.waypoints) - 1)
+
+    @property
     def waypoint(self) -> np.ndarray:
         """The current path waypoint (the one Alg. 2 scores avoidance points against)."""
-        k = self.base + self.vehicle.path_index if self.phase == "path" else self._resume_at
-        return self.waypoints[min(k, len(self.waypoints) - 1)]
+        return self.waypoints[self.index]
+
+    @property
+    def diverting(self) -> bool:
+        """Flying to an avoidance (or restoring) point, not yet back on the path."""
+        return self.phase == "path" and self.vehicle.path_index < self.lead
 
     def decide(self, now_s: float) -> None:
         """One tick of Alg. 3 (option 1) or Alg. 4 (option 2)."""
@@ -310,7 +327,6 @@ class AcoProgram:
                 self._fly_from(0)
             return
         if self.phase == "path" and v.path_done:  # within the autopilot's acceptance radius
-            self._resume_at = len(self.waypoints) - 1
             self.phase = "arrive"
         if self.phase == "arrive" and math.dist(here, self.target) <= ARRIVE_M:
             self.reached = True
@@ -323,24 +339,23 @@ class AcoProgram:
     def _avoid(self, now_s: float, here: np.ndarray) -> None:
         v, p = self.vehicle, self.params
         waypoint = self.waypoint
-        aim = self.point if self.phase == "divert" and self.point is not None else waypoint
+        aim = self.point if self.diverting and self.point is not None else waypoint
         sensed = self._sensed(here)
         d = avoid(here, aim, waypoint, v.priority, sensed, p.speed_m_s, self.rng, self.avoid_params)
         if d.action is Action.DIVERT:
             self._divert(d.point)
             return
         if d.action is Action.HOLD:
-            if self.phase == "path":
-                self._resume_at = self.base + v.path_index
             if self.phase != "hold":
+                self._resume_at = self.index
                 self.holds += 1
             v.set_velocity(np.zeros(3))
             self.phase = "hold"
             return
-        if self.phase == "hold" or (self.phase == "divert" and v.path_done):  # restore the path
+        if self.phase == "hold":  # restore the path
             self._fly_from(self._resume_at)
             return
-        if p.option == 2 and self.phase == "path":
+        if p.option == 2 and self.phase == "path" and not self.diverting:
             self._formation(here, sensed)
 
     def _formation(self, here: np.ndarray, sensed: list[Obstacle]) -> None:
@@ -361,26 +376,31 @@ class AcoProgram:
         if in_formation(i, cur, ref, self.params.threshold_m):
             return
         point = restoring_point(
-            i, here, pos, vel, ref, self.params.speed_m_s, sensed, self.rng, self.avoid_params
-        )
+            i, here, pos, vel, ref, self.params.speed_m_s, sensed, self.rng, self.avoid_params,
+            waypoint=self.waypoint,
+        )  # fmt: skip
         if point is not None:
             self._divert(point)
 
     def _divert(self, point: np.ndarray) -> None:
-        v = self.vehicle
-        if self.phase == "path":
-            self._resume_at = self.base + v.path_index
+        """Adopt an avoidance point: fly through it and on along the rest of the path."""
+        k = self.index
         self.point = np.asarray(point, float)
-        v.goto(self.point, self.params.speed_m_s)
+        self._fly(k, self.point)
         self.divergences += 1
-        self.phase = "divert"
 
     def _fly_from(self, k: int) -> None:
-        k = min(k, len(self.waypoints) - 1)
-        self.base = k
-        self._resume_at = k
-        self.point = None
-        self.vehicle.fly_path(self.waypoints[k:], self.params.speed_m_s)
+        self._fly(min(k, len(self.waypoints) - 1), None)
+
+    def _fly(self, k: int, point: np.ndarray | None) -> None:
+        rest = self.waypoints[k:]
+        self.base, self._resume_at = k, k
+        self.lead = 0 if point is None else 1
+        if point is not None:
+            rest = np.vstack([point, rest])
+        else:
+            self.point = None
+        self.vehicle.fly_path(rest, self.params.speed_m_s)
         self.phase = "path"
 
     def _odometry(self, now_s: float, here: np.ndarray) -> None:
@@ -388,7 +408,7 @@ class AcoProgram:
             t0, x0 = self._last
             if now_s > t0:
                 self._velocity = (here - x0) / (now_s - t0)
-            if self.phase in ("path", "divert", "hold", "arrive"):
+            if self.phase in ("path", "hold", "arrive"):
                 self.total_dist_m += float(np.linalg.norm(here - x0))
         self._last = (now_s, here)
 

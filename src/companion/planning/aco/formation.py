@@ -14,8 +14,10 @@ Pure; randomness from the generator passed in. Choices (digest 004_001 §6 item 
 * **Restoring point**: samples of the same ball as Alg. 2 (``avoidance.sample_ball``, radius
   R_s) scored by the row's squared error ``sum_j (|p - x_j(t_a)| - d_ij_ref)^2`` with the others
   predicted at the arrival time ``t_a = |p - x| / v`` from their broadcast velocities (so when
-  the swarm moves on, the point moves on with it); the lowest-score point that clears D_min on the
-  way (Alg. 2's test (a)) is adopted: one divergence. None feasible: keep the path.
+  the swarm moves on, the point moves on with it); the lowest-score point that is safe is
+  adopted: one divergence. Safe: Alg. 2's tests (a) and (b) against the current path waypoint,
+  and nearer that waypoint than the UAV is now (without this progress rule a swarm on different
+  ACO paths chases its own formation and never arrives). None qualifies: keep the path.
 * **AvgDistChange_i** (Eq. 8): the mean over this UAV's heard partners of ``|d_ij - d_ij_ref|``,
   averaged over the decisions of its flight (:class:`FormationTracker`).
 """
@@ -30,6 +32,7 @@ from companion.planning.aco.avoidance import (
     AvoidanceParams,
     Obstacle,
     course,
+    feasible,
     min_gap,
     sample_ball,
 )
@@ -70,9 +73,15 @@ def restoring_point(
     sensed: list[Obstacle],
     rng: np.random.Generator,
     params: AvoidanceParams = AvoidanceParams(),  # noqa: B008 (frozen)
+    waypoint: np.ndarray | None = None,
 ) -> np.ndarray | None:
-    """The sampled point that best restores row ``i`` and clears D_min on the way (None: none)."""
+    """The sampled point that best restores row ``i`` and is safe (None: none qualifies).
+
+    Safe: clears D_min on the way; with ``waypoint`` also Alg. 2's test (b) towards it, and the
+    point must be nearer the waypoint than the UAV is (progress: the swarm still flies its paths).
+    """
     here = np.asarray(here, float)
+    wp = None if waypoint is None else np.asarray(waypoint, float)
     pos = np.asarray(positions_enu_m, float)
     vel = np.nan_to_num(np.asarray(velocities_enu_m_s, float))
     others = [j for j in range(len(pos)) if j != i and np.isfinite(pos[j]).all()]
@@ -88,7 +97,13 @@ def restoring_point(
         for k in np.argsort(err, kind="stable"):
             if err[k] >= best_score:
                 break
-            if _clear_on_the_way(here, pts[k], speed_m_s, sensed, params):
+            if wp is not None:
+                ok = np.linalg.norm(wp - pts[k]) < np.linalg.norm(wp - here) and feasible(
+                    here, pts[k], wp, speed_m_s, sensed, params
+                )
+            else:
+                ok = _clear_on_the_way(here, pts[k], speed_m_s, sensed, params)
+            if ok:
                 best, best_score = pts[k], float(err[k])
                 break
         if best is not None:
