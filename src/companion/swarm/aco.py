@@ -194,12 +194,16 @@ def zones(world: Any) -> tuple[Any, Any]:
     return areas[START_AREA], areas[GOAL_AREA]
 
 
-@functools.lru_cache(maxsize=8)
 def arena(world_path: str) -> Any:
-    """The built world of a run (one per process and file)."""
+    """The built world of a run (built once per process and file content)."""
+    return _built_world(Path(world_path).read_text())
+
+
+@functools.lru_cache(maxsize=8)
+def _built_world(text: str) -> Any:
     import worlds
 
-    return worlds.build(worlds.load_world(Path(world_path)))
+    return worlds.build(worlds.parse_world(text, "world"))
 
 
 def aco_params(env: ScenarioEnv) -> AcoRoleParams:

@@ -6,11 +6,12 @@ Pure; randomness from the generator passed in. Choices (digest 004_001 §6 item 
   reads all start points), :func:`reference_distances`.
 * **Current**: the pairwise distances of everyone's latest broadcast positions (NaN where a
   position has not been heard), :func:`current_distances`.
-* **Check: this UAV's row only**, ``|d_ij - d_ij_ref| < threshold`` for every heard j != i
-  (:func:`in_formation`). The paper's O(X^4) suggests nested loops over all pairs, but a UAV can
-  only mend the distances it is part of: checking all pairs would have every UAV divert for a
-  pair it cannot affect. (Each UAV building the whole X x X array each tick is the O(X^2) per
-  UAV, O(X^3) for the swarm, the paper's count of ticks aside.)
+* **Check: this UAV's row only**, the *median* over heard j != i of ``|d_ij - d_ij_ref|``
+  below the threshold (:func:`in_formation`: the UAV out of place relative to most others
+  restores, not its neighbours). The paper's O(X^4) suggests nested loops over all pairs, but
+  a UAV can only mend the distances it is part of: checking all pairs would have every UAV
+  divert for a pair it cannot affect. (Each UAV building the whole X x X array each tick is
+  O(X^2) per UAV, O(X^3) for the swarm, the paper's count of ticks aside.)
 * **Restoring point**: samples of the same ball as Alg. 2 (``avoidance.sample_ball``, radius
   R_s) scored by the row's squared error ``sum_j (|p - x_j(t_a)| - d_ij_ref)^2`` with the others
   predicted at the arrival time ``t_a = |p - x| / v`` from their broadcast velocities (so when
@@ -57,10 +58,17 @@ def row_deviation(i: int, current: np.ndarray, reference: np.ndarray) -> np.ndar
 
 
 def in_formation(i: int, current: np.ndarray, reference: np.ndarray, threshold_m: float) -> bool:
-    """Alg. 4's check on this UAV's row: every heard ``|d_ij - d_ij_ref| < threshold``."""
+    """Alg. 4's check on this UAV's row: the median heard ``|d_ij - d_ij_ref|`` < threshold.
+
+    The median, not every entry: when one partner is out of place every row holding it breaks,
+    and with "every entry" all UAVs would divert for it (tried: the swarm then chases its own
+    formation at walking pace and never arrives); the median breaks only the row of the UAV that
+    is out of place relative to most others, and that UAV restores. With one partner (two UAVs)
+    the median is the entry: both restore.
+    """
     dev = row_deviation(i, current, reference)
     heard = dev[np.isfinite(dev)]
-    return bool((heard < threshold_m).all())
+    return bool(heard.size == 0 or np.median(heard) < threshold_m)
 
 
 def restoring_point(

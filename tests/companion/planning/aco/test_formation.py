@@ -29,15 +29,16 @@ def test_reference_array_is_the_start_distances() -> None:
 
 def test_threshold_check_on_own_row_and_unheard_partners() -> None:
     """A rigid translation keeps everyone in formation; moving UAV 3 0.15 m away from UAV 0 breaks
-    the rows that contain it; an unheard UAV (NaN) is left out of the check."""
+    its own row (median over partners) but not UAV 0's, where it is one entry of three;
+    an unheard UAV (NaN) is left out of the check."""
     ref = reference_distances(STARTS)
     moved = STARTS + np.array([10.0, -3.0, 1.0])
     cur = current_distances(moved)
     assert all(in_formation(i, cur, ref, 0.1) for i in range(4))
     moved[3] += [0.09, 0.12, 0.0]  # d_03 +0.15, d_13 +0.12, d_23 +0.09
     cur = current_distances(moved)
-    assert not in_formation(3, cur, ref, 0.1)
-    assert not in_formation(0, cur, ref, 0.1)  # row 0 includes d_03
+    assert not in_formation(3, cur, ref, 0.1)  # its row: 0.15, 0.12, 0.09, median 0.12
+    assert in_formation(0, cur, ref, 0.1)  # row 0: 0, 0, 0.15: the median is in, 3 restores
     assert in_formation(3, cur, ref, 0.2)
     moved[3] = np.nan  # not heard yet
     cur = current_distances(moved)
