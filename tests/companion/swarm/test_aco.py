@@ -46,15 +46,15 @@ def _spec(args: dict, count: int = 5, spacing: float = 6.0) -> dict:
 ARGS = {"roadmap_nodes": 60, "altitude_band_m": 0}
 
 
-@pytest.mark.parametrize("planner", ["aco", "astar"])
-def test_five_vehicles_reach_their_mirrored_targets_without_collisions(
-    planner: str, tmp_path: Path
+@pytest.mark.parametrize(("planner", "option"), [("aco", 1), ("astar", 1), ("aco", 2)])
+def test_five_vehicles_reach_their_targets_without_collisions(
+    planner: str, option: int, tmp_path: Path
 ) -> None:
-    """Every vehicle reaches and lands at its target, no contact, run metrics all present and in
-    range (PQ <= 100, MC 100, FT = makespan / 60 s), in under 10 s of wall time."""
-    scenario = parse_scenario(
-        yaml.safe_dump(_spec(ARGS | {"planner": planner})), "a.yaml", tmp_path
-    )
+    """Every vehicle reaches and lands at its target (option 1: mirrored; option 2: translated),
+    no contact, run metrics all present and in range (PQ <= 100, MC 100, FT = makespan / 60 s,
+    FC only for option 2), in under 10 s of wall time."""
+    args = ARGS | {"planner": planner, "option": option}
+    scenario = parse_scenario(yaml.safe_dump(_spec(args)), "a.yaml", tmp_path)
     t0 = time.monotonic()
     report = run_swarm(scenario, run_dir=tmp_path / "run")
     wall = time.monotonic() - t0
@@ -70,14 +70,18 @@ def test_five_vehicles_reach_their_mirrored_targets_without_collisions(
     env = ScenarioEnv(
         mavlink_url="swarm://", grpc_port=0, vehicle=1, vehicles=5, role="aco", role_index=0,
         role_count=5, seed=2, out_dir=tmp_path, world=tmp_path / "run" / "world.yaml",
-        params=ARGS | {"planner": planner},
+        params=args,
     )  # fmt: skip
     m = run_metrics(env, report)
     assert m["mc"] == (100.0, "%")
     assert 50.0 < m["pq"][0] <= 100.0
     makespan = max(r["arrived_s"] for r in rows) - min(r["mission_start_s"] for r in rows)
     assert m["ft"][0] == pytest.approx(makespan / 60.0, abs=1e-3)
-    assert m["cf"][0] is not None and m["fc"][0] is None
+    assert m["cf"][0] is not None
+    if option == 1:
+        assert m["fc"][0] is None
+    else:  # the formation held to a fraction of the 0.1 m allowance on average
+        assert 0.0 <= m["fc"][0] < 100.0
     assert report["fleet"]["run"]["pq"]["value"] == pytest.approx(m["pq"][0])
     assert wall < 10.0, wall
 
