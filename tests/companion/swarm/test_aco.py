@@ -44,6 +44,8 @@ def _spec(args: dict, count: int = 5, spacing: float = 6.0) -> dict:
 
 
 ARGS = {"roadmap_nodes": 60, "altitude_band_m": 0}
+ARRIVE_SLACK_M = 1.0
+"""Arrival tolerance (``companion.swarm.aco.ARRIVE_M``): the flown distance may be this short."""
 
 
 @pytest.mark.parametrize(("planner", "option"), [("aco", 1), ("astar", 1), ("aco", 2)])
@@ -84,9 +86,6 @@ def test_five_vehicles_reach_their_targets_without_collisions(
         assert 0.0 <= m["fc"][0] < 100.0
     assert report["fleet"]["run"]["pq"]["value"] == pytest.approx(m["pq"][0])
     assert wall < 10.0, wall
-
-
-ARRIVE_SLACK_M = 1.0
 
 
 def test_mirror_target_keeps_pairwise_distances() -> None:
