@@ -89,3 +89,11 @@ def run_metrics(env: ScenarioEnv, report: dict[str, Any]) -> dict[str, tuple[Any
         "divergences": (sum(r["divergences"] for r in rows), "count"),
         "reached": (sum(reached), "count"),
     }
+
+
+if __name__ == "__main__":
+    # A scenario at fidelity full starts the role as a process: say why nothing will fly.
+    raise SystemExit(
+        "companion.scripts.aco_swarm has no MAVSDK adapter yet: run its scenarios with "
+        "fidelity: swarm (docs/companions.md, 'ACO swarm')"
+    )
