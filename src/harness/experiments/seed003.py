@@ -176,8 +176,8 @@ def losses(n: int, run: int) -> list[dict[str, Any]]:
     the loss always orphans a task of the best plan (the loss-time distribution is not given).
     Every draw comes from the run seed alone, so the three solutions meet the same losses.
     """
-    from scipy.optimize import linear_sum_assignment
-
+    from companion.planning.caravan.optimum import optimal_assignment, score_matrix
+    from companion.planning.caravan.scores import CaravanParams
     from harness.scenarios.faults import fault_count
 
     rng = np.random.default_rng([run, LOSS_STREAM])
@@ -185,9 +185,9 @@ def losses(n: int, run: int) -> list[dict[str, Any]]:
     order = rng.permutation(n)
     when = rng.uniform(0.0, 1.0, n)
     starts, tasks = task_map(n, run)
-    travel = np.linalg.norm(starts[:, None, :] - tasks[None, :, :], axis=2) / SPEED_M_S
-    rows, cols = linear_sum_assignment(-np.exp(-0.1 * travel))  # Eq. (26), a and lambda of 4.1
-    own = dict(zip(rows.tolist(), travel[rows, cols].tolist(), strict=True))
+    rows, cols = optimal_assignment(score_matrix(None, starts, tasks, CaravanParams()))
+    travel_s = np.linalg.norm(starts[rows] - tasks[cols], axis=1) / SPEED_M_S
+    own = dict(zip(rows.tolist(), travel_s.tolist(), strict=True))
     lost = sorted(int(k) for k in order[: fault_count(LOSS_FRACTION, n, "stochastic", u)])
     return [
         {"kind": ["crash", "radio"], "vehicle": k + 1,

@@ -64,10 +64,10 @@ class FaultInjector:
                 sim.fleet.vehicle(fault.vehicle).terminate()
             elif kind == "land":
                 sim.fleet.vehicle(fault.vehicle).land()
-            else:
-                node = self._nodes.get(fault.vehicle)
-                if node is not None and sim.router is not None:
-                    sim.router.silence(node, tx=kind != "radio_rx", rx=kind != "radio_tx")
+        tx, rx = fault.silences
+        node = self._nodes.get(fault.vehicle)
+        if (tx or rx) and node is not None and sim.router is not None:
+            sim.router.silence(node, tx=tx, rx=rx)
         self.applied_s[k] = now_s
 
     def records(self) -> list[dict[str, Any]]:

@@ -126,6 +126,12 @@ class Fault:
         """What it takes from the vehicle (``lost``, ``tx``, ``rx``)."""
         return frozenset().union(*(EFFECTS[k] for k in self.kinds))
 
+    @property
+    def silences(self) -> tuple[bool, bool]:
+        """Whether it silences the vehicle's radio (sending, hearing)."""
+        effects = self.effects
+        return "tx" in effects, "rx" in effects
+
     def record(self, applied_s: float | None) -> dict[str, Any]:
         """The report's entry: which vehicle, what, when it was applied (simulated s).
 

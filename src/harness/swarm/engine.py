@@ -24,13 +24,14 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from companion.swarm.vehicle import Detection, Sensed, SwarmProgram
 from harness.report.collisions import CollisionCounter, contacts
+from harness.scenarios.faults import Fault
 from sitl.kinematic_fleet import KinematicFleet
 from sitl.power.hover_drain import HoverDrain
 from worlds.solid_set import SolidSet
@@ -75,17 +76,6 @@ def poisson_events(
         Target(f"event_{k}", (float(p[0]), float(p[1])), 0.0, float(t))
         for k, (t, p) in enumerate(zip(times, points, strict=True))
     ]
-
-
-class ScheduledFault(Protocol):
-    """A fault of the scenario as the engine applies it (``harness.scenarios.faults.Fault``)."""
-
-    vehicle: int
-    kinds: tuple[str, ...]
-    time_s: float
-
-    def record(self, applied_s: float | None) -> dict[str, Any]:
-        """The report's entry for the fault applied at ``applied_s`` (None: not applied)."""
 
 
 RadioFault = Callable[[str, bool, bool], None]
@@ -261,7 +251,7 @@ class SwarmEngine:
         inside_world: Callable[[np.ndarray], np.ndarray] | None = None,
         power: HoverDrain | None = None,
         link_range_m: float | None = None,
-        faults: Sequence[ScheduledFault] = (),
+        faults: Sequence[Fault] = (),
         radio_fault: RadioFault | None = None,
         radius_m: np.ndarray | None = None,
         solids: SolidSet | None = None,
@@ -465,14 +455,12 @@ class SwarmEngine:
                 return
             self._next_fault += 1
             i = fault.vehicle
-            kinds = set(fault.kinds)
-            if "crash" in kinds:
+            if "crash" in fault.kinds:
                 self.fleet.crash(i)
                 self.crashed[i] = True
-            elif "land" in kinds and self.fleet.state.airborne[i]:
+            elif "land" in fault.kinds and self.fleet.state.airborne[i]:
                 self.fleet.land(i)  # as the autopilot's Land mode: a later command flies again
-            tx = bool(kinds & {"radio", "radio_tx"})
-            rx = bool(kinds & {"radio", "radio_rx"})
+            tx, rx = fault.silences
             if (tx or rx) and self.radio_fault is not None:
                 self.radio_fault(self.node_ids[i], tx, rx)
             self.fault_records.append(fault.record(self.time_s))

@@ -38,12 +38,17 @@ def score_matrix(
     return params.scores(t.reshape(len(starts), len(tasks)))
 
 
+def optimal_assignment(scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(agents, tasks) of the single assignment maximising Eq. (1) on this score matrix."""
+    return linear_sum_assignment(np.asarray(scores, dtype=float), maximize=True)
+
+
 def optimal_score(scores: np.ndarray) -> float:
     """J*: the maximum of Eq. (1) over single assignments of this score matrix."""
     s = np.asarray(scores, dtype=float)
     if s.size == 0:
         return 0.0
-    rows, cols = linear_sum_assignment(s, maximize=True)
+    rows, cols = optimal_assignment(s)
     return float(s[rows, cols].sum())
 
 
