@@ -20,14 +20,16 @@ _OBSTACLE_GAP_M = 5.0
 def build_arena_aco(spec: ArenaAcoSpec, rng: np.random.Generator) -> World:
     """Seed 001's arena; draw order: static obstacles, then moving ones.
 
-    Start zone at 40 % of the width west of the centre, goal zone as far east; static obstacles
-    (boxes with a random yaw, or cylinders) keep clear of both zones and ``_OBSTACLE_GAP_M`` of each
-    other. Moving obstacles are drums that fly straight lines reflecting off the arena edge and bob
-    vertically, "in different directions and elevations" (seed 001 Sec. 4.1).
+    Start zone at 40 % of the width (or half ``zone_separation_m``) west of the centre, goal zone
+    as far east; static obstacles (boxes with a random yaw, or cylinders) keep clear of both zones
+    and ``_OBSTACLE_GAP_M`` of each other. Moving obstacles are drums that fly straight lines
+    reflecting off the arena's edge (or ``moving_obstacle_region_m``'s) and bob vertically, "in
+    different directions and elevations" (seed 001 Sec. 4.1).
     """
     sx, sy = spec.size_m
-    start = LaunchArea("start", (-0.4 * sx, 0.0, 0.0), spec.zone_radius_m)
-    goal = LaunchArea("goal", (0.4 * sx, 0.0, 0.0), spec.zone_radius_m)
+    half = 0.4 * sx if spec.zone_separation_m is None else spec.zone_separation_m / 2.0
+    start = LaunchArea("start", (-half, 0.0, 0.0), spec.zone_radius_m)
+    goal = LaunchArea("goal", (half, 0.0, 0.0), spec.zone_radius_m)
     taken = shapely.union_all([Point(a.center_enu_m[:2]).buffer(a.radius_m) for a in (start, goal)])
     solids: list[Solid] = []
     for _ in range(200 * max(spec.static_obstacle_count, 1)):
@@ -64,7 +66,9 @@ def build_arena_aco(spec: ArenaAcoSpec, rng: np.random.Generator) -> World:
         )
     for k in range(spec.moving_obstacle_count):
         d = rng.uniform(*spec.moving_obstacle_diameter_m)
-        bounds = (-sx / 2.0 + d / 2.0, -sy / 2.0 + d / 2.0, sx / 2.0 - d / 2.0, sy / 2.0 - d / 2.0)
+        region = spec.moving_obstacle_region_m or (-sx / 2.0, -sy / 2.0, sx / 2.0, sy / 2.0)
+        r = d / 2.0
+        bounds = (region[0] + r, region[1] + r, region[2] - r, region[3] - r)
         c = (
             rng.uniform(bounds[0], bounds[2]),
             rng.uniform(bounds[1], bounds[3]),

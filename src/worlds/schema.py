@@ -138,6 +138,44 @@ class ArenaAcoSpec(_Spec):
     moving_obstacle_vertical_amplitude_m: float = Field(5.0, ge=0)
     zone_radius_m: float = Field(40.0, gt=0)
     """Radius of the start (west) and goal (east) zones kept free of static obstacles."""
+    zone_separation_m: float | None = Field(None, gt=0)
+    """Distance between the zones' centres, m, symmetric about the arena's centre on the
+    east axis (default 0.8 x the width: the zones at -0.4 and +0.4 of it)."""
+    moving_obstacle_region_m: tuple[float, float, float, float] | None = None
+    """(east_min, north_min, east_max, north_max), m: where the drums start and between which
+    they bounce (default the whole arena): a corridor between the zones, to make them dense
+    where the vehicles fly."""
+
+    @model_validator(mode="after")
+    def _zones_and_region_fit(self) -> ArenaAcoSpec:
+        sx, sy = self.size_m
+        if self.zone_separation_m is not None and (
+            self.zone_separation_m / 2.0 + self.zone_radius_m > sx / 2.0
+        ):
+            raise ValueError(
+                f"zone_separation_m: {self.zone_separation_m} with zone_radius_m "
+                f"{self.zone_radius_m} puts a zone outside the arena's width {sx}"
+            )
+        if self.zone_separation_m is not None and self.zone_separation_m < 2 * self.zone_radius_m:
+            raise ValueError(
+                f"zone_separation_m: {self.zone_separation_m} is less than two zone radii "
+                f"({2 * self.zone_radius_m}): the zones overlap"
+            )
+        r = self.moving_obstacle_region_m
+        if r is not None:
+            big = self.moving_obstacle_diameter_m[1]
+            if not (-sx / 2.0 <= r[0] and r[2] <= sx / 2.0 and -sy / 2.0 <= r[1]
+                    and r[3] <= sy / 2.0):  # fmt: skip
+                raise ValueError(
+                    f"moving_obstacle_region_m: {list(r)} is not inside the arena "
+                    f"(+-{sx / 2.0}, +-{sy / 2.0})"
+                )
+            if r[2] - r[0] <= big or r[3] - r[1] <= big:
+                raise ValueError(
+                    f"moving_obstacle_region_m: {list(r)} is not wider than the largest drum "
+                    f"({big} m) in both directions"
+                )
+        return self
 
 
 class WorkspaceMcoSpec(_Spec):

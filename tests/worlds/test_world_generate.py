@@ -160,6 +160,45 @@ def test_arena_aco_is_one_km_and_its_movers_move_with_time():
         assert not any(zone.intersects(s.footprint_at()) for s in static)
 
 
+def test_arena_aco_zone_separation_and_drum_region_place_zones_and_confine_drums():
+    """The zones sit +-separation/2 on the east axis; drums start and stay in their region."""
+    region = (-100.0, -30.0, 100.0, 30.0)
+    world = _world(
+        "arena_aco",
+        5,
+        "zone_separation_m: 300\nmoving_obstacle_count: 20\n"
+        f"moving_obstacle_region_m: {list(region)}\n",
+    )
+    assert world.launch_area("start").center_enu_m[:2] == (-150.0, 0.0)
+    assert world.launch_area("goal").center_enu_m[:2] == (150.0, 0.0)
+    movers = [s for s in world.solids if s.motion is not None]
+    assert len(movers) == 20
+    for m in movers:
+        r = m.size_m[0] / 2.0
+        for t in np.arange(0.0, 600.0, 3.0):
+            x, y, _ = m.center_at(t)
+            assert region[0] + r - 1e-9 <= x <= region[2] - r + 1e-9
+            assert region[1] + r - 1e-9 <= y <= region[3] - r + 1e-9
+    # without the new fields the draws are as before: the default world is unchanged
+    assert _fingerprint(_world("arena_aco", 4)) == _fingerprint(
+        _world("arena_aco", 4, "zone_separation_m: 800\n")
+    )
+
+
+@pytest.mark.parametrize(
+    ("extra", "field"),
+    [
+        ("zone_separation_m: 990\n", "zone_separation_m"),
+        ("zone_separation_m: 50\n", "zone_separation_m"),
+        ("moving_obstacle_region_m: [-600, -10, 0, 10]\n", "moving_obstacle_region_m"),
+        ("moving_obstacle_region_m: [-5, -100, 4, 100]\n", "moving_obstacle_region_m"),
+    ],
+)
+def test_arena_aco_zones_or_region_that_do_not_fit_fail_naming_the_field(extra, field):
+    with pytest.raises(ValueError, match=field):
+        parse_world(f"kind: arena_aco\nseed: 0\n{extra}")
+
+
 def test_workspace_mco_has_holes_and_low_interest_zones_inside():
     world = _world("workspace_mco", 8)
     assert (
