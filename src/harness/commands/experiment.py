@@ -10,8 +10,8 @@ from rich.markup import escape
 
 from harness.run.launch import console
 
-EXPERIMENTS = ("seed003", "seed004")
-"""The experiments there are (docs/seed003.md, docs/seed004.md)."""
+EXPERIMENTS = ("seed001", "seed003", "seed004")
+"""The experiments there are (docs/seed001.md, docs/seed003.md, docs/seed004.md)."""
 EXIT_FAILED = 1
 """A trial errored or failed its checks (its row says which); the tables are still written."""
 EXIT_BAD_INPUT = 2
@@ -33,7 +33,8 @@ def experiment(
             "--runs",
             "--seeds",
             min=1,
-            help="runs (seeds) per cell: seed003 31 (--quick 5), seed004 10 (--quick 2)",
+            help="runs (seeds) per cell: seed001 35 for Table 2 and at most 10 for the sweeps "
+            "(--quick 2), seed003 31 (--quick 5), seed004 10 (--quick 2)",
         ),
     ] = None,
     workers: Annotated[
@@ -53,6 +54,8 @@ def experiment(
     second run of the same command resumes), and ends with a line `RESULT key=value ...`.
     Exit status: 0 when every run passed its checks, 1 when one errored or failed them, 2 for
     bad input (nothing ran).
+
+    Example:  swarmsitl experiment seed001 --quick --out runs/seed001-quick
 
     Example:  swarmsitl experiment seed003 --quick --out runs/seed003-quick
 
