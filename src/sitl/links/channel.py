@@ -139,51 +139,58 @@ class LinkChannel:
         self.stats = ChannelStats()
         self._rng = rng
         self._outages = _Outages(params, rng.spawn(1)[0])
+        self._always_up = not params.outages.windows_s and params.outages.mtbf_s <= 0
+        """No outage windows and no random failures: the schedule need not be asked."""
         self._bytes_per_s = params.rate_bps / params.bits_per_byte
         self._busy_until_s = 0.0
         self._last_arrival_s = 0.0
         self._last_now_s = -math.inf
         self._bad = False
         loss = params.loss
+        self._bernoulli = loss.model is LossModel.BERNOULLI
+        self._lossless = self._bernoulli and loss.mean_loss <= 0.0
+        """No datagram is lost on the medium (and none draws a number for it)."""
         self._p_gb, self._p_bg = loss.transition_probabilities()
-        self._uniform = np.empty(0)
+        self._range_from_m = params.range_m - params.range_width_m
+        """Datagrams sent farther than this may be lost to range (and draw a number for it)."""
+        latency = params.latency
+        self._jittered = latency.jitter is not Jitter.NONE and latency.jitter_s != 0.0
+        """Whether each delivered datagram draws a jitter."""
+        self._uniform = array("d")
         self._u = 0
-        self._jitter = np.empty(0)
+        self._jitter = array("d")
         self._j = 0
 
     # -- random numbers, drawn in blocks -----------------------------------------------------
 
     def _next_uniform(self) -> float:
-        if self._u >= self._uniform.size:
-            self._uniform = self._rng.random(_BLOCK)
+        if self._u >= len(self._uniform):
+            self._uniform = array("d", self._rng.random(_BLOCK).tobytes())
             self._u = 0
         value = self._uniform[self._u]
         self._u += 1
-        return float(value)
+        return value
 
     def _next_jitter(self) -> float:
-        latency = self.params.latency
-        if latency.jitter is Jitter.NONE or latency.jitter_s == 0.0:
-            return 0.0
-        if self._j >= self._jitter.size:
+        if self._j >= len(self._jitter):
+            latency = self.params.latency
             rng = self._rng
             if latency.jitter is Jitter.EXPONENTIAL:
-                self._jitter = rng.exponential(latency.jitter_s, _BLOCK)
+                block = rng.exponential(latency.jitter_s, _BLOCK)
             elif latency.jitter is Jitter.LOGNORMAL:
-                self._jitter = latency.jitter_s * np.exp(
-                    latency.sigma * rng.standard_normal(_BLOCK)
-                )
+                block = latency.jitter_s * np.exp(latency.sigma * rng.standard_normal(_BLOCK))
             else:
-                self._jitter = rng.gamma(latency.shape, latency.jitter_s / latency.shape, _BLOCK)
+                block = rng.gamma(latency.shape, latency.jitter_s / latency.shape, _BLOCK)
+            self._jitter = array("d", block.tobytes())
             self._j = 0
         value = self._jitter[self._j]
         self._j += 1
-        return float(value)
+        return value
 
     def _lost(self) -> bool:
         loss = self.params.loss
-        if loss.model is LossModel.BERNOULLI:
-            return loss.mean_loss > 0.0 and self._next_uniform() < loss.mean_loss
+        if self._bernoulli:
+            return self._next_uniform() < loss.mean_loss
         # Gilbert-Elliott: the state moves once per datagram, then the state's loss applies.
         if self._bad:
             if self._next_uniform() < self._p_bg:
@@ -216,7 +223,7 @@ class LinkChannel:
         stats = self.stats
         stats.submitted += 1
         stats.submitted_bytes += payload_bytes
-        if not self._outages.is_up(now_s):
+        if not self._always_up and not self._outages.is_up(now_s):
             return self._drop(Drop.DOWN)
         wire = payload_bytes + params.overhead_bytes
         start = self._busy_until_s if self._busy_until_s > now_s else now_s
@@ -226,13 +233,15 @@ class LinkChannel:
         end = start + airtime
         self._busy_until_s = end
         stats.airtime_s += airtime
-        if self._lost():
+        if not self._lossless and self._lost():
             return self._drop(Drop.LOSS)
-        if distance_m > params.range_m - params.range_width_m:
+        if distance_m > self._range_from_m:
             p_range = params.range_loss(distance_m)
             if p_range >= 1.0 or self._next_uniform() < p_range:
                 return self._drop(Drop.RANGE)
-        arrival = end + params.latency.base_s + self._next_jitter()
+        arrival = end + params.latency.base_s
+        if self._jittered:
+            arrival += self._next_jitter()
         if params.in_order and arrival < self._last_arrival_s:
             arrival = self._last_arrival_s
         self._last_arrival_s = arrival
