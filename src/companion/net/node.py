@@ -181,11 +181,13 @@ class Node:
         Malformed, misaddressed and late datagrams are counted and dropped. An exception
         raised by a handler propagates; the datagrams after it wait for the next poll.
         """
-        self._inbox.extend(self.transport.receive())
-        while self._inbox:
-            env = self._accept(self._inbox.popleft())
+        inbox = self._inbox
+        inbox.extend(self.transport.receive())
+        accept, dispatch = self._accept, self._dispatch
+        while inbox:
+            env = accept(inbox.popleft())
             if env is not None:
-                self._dispatch(env)
+                dispatch(env)
         self._expire()
         out, self._unconsumed = self._unconsumed, []
         return out
@@ -252,12 +254,15 @@ class Node:
 
     def _transmit(self, dst: str, category: str, data: bytes) -> None:
         self.transport.send(dst, data)  # may raise (a datagram above a link's limit)
-        traffic = self._record(dst).sent[category]
+        traffic = (self.stats.peers.get(dst) or self._record(dst)).sent[category]
         traffic.messages += 1
         traffic.bytes += len(data)
 
     def _record(self, peer: str) -> PeerStats:
-        """The stats record of ``peer`` (its link class looked up only on first use)."""
+        """The stats record of ``peer``, created with its link class on first use.
+
+        The hot paths try ``self.stats.peers.get(peer)`` first and call this only on a miss.
+        """
         record = self.stats.peers.get(peer)
         if record is None:
             record = self.stats.peer(peer, self._link(peer))
@@ -278,10 +283,11 @@ class Node:
         except EnvelopeError:
             self.stats.malformed += 1
             return None
-        if env.dst != self.node_id or env.src not in self.config.nodes:
+        src = env.src
+        if env.dst != self.node_id or src not in self.config.nodes:
             self.stats.misaddressed += 1
             return None
-        record = self._record(env.src)
+        record = self.stats.peers.get(src) or self._record(src)
         category = env.category
         traffic = record.received[category]
         traffic.messages += 1
