@@ -12,6 +12,7 @@ Times are in seconds of the sender's clock (simulated seconds under swarmsitl).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -118,6 +119,45 @@ def encode(env: Envelope) -> bytes:
     if len(data) > MAX_DATAGRAM_BYTES:
         raise MessageTooLargeError(len(data))
     return data
+
+
+def encode_fanout(template: Envelope, dsts: Sequence[str]) -> list[bytes]:
+    """Encode one message to each of ``dsts`` (datagrams, in order; ``template.dst`` unused).
+
+    Datagram i is ``encode`` of ``template`` with ``dst = dsts[i]`` and
+    ``msg_id = template.msg_id + i``, byte for byte. A msgpack array is its header followed by
+    its elements' encodings, so the fields common to every copy (the body above all) are
+    encoded once and spliced around each copy's ``dst`` and ``msg_id``: a group send or a
+    broadcast costs one body encoding, not one per recipient.
+
+    Raises:
+        MessageTooLargeError: a datagram would exceed ``MAX_DATAGRAM_BYTES`` (the first such).
+        TypeError: the body holds something msgpack cannot encode (only if ``dsts`` is not empty).
+    """
+    if not dsts:
+        return []
+    packer = msgpack.Packer(use_bin_type=True, default=_to_msgpack)
+    pack = packer.pack
+    head = b"".join(
+        (packer.pack_array_header(len(_FIELDS) + 2), pack(FORMAT_VERSION), pack(template.src))
+    )
+    between = pack(template.kind) + pack(template.topic)
+    tail = b"".join(
+        (
+            pack(template.reply_to),
+            pack(template.category),
+            pack(float(template.sent_s)),
+            pack(template.attempt),
+            pack(template.body),
+        )
+    )
+    out = []
+    for msg_id, dst in enumerate(dsts, template.msg_id):
+        data = b"".join((head, pack(dst), between, pack(msg_id), tail))
+        if len(data) > MAX_DATAGRAM_BYTES:
+            raise MessageTooLargeError(len(data))
+        out.append(data)
+    return out
 
 
 def _to_msgpack(obj: Any) -> Any:

@@ -24,8 +24,15 @@ from pathlib import Path
 from typing import Any
 
 from companion.net.config import NetConfig, link_class
-from companion.net.envelope import CATEGORIES, Envelope, EnvelopeError, decode, encode
-from companion.net.stats import NodeStats, TaskRecord
+from companion.net.envelope import (
+    CATEGORIES,
+    Envelope,
+    EnvelopeError,
+    decode,
+    encode,
+    encode_fanout,
+)
+from companion.net.stats import NodeStats, PeerStats, TaskRecord
 from companion.net.transport import Transport
 
 Handler = Callable[[Envelope], Any]
@@ -109,7 +116,7 @@ class Node:
     def send(self, dst: str, topic: str, body: Any, category: str = "data") -> int:
         """Send a one-way message to ``dst``; return its msg_id."""
         env = self._envelope(dst, "msg", topic, body, category)
-        self._transmit(env, encode(env))
+        self._transmit(dst, category, encode(env))
         return env.msg_id
 
     def send_group(self, group: str, topic: str, body: Any, category: str = "data") -> int:
@@ -160,7 +167,7 @@ class Node:
         env.attempt = request.attempt
         data = encode(env)
         self._seen[(request.src, request.msg_id)] = (env.sent_s, env, True)
-        self._transmit(env, data)
+        self._transmit(env.dst, env.category, data)
 
     # --- receiving -----------------------------------------------------------------------
 
@@ -174,11 +181,13 @@ class Node:
         Malformed, misaddressed and late datagrams are counted and dropped. An exception
         raised by a handler propagates; the datagrams after it wait for the next poll.
         """
-        self._inbox.extend(self.transport.receive())
-        while self._inbox:
-            env = self._accept(self._inbox.popleft())
+        inbox = self._inbox
+        inbox.extend(self.transport.receive())
+        accept, dispatch = self._accept, self._dispatch
+        while inbox:
+            env = accept(inbox.popleft())
             if env is not None:
-                self._dispatch(env)
+                dispatch(env)
         self._expire()
         out, self._unconsumed = self._unconsumed, []
         return out
@@ -228,24 +237,42 @@ class Node:
         )
 
     def _send_many(self, dsts: list[str], topic: str, body: Any, category: str) -> int:
-        envs = [self._envelope(d, "msg", topic, body, category) for d in dsts]
-        encoded = [encode(e) for e in envs]  # all or nothing: sizes are checked first
-        for env, data in zip(envs, encoded, strict=True):
-            self._transmit(env, data)
-        return len(envs)
+        """One unicast to each of ``dsts`` (other nodes of the configuration), msg_ids in turn."""
+        if not dsts:
+            return 0
+        if category not in CATEGORIES:
+            raise ValueError(f"category: {category!r}, expected one of {CATEGORIES}")
+        first = self._next_id + 1
+        self._next_id += len(dsts)
+        template = Envelope(
+            self.node_id, "", "msg", topic, first, None, category, self.clock(), 1, body
+        )
+        datagrams = encode_fanout(template, dsts)  # all or nothing: sizes are checked first
+        for dst, data in zip(dsts, datagrams, strict=True):
+            self._transmit(dst, category, data)
+        return len(dsts)
 
-    def _transmit(self, env: Envelope, data: bytes) -> None:
-        self.transport.send(env.dst, data)  # may raise (a datagram above a link's limit)
-        record = self.stats.peer(env.dst, self._link(env.dst))
-        traffic = record.sent[env.category]
+    def _transmit(self, dst: str, category: str, data: bytes) -> None:
+        self.transport.send(dst, data)  # may raise (a datagram above a link's limit)
+        traffic = (self.stats.peers.get(dst) or self._record(dst)).sent[category]
         traffic.messages += 1
         traffic.bytes += len(data)
+
+    def _record(self, peer: str) -> PeerStats:
+        """The stats record of ``peer``, created with its link class on first use.
+
+        The hot paths try ``self.stats.peers.get(peer)`` first and call this only on a miss.
+        """
+        record = self.stats.peers.get(peer)
+        if record is None:
+            record = self.stats.peer(peer, self._link(peer))
+        return record
 
     def _send_attempt(self, pending: PendingRequest, env: Envelope, data: bytes) -> None:
         pending.attempts = env.attempt
         pending.sent_s[env.attempt] = env.sent_s
         pending.deadline_s = env.sent_s + pending.timeout_s
-        self._transmit(env, data)
+        self._transmit(env.dst, env.category, data)
 
     def _link(self, peer: str) -> str:
         return link_class(self.role, self.config.nodes[peer].role)
@@ -256,14 +283,16 @@ class Node:
         except EnvelopeError:
             self.stats.malformed += 1
             return None
-        if env.dst != self.node_id or env.src not in self.config.nodes:
+        src = env.src
+        if env.dst != self.node_id or src not in self.config.nodes:
             self.stats.misaddressed += 1
             return None
-        record = self.stats.peer(env.src, self._link(env.src))
-        traffic = record.received[env.category]
+        record = self.stats.peers.get(src) or self._record(src)
+        category = env.category
+        traffic = record.received[category]
         traffic.messages += 1
         traffic.bytes += len(data)
-        record.latency_s[env.category].append(self.clock() - env.sent_s)
+        record.latency_s[category].append(self.clock() - env.sent_s)
         return env
 
     def _dispatch(self, env: Envelope) -> None:
@@ -295,7 +324,7 @@ class Node:
             self.stats.duplicate_requests += 1
             if cached is not None:
                 again = replace(cached, attempt=env.attempt, sent_s=now)
-                self._transmit(again, encode(again))
+                self._transmit(again.dst, again.category, encode(again))
             return True
         self._seen[key] = (now, None, handled)
         self._seen.move_to_end(key)
@@ -311,13 +340,13 @@ class Node:
         now = self.clock()
         pending.reply = env
         pending.rtt_s = now - pending.sent_s.get(env.attempt, pending.sent_s[1])
-        self.stats.peer(env.src, self._link(env.src)).rtt_s.append(pending.rtt_s)
+        self._record(env.src).rtt_s.append(pending.rtt_s)
         self._forget(pending)
 
     def _expire(self) -> None:
         now = self.clock()
         for pending in [p for p in self._pending.values() if now >= p.deadline_s]:
-            record = self.stats.peer(pending.dst, self._link(pending.dst))
+            record = self._record(pending.dst)
             if pending.attempts <= pending.retries:
                 first = self._request_envs[pending.msg_id]
                 env = replace(first, attempt=pending.attempts + 1, sent_s=now, category="control")

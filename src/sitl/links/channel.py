@@ -15,11 +15,12 @@ generator, so the up/down schedule depends on time only, not on the traffic.
 from __future__ import annotations
 
 import bisect
-import heapq
 import math
 from array import array
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from enum import StrEnum
+from operator import itemgetter
 
 import numpy as np
 
@@ -27,6 +28,8 @@ from sitl.links.params import Jitter, LinkParams, LossModel
 
 _BLOCK = 256
 """Random numbers drawn at a time (one numpy call per block instead of per datagram)."""
+_ARRIVAL = itemgetter(0)
+_ITEM = itemgetter(2)
 
 
 class Drop(StrEnum):
@@ -139,51 +142,59 @@ class LinkChannel:
         self.stats = ChannelStats()
         self._rng = rng
         self._outages = _Outages(params, rng.spawn(1)[0])
+        self._always_up = not params.outages.windows_s and params.outages.mtbf_s <= 0
+        """No outage windows and no random failures: the schedule need not be asked."""
         self._bytes_per_s = params.rate_bps / params.bits_per_byte
         self._busy_until_s = 0.0
         self._last_arrival_s = 0.0
         self._last_now_s = -math.inf
         self._bad = False
         loss = params.loss
+        self._bernoulli = loss.model is LossModel.BERNOULLI
+        self._lossless = self._bernoulli and loss.mean_loss <= 0.0
+        """No datagram is lost on the medium (and none draws a number for it)."""
         self._p_gb, self._p_bg = loss.transition_probabilities()
-        self._uniform = np.empty(0)
-        self._u = 0
-        self._jitter = np.empty(0)
-        self._j = 0
+        self._range_from_m = params.range_m - params.range_width_m
+        """Datagrams sent farther than this may be lost to range (and draw a number for it)."""
+        latency = params.latency
+        self._jittered = latency.jitter is not Jitter.NONE and latency.jitter_s != 0.0
+        """Whether each delivered datagram draws a jitter."""
+        self._uniforms: Iterator[float] = iter(())
+        """The rest of the current block of uniform draws."""
+        self._jitters: Iterator[float] = iter(())
+        """The rest of the current block of jitter draws, s."""
 
     # -- random numbers, drawn in blocks -----------------------------------------------------
 
+    # A block is kept as array("d") (8 bytes a number, as in numpy, not a float object each:
+    # 80 nodes have 6320 channels, whose blocks must stay in cache) and read by an iterator.
+
     def _next_uniform(self) -> float:
-        if self._u >= self._uniform.size:
-            self._uniform = self._rng.random(_BLOCK)
-            self._u = 0
-        value = self._uniform[self._u]
-        self._u += 1
-        return float(value)
+        value = next(self._uniforms, None)
+        if value is None:  # the block is used up: the next one
+            self._uniforms = iter(array("d", self._rng.random(_BLOCK).tobytes()))
+            value = next(self._uniforms)
+        return value
 
     def _next_jitter(self) -> float:
-        latency = self.params.latency
-        if latency.jitter is Jitter.NONE or latency.jitter_s == 0.0:
-            return 0.0
-        if self._j >= self._jitter.size:
+        value = next(self._jitters, None)
+        if value is None:
+            latency = self.params.latency
             rng = self._rng
             if latency.jitter is Jitter.EXPONENTIAL:
-                self._jitter = rng.exponential(latency.jitter_s, _BLOCK)
+                block = rng.exponential(latency.jitter_s, _BLOCK)
             elif latency.jitter is Jitter.LOGNORMAL:
-                self._jitter = latency.jitter_s * np.exp(
-                    latency.sigma * rng.standard_normal(_BLOCK)
-                )
+                block = latency.jitter_s * np.exp(latency.sigma * rng.standard_normal(_BLOCK))
             else:
-                self._jitter = rng.gamma(latency.shape, latency.jitter_s / latency.shape, _BLOCK)
-            self._j = 0
-        value = self._jitter[self._j]
-        self._j += 1
-        return float(value)
+                block = rng.gamma(latency.shape, latency.jitter_s / latency.shape, _BLOCK)
+            self._jitters = iter(array("d", block.tobytes()))
+            value = next(self._jitters)
+        return value
 
     def _lost(self) -> bool:
         loss = self.params.loss
-        if loss.model is LossModel.BERNOULLI:
-            return loss.mean_loss > 0.0 and self._next_uniform() < loss.mean_loss
+        if self._bernoulli:
+            return self._next_uniform() < loss.mean_loss
         # Gilbert-Elliott: the state moves once per datagram, then the state's loss applies.
         if self._bad:
             if self._next_uniform() < self._p_bg:
@@ -216,7 +227,7 @@ class LinkChannel:
         stats = self.stats
         stats.submitted += 1
         stats.submitted_bytes += payload_bytes
-        if not self._outages.is_up(now_s):
+        if not self._always_up and not self._outages.is_up(now_s):
             return self._drop(Drop.DOWN)
         wire = payload_bytes + params.overhead_bytes
         start = self._busy_until_s if self._busy_until_s > now_s else now_s
@@ -226,13 +237,15 @@ class LinkChannel:
         end = start + airtime
         self._busy_until_s = end
         stats.airtime_s += airtime
-        if self._lost():
+        if not self._lossless and self._lost():
             return self._drop(Drop.LOSS)
-        if distance_m > params.range_m - params.range_width_m:
+        if distance_m > self._range_from_m:
             p_range = params.range_loss(distance_m)
             if p_range >= 1.0 or self._next_uniform() < p_range:
                 return self._drop(Drop.RANGE)
-        arrival = end + params.latency.base_s + self._next_jitter()
+        arrival = end + params.latency.base_s
+        if self._jittered:
+            arrival += self._next_jitter()
         if params.in_order and arrival < self._last_arrival_s:
             arrival = self._last_arrival_s
         self._last_arrival_s = arrival
@@ -273,35 +286,51 @@ class DeliveryQueue:
     """Datagrams in flight, released in order of arrival time (ties: in order of submission).
 
     The lockstep transport: ``push`` what the channel accepted, ``pop_due(now_s)`` each step.
+    Entries are appended and sorted by (arrival, submission) only when one arrived out of
+    order: a node's datagrams of one step, pushed together, are released with one sort and one
+    slice instead of a heap operation each.
     """
 
     def __init__(self) -> None:
-        self._heap: list[tuple[float, int, object]] = []
+        self._items: list[tuple[float, int, object]] = []
+        """(arrival s, submission number, item); in order when ``_sorted``."""
+        self._sorted = True
         self._seq = 0
 
     def __len__(self) -> int:
-        return len(self._heap)
+        return len(self._items)
 
     def push(self, arrival_s: float, item: object) -> None:
         """Hold ``item`` until simulation time ``arrival_s``."""
-        heapq.heappush(self._heap, (arrival_s, self._seq, item))
+        items = self._items
+        if self._sorted and items and arrival_s < items[-1][0]:
+            self._sorted = False
+        items.append((arrival_s, self._seq, item))
         self._seq += 1
+
+    def _in_order(self) -> list[tuple[float, int, object]]:
+        if not self._sorted:
+            self._items.sort()  # (arrival, submission) pairs are unique: items never compared
+            self._sorted = True
+        return self._items
 
     @property
     def next_arrival_s(self) -> float:
         """Arrival time of the earliest item, s (inf when empty)."""
-        return self._heap[0][0] if self._heap else math.inf
+        return self._in_order()[0][0] if self._items else math.inf
 
     def pop_due(self, now_s: float) -> list[object]:
         """Every item whose arrival time is <= ``now_s``, earliest first."""
-        heap = self._heap
-        out = []
-        while heap and heap[0][0] <= now_s:
-            out.append(heapq.heappop(heap)[2])
-        return out
+        if not self._items:
+            return []
+        items = self._in_order()
+        k = bisect.bisect_right(items, now_s, key=_ARRIVAL)
+        due = items[:k]
+        del items[:k]
+        return list(map(_ITEM, due))
 
     def clear(self) -> list[object]:
         """Remove and return everything in flight (earliest first)."""
-        out = [item for _, _, item in sorted(self._heap)]
-        self._heap.clear()
+        out = list(map(_ITEM, self._in_order()))
+        self._items.clear()
         return out

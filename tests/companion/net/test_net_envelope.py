@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+from dataclasses import replace
 
 import msgpack
 import pytest
@@ -17,6 +18,7 @@ from companion.net.envelope import (
     MessageTooLargeError,
     decode,
     encode,
+    encode_fanout,
     route_of,
 )
 
@@ -179,3 +181,49 @@ def test_numpy_values_arrive_as_lists_and_numbers():
 def test_unencodable_body_names_its_type():
     with pytest.raises(TypeError, match="cannot encode a set"):
         encode(sample(body={1, 2}))
+
+
+@given(
+    envelopes,
+    st.lists(st.text(max_size=40), min_size=1, max_size=5),
+    st.sampled_from([0, 126, 127, 254, 255, 65534, 65535, 2**32 - 2, 2**63 - 3]),
+)
+def test_fanout_is_byte_for_byte_one_encode_per_recipient(env, dsts, first_id):
+    """Each spliced datagram equals ``encode`` of its own envelope, across msgpack's size
+    classes (msg_ids crossing 1-, 2-, 4- and 8-byte integers; destination names of every
+    string header)."""
+    template = replace(env, msg_id=first_id)
+    expected = [
+        encode(replace(template, dst=dst, msg_id=first_id + k)) for k, dst in enumerate(dsts)
+    ]
+    assert encode_fanout(template, dsts) == expected
+
+
+def test_fanout_converts_numpy_and_integer_times_as_encode_does():
+    """Numpy bodies and an integer ``sent_s`` splice to exactly what ``encode`` gives."""
+    import numpy as np
+
+    template = sample(body={"p": np.array([1.0, 2.5]), "n": np.int64(3)}, sent_s=4)
+    got = encode_fanout(template, ["a", "b" * 300])
+    assert got == [
+        encode(replace(template, dst="a")),
+        encode(replace(template, dst="b" * 300, msg_id=8)),
+    ]
+    assert decode(got[1]).body == {"p": [1.0, 2.5], "n": 3}
+
+
+def test_fanout_raises_for_the_first_datagram_too_large():
+    """The first copy above the limit raises with its own size (a longer dst tips it over)."""
+    fixed = len(encode(sample(dst="x", body=b""))) - 2  # bin8 header of b"": 2 bytes
+    template = sample(body=b"\x00" * (MAX_DATAGRAM_BYTES - fixed - 3))  # bin16 header: 3 bytes
+    assert len(encode_fanout(template, ["x"])[0]) == MAX_DATAGRAM_BYTES
+    with pytest.raises(MessageTooLargeError) as info:
+        encode_fanout(template, ["x", "xy", "xyz"])
+    assert info.value.size_bytes == MAX_DATAGRAM_BYTES + 1
+
+
+def test_fanout_to_nobody_encodes_nothing():
+    """No recipients: no datagram, and the body is not even looked at (as with no encode)."""
+    assert encode_fanout(sample(body={1, 2}), []) == []
+    with pytest.raises(TypeError, match="cannot encode a set"):
+        encode_fanout(sample(body={1, 2}), ["fog1"])

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from scipy import stats
 
-from sitl.links.channel import DatagramTooLargeError, Drop, LinkChannel
+from sitl.links.channel import DatagramTooLargeError, DeliveryQueue, Drop, LinkChannel
 from sitl.links.config import LinksConfig
 from sitl.links.network import mavlink_channels
 from sitl.links.params import LatencyParams, LinkParams, LossParams, OutageParams
@@ -157,3 +161,27 @@ def test_oversized_datagram_is_refused():
     with pytest.raises(DatagramTooLargeError, match="280 B"):
         to_vehicle.submit(0.0, 281)
     assert to_vehicle.stats.submitted == 0
+
+
+@given(
+    st.lists(st.tuples(st.booleans(), st.sampled_from([0.0, 0.5, 1.0, 1.5, 2.0, 3.0])), max_size=60)
+)
+def test_delivery_queue_releases_by_arrival_then_submission(ops):
+    """Whatever the order of pushes and polls (ties and late arrivals included), each poll
+    releases exactly the items due, earliest first, ties in order of submission."""
+    queue = DeliveryQueue()
+    pending: list[tuple[float, int]] = []
+    now_s = 0.0
+    for k, (is_poll, t_s) in enumerate(ops):
+        if is_poll:
+            now_s = max(now_s, t_s)
+            due = sorted(p for p in pending if p[0] <= now_s)
+            pending = [p for p in pending if p[0] > now_s]
+            assert queue.pop_due(now_s) == [index for _, index in due]
+        else:
+            queue.push(t_s, k)
+            pending.append((t_s, k))
+        assert len(queue) == len(pending)
+        assert queue.next_arrival_s == min((p[0] for p in pending), default=math.inf)
+    assert queue.clear() == [index for _, index in sorted(pending)]
+    assert len(queue) == 0
