@@ -33,7 +33,9 @@ functions :func:`aco_layout` and :func:`plan_route`; the decisions (Alg. 2, Alg.
   ``roadmap_margin_m``, are given to the roadmap (edges and nodes inside them are dropped): with
   R_s = 5 m, reactive avoidance alone would have to walk around a 60 m building by 5 m hops;
   the moving drums are left to Alg. 2 (the paper's obstacles are "unknown to the UAVs").
-* **Fly.** Take off to ``altitude_m``, then ``fly_path`` the waypoints at ``speed_m_s``.
+* **Fly.** Take off to ``altitude_m``, then (once climbed, and not before ``depart_s``: the
+  fleet leaves together, Alg. 3's main loop starting when every path is ready) ``fly_path``
+  the waypoints at ``speed_m_s``.
   Every decision: poll the messages (topic ``aco``: role index, time, priority, start,
   position, velocity; a peer's position is extrapolated to now with its velocity), broadcast
   its own, sense R_s, and run Alg. 2 (:func:`avoidance.avoid`) against the current waypoint.
@@ -129,6 +131,11 @@ class AcoRoleParams:
     """Ants per colony iteration (Table 1 gives none)."""
     iterations: int = 50
     """Colony iterations (Table 1)."""
+    depart_s: float = 0.0
+    """Time (the vehicle's clock, s) before which a climbed vehicle does not leave for its path:
+    the fleet's common start of Alg. 3's main loop. 0: each leaves as soon as it has climbed
+    (the swarm engine's vehicles climb in step). On the full stack the vehicles arm a second or
+    two apart, and an option-2 formation that starts broken is chased, not kept."""
     decision_period_s: float = 0.1
     """Vehicle (simulated) seconds between two decisions of the MAVSDK adapter (``python -m
     companion.scripts.aco_swarm``). At swarm fidelity the engine's ``decision_hz`` sets it and
@@ -148,7 +155,7 @@ class AcoRoleParams:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name}: {value!r} must be a positive number")
-        for name in ("altitude_band_m", "min_altitude_m", "roadmap_margin_m"):
+        for name in ("altitude_band_m", "min_altitude_m", "roadmap_margin_m", "depart_s"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name}: {value!r} must be a number >= 0")
@@ -472,7 +479,7 @@ class AcoProgram:
         self._odometry(now_s, here)
         self._messages(now_s, here)
         if self.phase == "climb":
-            if v.path_done:
+            if v.path_done and now_s >= self.params.depart_s:
                 self.mission_start_s = now_s
                 self._fly_from(0)
             return
