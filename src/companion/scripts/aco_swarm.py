@@ -86,8 +86,6 @@ from companion.vehicle_clock import VehicleClock
 
 PARAMS = AcoRoleParams
 """The dataclass of this program's ``args`` (checked when ``swarmsitl run`` loads a scenario)."""
-
-
 DEFAULT_ORIGIN = (47.397742, 8.545594, 488.0)
 """World origin if none is given (swarmsitl's default), lat, lon (deg), AMSL (m)."""
 PAPER_DIAMETER_M = 0.5
@@ -513,7 +511,7 @@ def run_metrics(env: ScenarioEnv, report: dict[str, Any]) -> dict[str, tuple[Any
     Over the role's vehicles (those whose metrics carry ``reached``): PQ (Eq. 4, %) over the
     vehicles that reached their target (a vehicle that did not has no complete TotalDist); MC
     (Eq. 5, %); AD (Eq. 6, divergences per drone, all vehicles); FT (Eq. 7) with T the makespan
-    from the first departure (the end of the first climb) to the last arrival, over 60 s (None
+    from the first departure (the earliest mission start) to the last arrival, over 60 s (None
     unless every vehicle reached); FC (Eq. 8, %, option 2 only) from each vehicle's
     ``avg_dist_change_m`` and the role's ``threshold_m``; CF by Eq. 9 (option 1) or Eq. 10
     (option 2) when all its terms exist; and the mean plan wall time (ms).

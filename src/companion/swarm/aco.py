@@ -8,9 +8,10 @@ MAVSDK, an idealised obstacle sensor, the peers from the radio). Layout and plan
 functions :func:`aco_layout` and :func:`plan_route`; the decisions (Alg. 2, Alg. 4) are
 :meth:`AcoProgram.decide`. The adapters only carry commands and observations.
 
-* **Layout.** The vehicle's start is its spawn point (which must lie in the world's launch area
-  ``start``) at ``altitude_m``; its target is the *mirror point in the goal zone*: the spawn's
-  offset from the start zone's centre, east component negated, added to the goal zone's centre
+* **Layout.** The vehicle's start is its spawn point (on the full stack its estimated position
+  at rest; it must lie in the world's launch area ``start``) at ``altitude_m``; its target is
+  the *mirror point in the goal zone*: the spawn's offset from the start zone's centre, east
+  component negated, added to the goal zone's centre
   (``arena_aco``: the zones are mirror images about the arena's north-south centre line). The
   fleet's targets are thus its starts mirrored, every pairwise distance kept (the formation of
   option 2 is reachable at the goal), and paths do not all cross one point.
