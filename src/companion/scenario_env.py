@@ -58,7 +58,27 @@ class ScenarioEnv:
     fleet: tuple[dict, ...] | None = None
     """Every vehicle of the run in vehicle order (``SWARMSITL_FLEET``, a JSON list): ``vehicle``
     (1-based id), ``role``, ``role_index``, ``airframe``, ``battery_capacity_mah`` (its pack's,
-    mAh) and ``traits`` (the fleet file's free-form capabilities, name -> number)."""
+    mAh), ``traits`` (the fleet file's free-form capabilities, name -> number), ``priority``
+    (integer, :attr:`priority`) and ``diameter_m`` (the airframe's rotor tip to rotor tip, m:
+    the sphere the run's collision count takes it for)."""
+
+    @property
+    def fleet_entry(self) -> dict | None:
+        """This vehicle's entry of :attr:`fleet` (None: no fleet given)."""
+        if self.fleet is None or not 1 <= self.vehicle <= len(self.fleet):
+            return None
+        return self.fleet[self.vehicle - 1]
+
+    @property
+    def priority(self) -> int:
+        """The vehicle's priority: its fleet entry's ``priority``, else its vehicle number.
+
+        The scenario's ``fleet[].priority`` (seed 001's ground-station rank); the same number the
+        swarm engine gives ``SwarmVehicle.priority``.
+        """
+        entry = self.fleet_entry
+        value = None if entry is None else entry.get("priority")
+        return self.vehicle if value is None else int(value)
 
     @property
     def pymavlink_url(self) -> str:

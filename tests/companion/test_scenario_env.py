@@ -1,5 +1,6 @@
 """What `swarmsitl run` tells a companion through SWARMSITL_* variables, read back exactly."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -94,3 +95,14 @@ def test_write_result_is_the_report_format(tmp_path):
         "spills_seen": {"value": 4, "unit": "count"},
         "distance_flown_m": {"value": 812.5, "unit": "m"},
     }
+
+
+def test_priority_is_the_fleet_entrys_else_the_vehicle_number(tmp_path):
+    """The own fleet entry's ``priority`` when given; the vehicle number without one, or
+    without a fleet (a companion started by hand)."""
+    env = full_env(tmp_path)
+    assert env.fleet_entry == env.fleet[1] and env.priority == 2
+    fleet = tuple(dict(e, priority=10 - e["vehicle"]) for e in env.fleet)
+    assert dataclasses.replace(env, fleet=fleet).priority == 8
+    assert dataclasses.replace(env, fleet=None).fleet_entry is None
+    assert dataclasses.replace(env, vehicle=3, fleet=None).priority == 3

@@ -13,9 +13,10 @@ when its task changed.
   engine decision (``swarm.decision_hz``), lattice routes.
 * Full stack (``main``, ``python -m companion.scripts.caravan``): this program, MAVSDK only, as it
   runs on a Raspberry Pi beside a PX4. :class:`MavsdkVehicle` gives ``CaravanProgram`` the
-  vehicle it commands (telemetry in, MAVSDK commands out) and :class:`Radio` its messages
-  (``companion.net``: ``SWARMSITL_NET``/``SWARMSITL_NODE``, the scenario's ``node:`` groups; the
-  topic ``caravan`` to every other node). One decision every ``decision_period_s`` (default
+  vehicle it commands (telemetry in, MAVSDK commands out) and
+  :class:`~companion.net.radio.Radio` its messages (``companion.net``:
+  ``SWARMSITL_NET``/``SWARMSITL_NODE``, the scenario's ``node:`` groups; the topic ``caravan`` to
+  every other node). One decision every ``decision_period_s`` (default
   0.2 s, the 5 Hz of the seed-003 experiment) of the *vehicle's* clock (its telemetry stamps:
   the simulation's time under swarmsitl, so a lockstep run steps alike however fast it goes).
   It flies straight to the task it holds (``action.goto_location`` at its own height, then
@@ -61,6 +62,7 @@ from typing import Any
 import numpy as np
 import pymap3d
 
+from companion.net.radio import Radio, open_radio
 from companion.planning.caravan.optimum import (
     achieved_score,
     optimal_score,
@@ -171,54 +173,6 @@ class MavsdkVehicle:
         return out
 
 
-class Radio:
-    """The program's messaging node as :class:`CaravanProgram` uses it (``poll``, ``broadcast``).
-
-    Wraps ``companion.net.AsyncNode``: messages of the topic ``caravan`` are kept as they
-    arrive and handed over at the next decision; None (no network configured): a lone vehicle.
-    """
-
-    def __init__(self, node: Any | None) -> None:
-        self.node = node
-        self._kept: list[Any] = []
-        self.heard = 0
-        """Messages of the topic received."""
-        if node is not None:
-            node.on(TOPIC, self._keep)
-
-    def _keep(self, envelope: Any) -> None:
-        self._kept.append(envelope)
-        self.heard += 1
-
-    def poll(self) -> list[Any]:
-        """The messages that arrived since the last call."""
-        out, self._kept = self._kept, []
-        return out
-
-    def broadcast(self, topic: str, body: Any) -> int:
-        """To every other node (nothing once closed or without a network)."""
-        return 0 if self.node is None else self.node.broadcast(topic, body)
-
-    def close(self) -> None:
-        """Stop sending and receiving for good."""
-        if self.node is not None:
-            self.node.close()
-            self.node = None
-
-
-def _open_radio() -> Radio:
-    """This vehicle's node from ``SWARMSITL_NET``/``SWARMSITL_NODE``, or none if unset."""
-    from companion.net import AsyncNode, NetConfigError
-
-    try:
-        node = AsyncNode.from_env()
-    except NetConfigError as exc:
-        _log("no_network", reason=str(exc))
-        return Radio(None)
-    node.start()
-    return Radio(node)
-
-
 def full_stack_params(params: CaravanParams, top_speed_m_s: float) -> CaravanParams:
     """The role's parameters as a real multicopter flies them.
 
@@ -286,7 +240,7 @@ async def fly(env: ScenarioEnv, params: CaravanParams) -> dict[str, tuple[Any, s
                                         home.absolute_altitude_m, *origin)  # fmt: skip
         vehicle = MavsdkVehicle(np.array(home_enu, dtype=float))
         tasks += [asyncio.create_task(positions()), asyncio.create_task(armed_states())]
-        radio = _open_radio()
+        radio = open_radio(TOPIC, _log)
         program = CaravanProgram(
             dataclasses.replace(env, params=dataclasses.asdict(params)), vehicle, radio
         )

@@ -1,10 +1,17 @@
-"""Seed 001's ACO swarm (options 1 and 2, Algs. 2-4) behind the kinematic adapter.
+"""Seed 001's ACO swarm (options 1 and 2, Algs. 2-4): the decisions both adapters run.
 
-One :class:`AcoProgram` per vehicle, deciding at the engine's decision rate:
+One :class:`AcoProgram` per vehicle, deciding at a fixed period: the swarm engine's decision
+rate at swarm fidelity, where the engine's kinematic vehicle is its :class:`AcoVehicle`
+(``companion.scripts.aco_swarm.swarm_program``); ``decision_period_s`` of the vehicle's clock on
+the full stack, where ``companion.scripts.aco_swarm.MavsdkVehicle`` is (offboard setpoints over
+MAVSDK, an idealised obstacle sensor, the peers from the radio). Layout and plan are the pure
+functions :func:`aco_layout` and :func:`plan_route`; the decisions (Alg. 2, Alg. 4) are
+:meth:`AcoProgram.decide`. The adapters only carry commands and observations.
 
-* **Layout.** The vehicle's start is its spawn point (which must lie in the world's launch area
-  ``start``) at ``altitude_m``; its target is the *mirror point in the goal zone*: the spawn's
-  offset from the start zone's centre, east component negated, added to the goal zone's centre
+* **Layout.** The vehicle's start is its spawn point (on the full stack its estimated position
+  at rest; it must lie in the world's launch area ``start``) at ``altitude_m``; its target is
+  the *mirror point in the goal zone*: the spawn's offset from the start zone's centre, east
+  component negated, added to the goal zone's centre
   (``arena_aco``: the zones are mirror images about the arena's north-south centre line). The
   fleet's targets are thus its starts mirrored, every pairwise distance kept (the formation of
   option 2 is reachable at the goal), and paths do not all cross one point.
@@ -27,7 +34,9 @@ One :class:`AcoProgram` per vehicle, deciding at the engine's decision rate:
   ``roadmap_margin_m``, are given to the roadmap (edges and nodes inside them are dropped): with
   R_s = 5 m, reactive avoidance alone would have to walk around a 60 m building by 5 m hops;
   the moving drums are left to Alg. 2 (the paper's obstacles are "unknown to the UAVs").
-* **Fly.** Take off to ``altitude_m``, then ``fly_path`` the waypoints at ``speed_m_s``.
+* **Fly.** Take off to ``altitude_m``, then (once climbed, and not before ``depart_s``: the
+  fleet leaves together, Alg. 3's main loop starting when every path is ready) ``fly_path``
+  the waypoints at ``speed_m_s``.
   Every decision: poll the messages (topic ``aco``: role index, time, priority, start,
   position, velocity; a peer's position is extrapolated to now with its velocity), broadcast
   its own, sense R_s, and run Alg. 2 (:func:`avoidance.avoid`) against the current waypoint.
@@ -51,11 +60,12 @@ to the arrival, Eq. 4's TotalDist), ``travel_time_s``, ``mission_start_s`` and `
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -68,11 +78,11 @@ from companion.planning.aco.formation import (
     reference_distances,
     restoring_point,
 )
-from companion.planning.aco.plan import Planner, plan_path, straight_line_length
+from companion.planning.aco.plan import PlannedPath, Planner, plan_path, straight_line_length
 from companion.planning.aco.roadmap import Prism, RoadmapParams
 from companion.role_params import params_from_mapping
 from companion.scenario_env import ScenarioEnv
-from companion.swarm.vehicle import SwarmVehicle
+from companion.swarm.vehicle import Sensed
 
 TOPIC = "aco"
 """Message topic of the positions (and priorities, starts) the vehicles broadcast."""
@@ -122,6 +132,16 @@ class AcoRoleParams:
     """Ants per colony iteration (Table 1 gives none)."""
     iterations: int = 50
     """Colony iterations (Table 1)."""
+    depart_s: float = 0.0
+    """Time (the vehicle's clock, s) before which a climbed vehicle does not leave for its path:
+    the fleet's common start of Alg. 3's main loop. 0: each leaves as soon as it has climbed
+    (the swarm engine's vehicles climb in step). On the full stack the vehicles arm a second or
+    two apart, and an option-2 formation that starts broken is chased, not kept."""
+    decision_period_s: float = 0.1
+    """Vehicle (simulated) seconds between two decisions of the MAVSDK adapter (``python -m
+    companion.scripts.aco_swarm``). At swarm fidelity the engine's ``decision_hz`` sets it and
+    this field is not read. 0.1 s keeps Eqs. 11-12's real-time bound (a cycle well under
+    R_s / v = 0.83 s) with room for the vehicle to react within R_s."""
 
     def __post_init__(self) -> None:
         if self.option not in (1, 2):
@@ -130,11 +150,13 @@ class AcoRoleParams:
             raise ValueError(
                 f"planner: {self.planner!r} is not one of {[p.value for p in Planner]}"
             )
-        for name in ("d_min_m", "sense_m", "speed_m_s", "threshold_m", "altitude_m"):
+        for name in (
+            "d_min_m", "sense_m", "speed_m_s", "threshold_m", "altitude_m", "decision_period_s",
+        ):  # fmt: skip
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name}: {value!r} must be a positive number")
-        for name in ("altitude_band_m", "min_altitude_m", "roadmap_margin_m"):
+        for name in ("altitude_band_m", "min_altitude_m", "roadmap_margin_m", "depart_s"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name}: {value!r} must be a number >= 0")
@@ -230,71 +252,170 @@ def static_prisms(world: Any, margin_m: float) -> tuple[Prism, ...]:
     return tuple(out)
 
 
-@dataclass
-class _Peer:
+@dataclass(frozen=True)
+class AcoLayout:
+    """Where one vehicle starts and where it goes (module docstring, "Layout")."""
+
+    start_enu_m: np.ndarray
+    """(3,) its home at ``altitude_m``, world ENU m: the path's first point."""
+    target_enu_m: np.ndarray
+    """(3,) its target at ``altitude_m`` in the goal zone, world ENU m: the path's last point."""
+    offset_enu_m: np.ndarray
+    """(3,) its home's offset from the start zone's centre (up 0), m (option 2's formation)."""
+    cruise_z_m: float
+    """Height of the start, ENU m: the roadmap's lowest nodes."""
+
+
+def aco_layout(world: Any, params: AcoRoleParams, home_enu_m: np.ndarray, who: str) -> AcoLayout:
+    """Start and target of the vehicle standing at ``home_enu_m`` (Alg. 3 line 1, Alg. 4 line 1).
+
+    Option 1: the mirror point in the goal zone; option 2: the start translated by the zones'
+    centres' offset (the formation kept). Raises ValueError naming ``who`` when the home is
+    outside the start zone.
+    """
+    start_area, goal_area = zones(world)
+    home = np.asarray(home_enu_m, float)
+    if math.dist(home[:2], start_area.center_enu_m[:2]) > start_area.radius_m + 1e-6:
+        raise ValueError(
+            f"{who} starts at {np.round(home[:2], 2).tolist()}, outside the "
+            f"start zone (centre {list(start_area.center_enu_m[:2])}, radius "
+            f"{start_area.radius_m} m)"
+        )
+    up = np.array([0.0, 0.0, params.altitude_m])
+    start_c = np.asarray(start_area.center_enu_m, float)
+    goal_c = np.asarray(goal_area.center_enu_m, float)
+    offset = np.array([home[0] - start_c[0], home[1] - start_c[1], 0.0])
+    if params.option == 1:
+        target = mirror_target(home, start_c, goal_c) + up
+    else:  # the formation translated: the shared plan of the zones' centres, offset
+        target = goal_c + offset + up
+    return AcoLayout(home + up, target, offset, float(home[2]) + params.altitude_m)
+
+
+def plan_route(
+    world: Any, params: AcoRoleParams, layout: AcoLayout, seed: int, rng: np.random.Generator
+) -> PlannedPath:
+    """The vehicle's path before the flight (Alg. 3 lines 2-3, Alg. 4 line 4).
+
+    Option 1: its own roadmap and colony from ``rng`` (which the decisions then go on drawing
+    from); option 2: the path every UAV plans alike from the run's ``seed`` between the zones'
+    centres, translated by ``layout.offset_enu_m`` (``rng`` untouched).
+    """
+    p = params
+    sx, sy = world.size_m
+    z0 = layout.cruise_z_m
+    roadmap = RoadmapParams(
+        nodes=p.roadmap_nodes,
+        neighbours=p.roadmap_neighbours,
+        min_enu_m=(-sx / 2.0, -sy / 2.0, z0),
+        max_enu_m=(sx / 2.0, sy / 2.0, z0 + p.altitude_band_m),
+    )
+    aco = AcoParams(ants=p.ants, iterations=p.iterations)
+    if p.option == 1:
+        return plan_path(
+            layout.start_enu_m, layout.target_enu_m, roadmap, rng, p.planner, aco,
+            static_prisms(world, p.roadmap_margin_m),
+        )  # fmt: skip
+    start_area, goal_area = zones(world)
+    c0 = np.array([start_area.center_enu_m[0], start_area.center_enu_m[1], z0])
+    c1 = np.array([goal_area.center_enu_m[0], goal_area.center_enu_m[1], z0])
+    plan = plan_path(
+        c0, c1, roadmap, np.random.default_rng([seed]), p.planner, aco,
+        static_prisms(world, p.roadmap_margin_m + start_area.radius_m),
+    )  # fmt: skip
+    return dataclasses.replace(plan, waypoints_enu_m=plan.waypoints_enu_m + layout.offset_enu_m)
+
+
+@dataclass(frozen=True)
+class Peer:
+    """Another vehicle of the role as its last message (topic ``aco``) describes it."""
+
     index: int
+    """Its role index."""
     priority: int
     start: np.ndarray
+    """(3,) its start, ENU m (Alg. 4's reference)."""
     position: np.ndarray
+    """(3,) where it was at ``time_s``, ENU m."""
     velocity: np.ndarray
+    """(3,) its velocity then, ENU m/s."""
     time_s: float
+    """When it sent the message, its vehicle time, s."""
+
+    @classmethod
+    def from_body(cls, body: dict[str, Any]) -> Peer:
+        """The peer a message body (:meth:`AcoProgram.message`) describes."""
+        return cls(
+            int(body["k"]), int(body["prio"]), np.asarray(body["s"], float),
+            np.asarray(body["p"], float), np.asarray(body["v"], float), float(body["t"]),
+        )  # fmt: skip
 
     def at(self, now_s: float) -> np.ndarray:
         """Its position extrapolated to ``now_s`` (messages are a decision or more old)."""
         return self.position + self.velocity * max(now_s - self.time_s, 0.0)
 
 
+class AcoVehicle(Protocol):
+    """What :class:`AcoProgram` commands and observes of its vehicle (the adapter interface).
+
+    The swarm engine's kinematic vehicle (``companion.swarm.vehicle.SwarmVehicle``) is one; the
+    MAVSDK adapter (``companion.scripts.aco_swarm.MavsdkVehicle``) the other. World ENU, m.
+    """
+
+    priority: int
+    """The vehicle's priority (smaller number: higher, Alg. 2)."""
+
+    @property
+    def position_enu_m(self) -> np.ndarray:
+        """(3,) where it is (estimated on the full stack)."""
+
+    @property
+    def home_enu_m(self) -> np.ndarray:
+        """(3,) where it took off."""
+
+    @property
+    def airborne(self) -> bool:
+        """Flying (False once down: landed, or brought down)."""
+
+    @property
+    def path_index(self) -> int:
+        """Index of the waypoint of the last ``fly_path`` being flown to."""
+
+    @property
+    def path_done(self) -> bool:
+        """Climbed (after ``takeoff``), or at the last waypoint of the path."""
+
+    def takeoff(self, height_m: float, climb_m_s: float | None = None) -> None:
+        """Arm and climb to ``height_m`` above home."""
+
+    def fly_path(self, waypoints_enu_m: np.ndarray, speed_m_s: float) -> None:
+        """Fly through the waypoints ((K, 3)) at ``speed_m_s``, stopping at the last."""
+
+    def set_velocity(self, velocity_enu_m_s: np.ndarray) -> None:
+        """Hold this velocity (m/s) until the next command (zeros: brake and hover)."""
+
+    def land(self) -> None:
+        """Descend where it is, touch down, disarm."""
+
+    def sense(self, radius_m: float) -> list[Sensed]:
+        """Solids and other vehicles within ``radius_m`` of its body (Eq. 14), nearest first."""
+
+
 class AcoProgram:
     """One vehicle of seed 001's swarm (see the module docstring)."""
 
-    def __init__(self, env: ScenarioEnv, vehicle: SwarmVehicle, node: Any) -> None:
+    def __init__(self, env: ScenarioEnv, vehicle: AcoVehicle, node: Any) -> None:
         if env.world is None:
             raise ValueError("the aco_swarm role needs the run's world (arena_aco)")
         self.env, self.vehicle, self.node = env, vehicle, node
         self.params = p = aco_params(env)
         self.avoid_params = p.avoidance
         world = arena(str(env.world))
-        start_area, goal_area = zones(world)
-        home = np.asarray(vehicle.home_enu_m, float)
-        if math.dist(home[:2], start_area.center_enu_m[:2]) > start_area.radius_m + 1e-6:
-            raise ValueError(
-                f"vehicle {env.vehicle} starts at {np.round(home[:2], 2).tolist()}, outside the "
-                f"start zone (centre {list(start_area.center_enu_m[:2])}, radius "
-                f"{start_area.radius_m} m)"
-            )
-        up = np.array([0.0, 0.0, p.altitude_m])
-        self.start = home + up
-        start_c = np.asarray(start_area.center_enu_m, float)
-        goal_c = np.asarray(goal_area.center_enu_m, float)
-        offset = np.array([home[0] - start_c[0], home[1] - start_c[1], 0.0])
-        if p.option == 1:
-            self.target = mirror_target(home, start_c, goal_c) + up
-        else:  # the formation translated: the shared plan of the zones' centres, offset
-            self.target = goal_c + offset + up
+        self.layout = aco_layout(world, p, vehicle.home_enu_m, f"vehicle {env.vehicle}")
+        self.start, self.target = self.layout.start_enu_m, self.layout.target_enu_m
         self.rng = np.random.default_rng([env.seed, env.vehicle])
-        sx, sy = world.size_m
-        z0 = float(home[2]) + p.altitude_m
-        roadmap = RoadmapParams(
-            nodes=p.roadmap_nodes,
-            neighbours=p.roadmap_neighbours,
-            min_enu_m=(-sx / 2.0, -sy / 2.0, z0),
-            max_enu_m=(sx / 2.0, sy / 2.0, z0 + p.altitude_band_m),
-        )
-        aco = AcoParams(ants=p.ants, iterations=p.iterations)
-        if p.option == 1:
-            plan = plan_path(
-                self.start, self.target, roadmap, self.rng, p.planner, aco,
-                static_prisms(world, p.roadmap_margin_m),
-            )  # fmt: skip
-            self.waypoints = plan.waypoints_enu_m
-        else:
-            c0 = np.array([start_c[0], start_c[1], z0])
-            c1 = np.array([goal_c[0], goal_c[1], z0])
-            plan = plan_path(
-                c0, c1, roadmap, np.random.default_rng([env.seed]), p.planner, aco,
-                static_prisms(world, p.roadmap_margin_m + start_area.radius_m),
-            )  # fmt: skip
-            self.waypoints = plan.waypoints_enu_m + offset
+        plan = plan_route(world, p, self.layout, env.seed, self.rng)
+        self.waypoints = plan.waypoints_enu_m
         self.plan_ms = plan.plan_ms
         self.path_length_m = plan.length_m
         self.phase = "takeoff"
@@ -312,7 +433,7 @@ class AcoProgram:
         self.mission_start_s = math.nan
         self.arrived_s = math.nan
         self.reached = False
-        self.peers: dict[str, _Peer] = {}
+        self.peers: dict[str, Peer] = {}
         self.tracker = FormationTracker()
         self._last: tuple[float, np.ndarray] | None = None
         self._velocity = np.zeros(3)
@@ -359,7 +480,7 @@ class AcoProgram:
         self._odometry(now_s, here)
         self._messages(now_s, here)
         if self.phase == "climb":
-            if v.path_done:
+            if v.path_done and now_s >= self.params.depart_s:
                 self.mission_start_s = now_s
                 self._fly_from(0)
             return
@@ -455,22 +576,22 @@ class AcoProgram:
         for env in self.node.poll():
             if env.topic != TOPIC or not isinstance(env.body, dict):
                 continue
-            b = env.body
-            self.peers[env.src] = _Peer(
-                int(b["k"]), int(b["prio"]), np.asarray(b["s"], float),
-                np.asarray(b["p"], float), np.asarray(b["v"], float), float(b["t"]),
-            )  # fmt: skip
-        self.node.broadcast(
-            TOPIC,
-            {
-                "k": self.env.role_index,
-                "t": round(float(now_s), 4),
-                "prio": int(self.vehicle.priority),
-                "s": [round(float(c), 3) for c in self.start],
-                "p": [round(float(c), 3) for c in here],
-                "v": [round(float(c), 3) for c in self._velocity],
-            },
-        )
+            self.peers[env.src] = Peer.from_body(env.body)
+        self.node.broadcast(TOPIC, self.message(now_s, here))
+
+    def message(self, now_s: float, here: np.ndarray) -> dict[str, Any]:
+        """This vehicle's broadcast (topic ``aco``; :meth:`Peer.from_body` reads it).
+
+        Role index, time, priority, start, position, velocity.
+        """
+        return {
+            "k": self.env.role_index,
+            "t": round(float(now_s), 4),
+            "prio": int(self.vehicle.priority),
+            "s": [round(float(c), 3) for c in self.start],
+            "p": [round(float(c), 3) for c in here],
+            "v": [round(float(c), 3) for c in self._velocity],
+        }
 
     def _sensed(self, here: np.ndarray) -> list[Obstacle]:
         out = []

@@ -13,6 +13,7 @@ NAMES = (
     "swarm_coverage",
     "mco_urban",
     "caravan_kill",
+    "aco_arena",
 )
 
 

@@ -30,6 +30,7 @@ from autopilot_emu.params import ParamStore
 from companion.role_params import RUN_CHECK, params_from_mapping
 from harness.net.plan import VEHICLE_ROLES
 from harness.options.suggest import did_you_mean
+from harness.report.collisions import airframe_diameter_m
 from harness.run.companion_args import DeclarationError, check_args, declared_params, program_module
 from harness.scenarios.faults import Fault, FaultSpec, resolve_faults
 from harness.sim.link_models import check_link_model, links_config
@@ -379,6 +380,7 @@ class Vehicle:
             "battery_capacity_mah": self.battery_capacity_mah,
             "traits": self.traits,
             "priority": self.priority,
+            "diameter_m": round(airframe_diameter_m(self.group.airframe), 4),
         }
 
 

@@ -74,7 +74,7 @@ def _program(tmp_path: Path, role_count: int = 1) -> tuple[CaravanProgram, Mavsd
     )
     vehicle = MavsdkVehicle(HOME)
     node = FakeNode()
-    radio = Radio(node)
+    radio = Radio(node, TOPIC)
     return CaravanProgram(env, vehicle, radio), vehicle, radio
 
 
@@ -90,7 +90,7 @@ def test_full_stack_params_cap_the_speed_and_widen_the_arrival_only():
 def test_radio_hands_over_every_message_once_across_decisions():
     """Messages that arrive between two polls are all handed over, once, at the next poll."""
     node = FakeNode()
-    radio = Radio(node)
+    radio = Radio(node, TOPIC)
     for k in range(3):
         node.deliver(k, {"k": k})
         node.deliver(k + 10, {"k": k})
