@@ -15,6 +15,7 @@ import pytest
 from netfakes import CONFIG, FakePort, ManualClock, make_nodes
 
 from companion.net import NetConfig, Node, PortTransport
+from harness.run.ports import free_port_block
 from sitl.links.channel import DatagramTooLargeError
 from sitl.links.config import LinksConfig
 from sitl.links.inprocess import InProcessPort
@@ -23,6 +24,8 @@ from sitl.links.network import LinkNetwork
 ROLES = ["edge"] * 9 + ["fog"] * 2 + ["cloud", "ground"]
 """Every link class of the shipped presets: WiFi with Bernoulli and Gilbert-Elliott loss,
 LTE (log-normal delays, bursts), wired, and the SiK radio (280-B datagrams, in order)."""
+BASE = free_port_block(len(ROLES))
+"""In-process nodes bind nothing; their addresses still have to be distinct ports."""
 LINKS = LinksConfig.from_dict(
     {"presets": {"wifi": {"loss": {"mean_loss": 0.2}}, "lte": {"loss": {"mean_loss": 0.2}}}}
 )
@@ -45,7 +48,7 @@ class _World:
         config = NetConfig.from_dict(
             {
                 "nodes": {
-                    n: {"role": r, "address": f"127.0.0.1:{40000 + k}", "groups": ["g"]}
+                    n: {"role": r, "address": f"127.0.0.1:{BASE + k}", "groups": ["g"]}
                     for k, (n, r) in enumerate(zip(self.ids, ROLES, strict=True))
                 }
             }

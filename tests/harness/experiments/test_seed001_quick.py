@@ -1,18 +1,21 @@
 """``swarmsitl experiment seed001 --quick`` end to end: a real Dask cluster, every output.
 
-One worker (``--workers 1``; the default is 2): one busy process at a time, so this module is in
-the process tier and runs beside the e2e group (tests/conftest.py, Scheduling).
+One worker (``--workers 1``; the default is 2): one busy process at a time. Marked ``slow`` (run
+it with ``pytest -m slow tests/harness/experiments/test_seed001_quick.py``) while option 2's
+formation keeping is reworked: today its 0.1 m threshold has the UAVs chase their formation, and
+the quick design's option-2 runs take minutes (docs/seed001.md, "State").
 """
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 
 import pyarrow.parquet as pq
 import pytest
 
-pytestmark = pytest.mark.process
+pytestmark = [pytest.mark.process, pytest.mark.slow]
 
 ISSUE_COLUMNS = [
     "case", "option", "planner", "drones", "obstacles", "d_min_m", "threshold_m", "run",
@@ -38,7 +41,8 @@ def test_the_quick_experiment_writes_its_table_tables_plots_and_result(tmp_path)
     for r in rows:
         assert r["mc_pct"] == 100.0, r  # every UAV reached its target
         assert 0.0 < r["pq_pct"] <= 100.0 and r["ft"] > 0 and r["plan_ms"] > 0
-        assert (r["fc_pct"] is not None) == (r["option"] == 2)
+        has_fc = r["fc_pct"] is not None and math.isfinite(r["fc_pct"])
+        assert has_fc == (r["option"] == 2), r
         assert r["collisions"] >= 0 and r["ad"] >= 0
     tables = (out / "tables.md").read_text()
     for printed in ("97.7058", "26.8118", "99.74"):
